@@ -1,0 +1,13 @@
+// The terrasph._core extension module: each part registers its own bindings.
+#include <pybind11/pybind11.h>
+
+namespace py = pybind11;
+
+void bind_sph(py::module_& m);   // bind_sph.cpp: SPH simulation
+void bind_lstm(py::module_& m);  // bind_lstm.cpp: LSTM inference
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "terrasph C++ core: SPH for granular media and LSTM inference";
+  bind_sph(m);
+  bind_lstm(m);
+}

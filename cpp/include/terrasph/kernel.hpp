@@ -1,0 +1,44 @@
+// Wendland C2 smoothing kernel with support 2h (dissertation Eq. 2.36; Wendland 1995).
+#pragma once
+
+#include <cmath>
+
+namespace terrasph {
+
+template <int D> struct WendlandC2 {
+  double h;
+  double alpha;  // α_d = 7/(4πh²) in 2D, 21/(16πh³) in 3D
+
+  explicit WendlandC2(double smoothing_length)
+      : h(smoothing_length), alpha(normalisation(smoothing_length)) {}
+
+  static double normalisation(double hh) {
+    static_assert(D == 2 || D == 3, "Wendland C2 is defined here for 2D and 3D");
+    constexpr double pi = 3.14159265358979323846;
+    if constexpr (D == 2) return 7.0 / (4.0 * pi * hh * hh);
+    return 21.0 / (16.0 * pi * hh * hh * hh);
+  }
+
+  double support_radius() const { return 2.0 * h; }
+
+  // W(r) = α (1 − q/2)^4 (2q + 1), q = r/h ≤ 2.
+  double value(double r) const {
+    const double q = r / h;
+    if (q >= 2.0) return 0.0;
+    const double s = 1.0 - 0.5 * q;
+    const double s2 = s * s;
+    return alpha * s2 * s2 * (2.0 * q + 1.0);
+  }
+
+  // (dW/dr)/r = −5α(1 − q/2)³/h², finite at r = 0; ∇_i W_ij = x_ij · gradient_factor(r).
+  double gradient_factor(double r) const {
+    const double q = r / h;
+    if (q >= 2.0) return 0.0;
+    const double s = 1.0 - 0.5 * q;
+    return -5.0 * alpha * s * s * s / (h * h);
+  }
+
+  double self_value() const { return alpha; }
+};
+
+}  // namespace terrasph

@@ -1,0 +1,70 @@
+// Particle state as structure-of-arrays. Granular particles evolve; wall particles are the
+// fixed ghost (dummy) layers whose state is extrapolated from the granular phase each step.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "terrasph/math.hpp"
+
+namespace terrasph {
+
+template <int D> struct GranularParticles {
+  VecArray<D> position;
+  VecArray<D> velocity;
+  VecArray<D> acceleration;        // Dv/Dt of the last rate evaluation
+  VecArray<D> xsph_correction;     // χ Σ ... of Eq. 2.49; allocated only when XSPH is on
+  ScalarArray density;
+  ScalarArray density_rate;        // Dρ/Dt of the last rate evaluation
+  ScalarArray pressure;
+  ScalarArray mass;                // per unit depth in 2D: ρ·Δx²
+  MatArray<D> stress;              // Cauchy stress σ
+  MatArray<D> stress_over_rho2;    // σ/ρ², cached for the momentum sum
+  MatArray<D> velocity_gradient;   // L = ∇v (Eq. 2.48)
+
+  Index size() const { return position.rows(); }
+
+  void resize(Index n, bool with_xsph) {
+    position.resize(n, D);
+    velocity.setZero(n, D);
+    acceleration.setZero(n, D);
+    if (with_xsph) xsph_correction.setZero(n, D); else xsph_correction.resize(0, D);
+    density.resize(n);
+    density_rate.setZero(n);
+    pressure.setZero(n);
+    mass.resize(n);
+    stress.setZero(n, D * D);
+    stress_over_rho2.setZero(n, D * D);
+    velocity_gradient.setZero(n, D * D);
+  }
+};
+
+template <int D> struct WallParticles {
+  VecArray<D> position;
+  VecArray<D> velocity;       // the wall's own (prescribed) velocity; zero for fixed walls
+  VecArray<D> acceleration;   // a_w of Eq. 3.31
+  VecArray<D> ghost_velocity; // velocity seen by ∇v: 2v_w − ṽ (no-slip) or ṽ (free-slip)
+  ScalarArray density;        // from the inverse EOS of the extrapolated pressure (Eq. 3.32)
+  ScalarArray mass;           // ρ0·Δx^D
+  MatArray<D> stress;         // extrapolated stress (Eq. 3.31 applied to σ)
+  MatArray<D> stress_over_rho2;
+  std::vector<std::uint8_t> no_slip;  // 1: rough wall (shear transmitted), 0: smooth
+  std::vector<std::int32_t> group;    // wall group, e.g. floor, gate, body
+
+  Index size() const { return position.rows(); }
+
+  void resize(Index n) {
+    position.resize(n, D);
+    velocity.setZero(n, D);
+    acceleration.setZero(n, D);
+    ghost_velocity.setZero(n, D);
+    density.resize(n);
+    mass.resize(n);
+    stress.setZero(n, D * D);
+    stress_over_rho2.setZero(n, D * D);
+    no_slip.assign(static_cast<size_t>(n), 1);
+    group.assign(static_cast<size_t>(n), 0);
+  }
+};
+
+}  // namespace terrasph

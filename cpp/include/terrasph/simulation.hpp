@@ -1,0 +1,97 @@
+// A granular SPH simulation: model constants + particle state + the step.
+// Per step (kick–drift–kick, DESIGN §3.7):
+//   v ← v + ½dt a,  ρ ← ρ + ½dt Dρ/Dt          (kick)
+//   x ← x + dt (v + δv_XSPH)                   (drift)
+//   rates at the new positions                  (wall ghosts, ∇v and σ, wall stress, forces)
+//   v ← v + ½dt a,  ρ ← ρ + ½dt Dρ/Dt          (kick), then health checks
+#pragma once
+
+#include <cstdint>
+
+#include "terrasph/kernel.hpp"
+#include "terrasph/neighbours.hpp"
+#include "terrasph/params.hpp"
+#include "terrasph/particles.hpp"
+#include "terrasph/rheology.hpp"
+
+namespace terrasph {
+
+struct RunCounters {
+  std::int64_t step = 0;
+  double time = 0.0;
+  double last_dt = 0.0;
+  std::int64_t neighbour_builds = 0;
+  double max_speed = 0.0;         // max |v| over granular particles after the last step
+  double max_acceleration = 0.0;  // max |a| of the last rate evaluation
+};
+
+template <int D> class Simulation {
+ public:
+  // Takes ownership of the particle sets; their densities and masses must be set.
+  Simulation(const ModelParams<D>& params, GranularParticles<D> granular, WallParticles<D> walls);
+
+  const ModelParams<D>& params() const { return params_; }
+  GranularParticles<D>& granular() { return granular_; }
+  WallParticles<D>& walls() { return walls_; }
+  const WallParticles<D>& walls_const() const { return walls_; }
+  const RunCounters& counters() const { return counters_; }
+  double smoothing_length() const { return kernel_.h; }
+  const WendlandC2<D>& kernel() const { return kernel_; }
+
+  // Advances until `t_end` (the last step is shortened to land on it) or `max_steps` steps;
+  // returns the number of steps taken. Throws InstabilityError on a blow-up.
+  std::int64_t advance(double t_end, std::int64_t max_steps);
+
+  // Largest stable step for the current state: C·min(h/(c + |v|max), √(h/|a|max)).
+  double stable_time_step() const;
+
+  // Re-evaluates neighbours and all rates from the current state (after the state was edited).
+  void refresh();
+
+  // Removes the wall particles of one group (e.g. the gate of a column collapse).
+  void remove_wall_group(std::int32_t group);
+
+  // Kernel sums for diagnostics and tests: Σ_j V_j W_ij (self included) and Σ_j V_j ∇W_ij
+  // over granular neighbours only.
+  ScalarArray kernel_sum() const;
+  VecArray<D> kernel_gradient_sum() const;
+
+  // Applies the Shepard density filter once (Eq. 2.41).
+  void apply_shepard_filter();
+
+  const NeighbourList& granular_neighbours() const { return granular_granular_; }
+
+ private:
+  void step(double dt);
+  void update_neighbours_if_needed();
+  void build_neighbours();
+  void compute_rates();
+  void wall_velocity_pass();
+  void velocity_gradient_and_stress_pass();
+  void wall_stress_pass();
+  template <bool UseDelta, bool UseXsph> void force_pass();
+  void check_health() const;
+
+  ModelParams<D> params_;
+  WendlandC2<D> kernel_;
+  EquationOfState eos_;
+  MuIRheology<D> rheology_;
+  double sound_speed_;
+  double signal_speed_;
+
+  GranularParticles<D> granular_;
+  WallParticles<D> walls_;
+  RunCounters counters_;
+
+  // neighbour lists with a Verlet skin, and the positions they were built at
+  CellGrid<D> granular_grid_;
+  CellGrid<D> wall_grid_;
+  NeighbourList granular_granular_;
+  NeighbourList granular_wall_;
+  NeighbourList wall_granular_;
+  VecArray<D> granular_position_at_build_;
+  VecArray<D> wall_position_at_build_;
+  bool neighbours_valid_ = false;
+};
+
+}  // namespace terrasph

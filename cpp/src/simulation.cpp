@@ -1,0 +1,476 @@
+// Implementation of Simulation<D>; explicitly instantiated for 2D (and 3D to keep it compiling).
+#include "terrasph/simulation.hpp"
+
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "terrasph/errors.hpp"
+#include "terrasph/parallel.hpp"
+
+namespace terrasph {
+
+namespace {
+
+// Monaghan artificial viscosity Π_ij (Eq. 2.46–2.47) with α_Π = alpha, β_Π = 0, c_ij = c0.
+inline double artificial_viscosity(double v_dot_x, double r2, double h, double alpha, double c0,
+                                   double rho_mean) {
+  if (v_dot_x >= 0.0) return 0.0;
+  const double phi = h * v_dot_x / (r2 + 0.01 * h * h);
+  return -alpha * c0 * phi / rho_mean;
+}
+
+// δ-SPH density diffusion, Molteni & Colagrossi (2009) form of Eq. 2.42–2.43, written so that it
+// reduces density differences: 2δhc0 (ρ_j − ρ_i) (x_ji·∇_iW_ij)/|x_ij|² V_j, where
+// x_ji·∇_iW_ij / |x_ij|² = −(dW/dr)/r = −grad_factor > 0.
+inline double density_diffusion(double delta_h_c0, double rho_i, double rho_j, double volume_j,
+                                double grad_factor) {
+  return 2.0 * delta_h_c0 * (rho_j - rho_i) * (-grad_factor) * volume_j;
+}
+
+}  // namespace
+
+template <int D>
+Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> granular,
+                          WallParticles<D> walls)
+    : params_(params),
+      kernel_(params.smoothing_length()),
+      eos_(params.material),
+      rheology_(params.material, params.strain_rate_epsilon()),
+      sound_speed_(params.artificial_sound_speed()),
+      signal_speed_(params.signal_speed()),
+      granular_(std::move(granular)),
+      walls_(std::move(walls)) {
+  params_.validate();
+  const Index n = granular_.size();
+  if (granular_.velocity.rows() != n || granular_.density.size() != n || granular_.mass.size() != n)
+    throw std::invalid_argument("granular particle arrays have inconsistent lengths");
+  if (walls_.velocity.rows() != walls_.size() || walls_.mass.size() != walls_.size())
+    throw std::invalid_argument("wall particle arrays have inconsistent lengths");
+  const bool with_xsph = params_.numerics.xsph > 0.0;
+  if (with_xsph && granular_.xsph_correction.rows() != n) granular_.xsph_correction.setZero(n, D);
+  for (Index i = 0; i < n; ++i) {
+    const Vec<D> x = row_vec<D>(granular_.position, i);
+    for (int k = 0; k < D; ++k) {
+      if (!(x[k] >= params_.domain.lower[k] && x[k] <= params_.domain.upper[k]))
+        throw std::invalid_argument("granular particle " + std::to_string(i) +
+                                    " lies outside the domain box (parameter 'domain')");
+    }
+    if (!(granular_.mass[i] > 0.0) || !(granular_.density[i] > 0.0))
+      throw std::invalid_argument("granular particle " + std::to_string(i) +
+                                  " has a non-positive mass or density");
+  }
+  refresh();
+}
+
+template <int D> void Simulation<D>::refresh() {
+  neighbours_valid_ = false;
+  compute_rates();
+}
+
+// ---------------------------------------------------------------- neighbours
+
+template <int D> void Simulation<D>::build_neighbours() {
+  const double radius = kernel_.support_radius() * (1.0 + 0.5 * params_.numerics.neighbour_skin);
+  Vec<D> lower, upper;
+  bounding_box<D>(granular_.position, walls_.position, radius, lower, upper);
+  granular_grid_.build(granular_.position, lower, upper, radius);
+  wall_grid_.build(walls_.position, lower, upper, radius);
+  build_neighbour_list<D>(granular_.position, granular_.position, granular_grid_, radius, true,
+                          granular_granular_);
+  build_neighbour_list<D>(granular_.position, walls_.position, wall_grid_, radius, false,
+                          granular_wall_);
+  build_neighbour_list<D>(walls_.position, granular_.position, granular_grid_, radius, false,
+                          wall_granular_);
+  granular_position_at_build_ = granular_.position;
+  wall_position_at_build_ = walls_.position;
+  neighbours_valid_ = true;
+  ++counters_.neighbour_builds;
+}
+
+// The lists hold all pairs within 2h(1 + skin/2); they stay complete while no two particles
+// have closed in by more than h·skin, i.e. while the two largest displacements sum to less.
+template <int D> void Simulation<D>::update_neighbours_if_needed() {
+  if (!neighbours_valid_) {
+    build_neighbours();
+    return;
+  }
+  double max_granular = 0.0, max_wall = 0.0;
+  const Index n = granular_.size();
+#pragma omp parallel for reduction(max : max_granular) schedule(static)
+  for (Index i = 0; i < n; ++i)
+    max_granular = std::max(max_granular, (row_vec<D>(granular_.position, i) -
+                                           row_vec<D>(granular_position_at_build_, i)).squaredNorm());
+  const Index nw = walls_.size();
+#pragma omp parallel for reduction(max : max_wall) schedule(static)
+  for (Index w = 0; w < nw; ++w)
+    max_wall = std::max(max_wall, (row_vec<D>(walls_.position, w) -
+                                   row_vec<D>(wall_position_at_build_, w)).squaredNorm());
+  const double allowed = 0.5 * params_.numerics.neighbour_skin * kernel_.support_radius();
+  if (2.0 * std::sqrt(max_granular) >= allowed ||
+      std::sqrt(max_granular) + std::sqrt(max_wall) >= allowed)
+    build_neighbours();
+}
+
+// ---------------------------------------------------------------- rates
+
+template <int D> void Simulation<D>::compute_rates() {
+  update_neighbours_if_needed();
+  wall_velocity_pass();
+  velocity_gradient_and_stress_pass();
+  wall_stress_pass();
+  const bool delta = params_.numerics.delta_sph > 0.0;
+  const bool xsph = params_.numerics.xsph > 0.0;
+  // optional terms are chosen once per evaluation, not tested per pair
+  if (delta && xsph) force_pass<true, true>();
+  else if (delta) force_pass<true, false>();
+  else if (xsph) force_pass<false, true>();
+  else force_pass<false, false>();
+}
+
+// Ghost velocity of wall particles for ∇v (Adami, Hu & Adams 2012): ṽ_w = Σ_f v_f W_wf / Σ_f W_wf,
+// then 2v_w − ṽ_w for a no-slip wall, ṽ_w (no shear from the wall) for a free-slip wall.
+template <int D> void Simulation<D>::wall_velocity_pass() {
+  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
+  for_each_particle(walls_.size(), [&](Index w) {
+    const Vec<D> xw = row_vec<D>(walls_.position, w);
+    double sum_w = 0.0;
+    Vec<D> sum_v = Vec<D>::Zero();
+    for (Index s = wall_granular_.offsets[w]; s < wall_granular_.offsets[w + 1]; ++s) {
+      const std::int32_t f = wall_granular_.indices[s];
+      const double r2 = (xw - row_vec<D>(granular_.position, f)).squaredNorm();
+      if (r2 >= h2x4) continue;
+      const double weight = kernel_.value(std::sqrt(r2));
+      sum_w += weight;
+      sum_v += weight * row_vec<D>(granular_.velocity, f);
+    }
+    const Vec<D> vw = row_vec<D>(walls_.velocity, w);
+    if (sum_w <= 0.0) {
+      row_vec<D>(walls_.ghost_velocity, w) = vw;
+      return;
+    }
+    const Vec<D> extrapolated = sum_v / sum_w;
+    row_vec<D>(walls_.ghost_velocity, w) = walls_.no_slip[w] ? Vec<D>(2.0 * vw - extrapolated) : extrapolated;
+  });
+}
+
+// ∇v_i = Σ_j V_j (v_j − v_i) ⊗ ∇_iW_ij (Eq. 2.48), optionally renormalised by
+// M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_iW_ij so that linear fields are exact; then P (Eq. 2.30) and
+// σ from the μ(I) rheology (Eq. 2.29).
+template <int D> void Simulation<D>::velocity_gradient_and_stress_pass() {
+  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
+  const bool correct = params_.numerics.kernel_gradient_correction;
+  const double wall_volume = std::pow(params_.numerics.spacing, D);
+  for_each_particle(granular_.size(), [&](Index i) {
+    const Vec<D> xi = row_vec<D>(granular_.position, i);
+    const Vec<D> vi = row_vec<D>(granular_.velocity, i);
+    Mat<D> grad = Mat<D>::Zero();
+    Mat<D> moment = Mat<D>::Zero();
+    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
+      const std::int32_t j = granular_granular_.indices[s];
+      const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
+      const double r2 = xij.squaredNorm();
+      if (r2 >= h2x4) continue;
+      const double vf = granular_.mass[j] / granular_.density[j] * kernel_.gradient_factor(std::sqrt(r2));
+      grad.noalias() += (vf * (row_vec<D>(granular_.velocity, j) - vi)) * xij.transpose();
+      if (correct) moment.noalias() -= (vf * xij) * xij.transpose();
+    }
+    for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
+      const std::int32_t w = granular_wall_.indices[s];
+      const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
+      const double r2 = xiw.squaredNorm();
+      if (r2 >= h2x4) continue;
+      const double vf = wall_volume * kernel_.gradient_factor(std::sqrt(r2));
+      grad.noalias() += (vf * (row_vec<D>(walls_.ghost_velocity, w) - vi)) * xiw.transpose();
+      if (correct) moment.noalias() -= (vf * xiw) * xiw.transpose();
+    }
+    if (correct && std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
+    row_mat<D>(granular_.velocity_gradient, i) = grad;
+    const double rho = granular_.density[i];
+    const double p = eos_.pressure(rho);
+    granular_.pressure[i] = p;
+    const Mat<D> sigma = rheology_.stress(grad, p);
+    row_mat<D>(granular_.stress, i) = sigma;
+    row_mat<D>(granular_.stress_over_rho2, i) = sigma / (rho * rho);
+  });
+}
+
+// Wall stress extrapolated from the granular neighbours with the hydrostatic correction
+// (Adami, Hu & Adams 2012, Eq. 3.31, applied to the full stress tensor):
+//   σ_w = Σ_f σ_f W_wf / Σ_f W_wf − [(g − a_w)·Σ_f ρ_f x_wf W_wf / Σ_f W_wf] I,
+// shear kept for a rough (no-slip) wall, dropped for a smooth one; pressure clipped at 0 as in
+// the EOS; ρ_w from the inverse EOS (Eq. 3.32).
+template <int D> void Simulation<D>::wall_stress_pass() {
+  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
+  const Vec<D> g = params_.domain.gravity;
+  for_each_particle(walls_.size(), [&](Index w) {
+    const Vec<D> xw = row_vec<D>(walls_.position, w);
+    double sum_w = 0.0;
+    Mat<D> sum_sigma = Mat<D>::Zero();
+    Vec<D> sum_rho_x = Vec<D>::Zero();
+    for (Index s = wall_granular_.offsets[w]; s < wall_granular_.offsets[w + 1]; ++s) {
+      const std::int32_t f = wall_granular_.indices[s];
+      const Vec<D> xwf = xw - row_vec<D>(granular_.position, f);
+      const double r2 = xwf.squaredNorm();
+      if (r2 >= h2x4) continue;
+      const double weight = kernel_.value(std::sqrt(r2));
+      sum_w += weight;
+      sum_sigma += weight * row_mat<D>(granular_.stress, f);
+      sum_rho_x += (weight * granular_.density[f]) * xwf;
+    }
+    Mat<D> sigma = Mat<D>::Zero();
+    if (sum_w > 0.0) {
+      const double hydrostatic = (g - row_vec<D>(walls_.acceleration, w)).dot(sum_rho_x) / sum_w;
+      sigma = sum_sigma / sum_w;
+      double p = -sigma.trace() / D + hydrostatic;
+      p = std::max(p, 0.0);
+      const Mat<D> deviator = walls_.no_slip[w] ? Mat<D>(sigma - (sigma.trace() / D) * Mat<D>::Identity())
+                                                : Mat<D>(Mat<D>::Zero());
+      sigma = deviator - p * Mat<D>::Identity();
+      walls_.density[w] = eos_.density(p);
+    } else {
+      walls_.density[w] = eos_.reference_density();
+    }
+    const double rho = walls_.density[w];
+    row_mat<D>(walls_.stress, w) = sigma;
+    row_mat<D>(walls_.stress_over_rho2, w) = sigma / (rho * rho);
+  });
+}
+
+// Continuity with δ-SPH (Eq. 2.42–2.43), momentum with artificial viscosity (Eq. 2.45–2.47) and
+// the XSPH velocity correction (Eq. 2.49), fused into one gather over each particle's pairs.
+template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::force_pass() {
+  const double h = kernel_.h;
+  const double h2x4 = 4.0 * h * h;
+  const double alpha = params_.numerics.artificial_viscosity;
+  const double c0 = sound_speed_;
+  const double delta_h_c0 = params_.numerics.delta_sph * h * c0;
+  const double chi = params_.numerics.xsph;
+  const Vec<D> g = params_.domain.gravity;
+  double max_acc2 = 0.0;
+  const Index n = granular_.size();
+#pragma omp parallel for reduction(max : max_acc2) schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    const Vec<D> xi = row_vec<D>(granular_.position, i);
+    const Vec<D> vi = row_vec<D>(granular_.velocity, i);
+    const double rho_i = granular_.density[i];
+    const Mat<D> si = row_mat<D>(granular_.stress_over_rho2, i);
+    Vec<D> acc = Vec<D>::Zero();
+    Vec<D> xsph = Vec<D>::Zero();
+    double drho = 0.0;
+    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
+      const std::int32_t j = granular_granular_.indices[s];
+      const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
+      const double r2 = xij.squaredNorm();
+      if (r2 >= h2x4) continue;
+      const double r = std::sqrt(r2);
+      const Vec<D> grad_w = kernel_.gradient_factor(r) * xij;  // ∇_iW_ij (Eq. 2.39)
+      const Vec<D> vij = vi - row_vec<D>(granular_.velocity, j);
+      const double m_j = granular_.mass[j];
+      const double rho_j = granular_.density[j];
+      drho += m_j * vij.dot(grad_w);  // Eq. 2.42, first term
+      if constexpr (UseDelta)
+        drho += density_diffusion(delta_h_c0, rho_i, rho_j, m_j / rho_j, kernel_.gradient_factor(r));
+      const double pi_ij = artificial_viscosity(vij.dot(xij), r2, h, alpha, c0, 0.5 * (rho_i + rho_j));
+      acc.noalias() += m_j * ((si + row_mat<D>(granular_.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
+      if constexpr (UseXsph) xsph -= (chi * m_j / (0.5 * (rho_i + rho_j)) * kernel_.value(r)) * vij;
+    }
+    for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
+      const std::int32_t w = granular_wall_.indices[s];
+      const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
+      const double r2 = xiw.squaredNorm();
+      if (r2 >= h2x4) continue;
+      const Vec<D> grad_w = kernel_.gradient_factor(std::sqrt(r2)) * xiw;
+      const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
+      const double m_w = walls_.mass[w];
+      drho += m_w * viw.dot(grad_w);
+      const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha, c0, 0.5 * (rho_i + walls_.density[w]));
+      acc.noalias() += m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
+    }
+    acc += g;
+    row_vec<D>(granular_.acceleration, i) = acc;
+    granular_.density_rate[i] = drho;
+    if constexpr (UseXsph) row_vec<D>(granular_.xsph_correction, i) = xsph;
+    max_acc2 = std::max(max_acc2, acc.squaredNorm());
+  }
+  counters_.max_acceleration = std::sqrt(max_acc2);
+}
+
+// ---------------------------------------------------------------- time stepping
+
+template <int D> double Simulation<D>::stable_time_step() const {
+  const double h = kernel_.h;
+  double dt = h / (signal_speed_ + counters_.max_speed);
+  if (counters_.max_acceleration > 0.0) dt = std::min(dt, std::sqrt(h / counters_.max_acceleration));
+  return params_.numerics.cfl * dt;
+}
+
+template <int D> std::int64_t Simulation<D>::advance(double t_end, std::int64_t max_steps) {
+  std::int64_t taken = 0;
+  const double fixed = params_.numerics.fixed_dt;
+  while (taken < max_steps && counters_.time < t_end * (1.0 - 1e-14)) {
+    const double bound = stable_time_step();
+    if (fixed > 0.0 && fixed > bound)
+      throw InstabilityError("fixed time step numerics.fixed_dt = " + std::to_string(fixed) +
+                                 " s exceeds the stable bound " + std::to_string(bound) + " s",
+                             counters_.step, counters_.time, -1);
+    double dt = fixed > 0.0 ? fixed : bound;
+    if (counters_.time + dt > t_end) dt = t_end - counters_.time;
+    step(dt);
+    ++taken;
+  }
+  return taken;
+}
+
+template <int D> void Simulation<D>::step(double dt) {
+  const Index n = granular_.size();
+  const bool xsph = params_.numerics.xsph > 0.0;
+  const double half = 0.5 * dt;
+  for_each_particle(n, [&](Index i) {  // kick, then drift (Eq. 2.49 for the drift velocity)
+    auto v = row_vec<D>(granular_.velocity, i);
+    v += half * row_vec<D>(granular_.acceleration, i);
+    granular_.density[i] += half * granular_.density_rate[i];
+    Vec<D> drift = v;
+    if (xsph) drift += row_vec<D>(granular_.xsph_correction, i);
+    row_vec<D>(granular_.position, i) += dt * drift;
+  });
+  compute_rates();
+  double max_v2 = 0.0;
+#pragma omp parallel for reduction(max : max_v2) schedule(static)
+  for (Index i = 0; i < n; ++i) {  // closing kick
+    auto v = row_vec<D>(granular_.velocity, i);
+    v += half * row_vec<D>(granular_.acceleration, i);
+    granular_.density[i] += half * granular_.density_rate[i];
+    max_v2 = std::max(max_v2, v.squaredNorm());
+  }
+  counters_.max_speed = std::sqrt(max_v2);
+  counters_.time += dt;
+  counters_.last_dt = dt;
+  ++counters_.step;
+  const int shepard = params_.numerics.shepard_interval;
+  if (shepard > 0 && counters_.step % shepard == 0) apply_shepard_filter();
+  check_health();
+}
+
+// Stops the run on non-finite state, an escaped particle or a density out of the sane band;
+// reports the lowest offending index so the message is the same for any thread count.
+template <int D> void Simulation<D>::check_health() const {
+  const Index n = granular_.size();
+  const double rho0 = params_.material.reference_density;
+  const double lo = params_.numerics.density_ratio_min * rho0;
+  const double hi = params_.numerics.density_ratio_max * rho0;
+  const Vec<D> lower = params_.domain.lower, upper = params_.domain.upper;
+  Index first_bad = n;
+#pragma omp parallel for reduction(min : first_bad) schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    const Vec<D> x = row_vec<D>(granular_.position, i);
+    const Vec<D> v = row_vec<D>(granular_.velocity, i);
+    const double rho = granular_.density[i];
+    const bool finite = x.allFinite() && v.allFinite() && std::isfinite(rho);
+    const bool inside = (x.array() >= lower.array()).all() && (x.array() <= upper.array()).all();
+    if (!finite || !inside || rho < lo || rho > hi) first_bad = std::min(first_bad, i);
+  }
+  if (first_bad == n) return;
+  const Vec<D> x = row_vec<D>(granular_.position, first_bad);
+  const double rho = granular_.density[first_bad];
+  std::string reason;
+  if (!(x.allFinite() && row_vec<D>(granular_.velocity, first_bad).allFinite() && std::isfinite(rho)))
+    reason = "non-finite position, velocity or density";
+  else if (rho < lo || rho > hi)
+    reason = "density " + std::to_string(rho) + " kg/m3 outside the band [" + std::to_string(lo) +
+             ", " + std::to_string(hi) + "] (numerics.density_ratio_min/max)";
+  else
+    reason = "particle left the domain box (a leak through a wall or an escape)";
+  throw InstabilityError(reason, counters_.step, counters_.time, first_bad);
+}
+
+// ---------------------------------------------------------------- filters and diagnostics
+
+// ρ_i = Σ_j m_j W_ij / Σ_j V_j W_ij over granular neighbours, self included (Eq. 2.41).
+template <int D> void Simulation<D>::apply_shepard_filter() {
+  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
+  const Index n = granular_.size();
+  ScalarArray filtered(n);
+  for_each_particle(n, [&](Index i) {
+    const Vec<D> xi = row_vec<D>(granular_.position, i);
+    const double w0 = kernel_.self_value();
+    double num = granular_.mass[i] * w0;
+    double den = granular_.mass[i] / granular_.density[i] * w0;
+    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
+      const std::int32_t j = granular_granular_.indices[s];
+      const double r2 = (xi - row_vec<D>(granular_.position, j)).squaredNorm();
+      if (r2 >= h2x4) continue;
+      const double weight = kernel_.value(std::sqrt(r2));
+      num += granular_.mass[j] * weight;
+      den += granular_.mass[j] / granular_.density[j] * weight;
+    }
+    filtered[i] = num / den;
+  });
+  granular_.density = filtered;
+}
+
+template <int D> ScalarArray Simulation<D>::kernel_sum() const {
+  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
+  const Index n = granular_.size();
+  ScalarArray sums(n);
+  for_each_particle(n, [&](Index i) {
+    const Vec<D> xi = row_vec<D>(granular_.position, i);
+    double sum = granular_.mass[i] / granular_.density[i] * kernel_.self_value();
+    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
+      const std::int32_t j = granular_granular_.indices[s];
+      const double r2 = (xi - row_vec<D>(granular_.position, j)).squaredNorm();
+      if (r2 < h2x4) sum += granular_.mass[j] / granular_.density[j] * kernel_.value(std::sqrt(r2));
+    }
+    sums[i] = sum;
+  });
+  return sums;
+}
+
+template <int D> VecArray<D> Simulation<D>::kernel_gradient_sum() const {
+  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
+  const Index n = granular_.size();
+  VecArray<D> sums(n, D);
+  for_each_particle(n, [&](Index i) {
+    const Vec<D> xi = row_vec<D>(granular_.position, i);
+    Vec<D> sum = Vec<D>::Zero();
+    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
+      const std::int32_t j = granular_granular_.indices[s];
+      const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
+      const double r2 = xij.squaredNorm();
+      if (r2 < h2x4)
+        sum += granular_.mass[j] / granular_.density[j] * kernel_.gradient_factor(std::sqrt(r2)) * xij;
+    }
+    row_vec<D>(sums, i) = sum;
+  });
+  return sums;
+}
+
+// ---------------------------------------------------------------- scene edits
+
+template <int D> void Simulation<D>::remove_wall_group(std::int32_t group) {
+  std::vector<Index> keep;
+  for (Index w = 0; w < walls_.size(); ++w)
+    if (walls_.group[w] != group) keep.push_back(w);
+  WallParticles<D> kept;
+  kept.resize(static_cast<Index>(keep.size()));
+  for (Index k = 0; k < static_cast<Index>(keep.size()); ++k) {
+    const Index w = keep[k];
+    row_vec<D>(kept.position, k) = row_vec<D>(walls_.position, w);
+    row_vec<D>(kept.velocity, k) = row_vec<D>(walls_.velocity, w);
+    row_vec<D>(kept.acceleration, k) = row_vec<D>(walls_.acceleration, w);
+    kept.density[k] = walls_.density[w];
+    kept.mass[k] = walls_.mass[w];
+    kept.no_slip[k] = walls_.no_slip[w];
+    kept.group[k] = walls_.group[w];
+  }
+  walls_ = std::move(kept);
+  refresh();
+}
+
+template class Simulation<2>;
+template class Simulation<3>;
+
+}  // namespace terrasph
