@@ -1,0 +1,524 @@
+"""HDF5 output of a run (one file per run) and its ParaView (XDMF) sidecar.
+
+The layout is documented in ``docs/hdf5_schema.md``. In short::
+
+    /                      attrs: config_json, terrasph_schema, created_utc, units, version_<name>
+    /static/<name>         arrays written once (e.g. "granular/mass", "walls/position")
+    /frames/time, /step    (n_frames,)
+    /frames/<field>        (n_frames, N, ...) one chunk per frame, compressed
+    /series/<group>/<name> (n_rows,) or (n_rows, k), one row per append
+    /<any group>           attrs set with :meth:`RunWriter.set_attrs` (e.g. "/results")
+
+Units are SI; 2D scenes are plane strain in the x–z plane with z up. Forces are in newtons for
+the body's real out-of-plane width, masses and energies per the run's width as documented.
+
+Every frame and series row is followed by ``h5py.File.flush``, so a run whose process dies
+between two frames leaves a readable file holding every frame written so far.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import pathlib
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Any
+
+import h5py
+import numpy as np
+
+__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "read_run", "write_xdmf"]
+
+SCHEMA_VERSION = 1
+UNITS = "SI; 2D plane strain, forces in N for the body's real width"
+_COMPRESSIONS = ("gzip", "lzf", "none")
+_SERIES_CHUNK_ROWS = 256
+_RESERVED_FRAME_NAMES = ("time", "step")
+
+
+def _json_default(value: Any) -> Any:
+    """Make numpy scalars/arrays and paths JSON-serialisable (used by ``json.dumps``)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    raise TypeError(f"object of type {type(value).__name__} is not JSON serialisable")
+
+
+def _attr_value(key: str, value: Any) -> Any:
+    """Convert ``value`` to something h5py stores as an attribute; mappings become JSON text."""
+    if isinstance(value, Mapping):
+        return json.dumps(value, sort_keys=True, default=_json_default)
+    if isinstance(value, (str, bool, int, float, np.generic)):
+        return value
+    array = np.asarray(value)
+    if array.dtype.kind not in "biuf":
+        raise ValueError(
+            f"attribute {key!r}: unsupported value of type {type(value).__name__}; "
+            "allowed: str, bool, int, float, numeric arrays, or a JSON-serialisable mapping"
+        )
+    return array
+
+
+def _decode_attr(value: Any) -> Any:
+    """Return an HDF5 attribute value as a plain Python object where it is a scalar."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8")
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+class RunWriter:
+    """One HDF5 file per run (h5py). Frames are flushed as written, so an interrupted run leaves a readable file.
+
+    Parameters
+    ----------
+    path:
+        File to create.
+    config:
+        The run's validated configuration; stored as JSON text (``sort_keys=True``) in the root
+        attribute ``config_json``. numpy scalars and arrays are converted to JSON numbers/lists.
+    versions:
+        Optional software versions (e.g. ``{"terrasph": "0.1.0", "numpy": "2.1"}``), stored as
+        root attributes ``version_<name>``.
+    compression:
+        ``"gzip"`` (with byte shuffle), ``"lzf"`` or ``"none"``; applies to frames and static arrays.
+    overwrite:
+        Replace an existing file; if False an existing ``path`` raises ``FileExistsError``.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        config: Mapping[str, Any],
+        *,
+        versions: Mapping[str, str] | None = None,
+        compression: str = "gzip",
+        overwrite: bool = True,
+    ) -> None:
+        if compression not in _COMPRESSIONS:
+            raise ValueError(f"compression must be one of {_COMPRESSIONS}, got {compression!r}")
+        if not isinstance(config, Mapping):
+            raise ValueError(f"config must be a mapping, got {type(config).__name__}")
+        config_json = json.dumps(dict(config), sort_keys=True, default=_json_default)
+        self.path = pathlib.Path(path)
+        self._filters: dict[str, Any] = (
+            {} if compression == "none" else {"compression": compression, "shuffle": True}
+        )
+        self._frame_shapes: dict[str, tuple[tuple[int, ...], np.dtype]] | None = None
+        self._series_shapes: dict[str, dict[str, tuple[tuple[int, ...], np.dtype]]] = {}
+        self._file = h5py.File(self.path, "w" if overwrite else "w-")
+        attrs = self._file.attrs
+        attrs["config_json"] = config_json
+        attrs["terrasph_schema"] = SCHEMA_VERSION
+        attrs["created_utc"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        attrs["units"] = UNITS
+        for name, version in (versions or {}).items():
+            attrs[f"version_{name}"] = str(version)
+        self._file.create_group("static")
+        frames = self._file.create_group("frames")
+        frames.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8", chunks=(_SERIES_CHUNK_ROWS,))
+        frames.create_dataset("step", shape=(0,), maxshape=(None,), dtype="i8", chunks=(_SERIES_CHUNK_ROWS,))
+        self._file.create_group("series")
+        self._file.flush()
+
+    # -- context manager -------------------------------------------------------------------
+    def __enter__(self) -> RunWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`close` has been called."""
+        return not self._file.id.valid
+
+    def close(self) -> None:
+        """Flush and close the file; calling it again does nothing."""
+        if not self.closed:
+            self._file.close()
+
+    def _open_file(self) -> h5py.File:
+        if self.closed:
+            raise ValueError(f"RunWriter for {self.path} is closed")
+        return self._file
+
+    # -- writing ---------------------------------------------------------------------------
+    @property
+    def n_frames(self) -> int:
+        """Number of frames written so far."""
+        return int(self._open_file()["frames/time"].shape[0])
+
+    def write_static(self, name: str, array: np.ndarray) -> None:
+        """Store an array written once per run as ``/static/<name>`` (``name`` may contain ``/``)."""
+        file = self._open_file()
+        if not name or name.startswith("/"):
+            raise ValueError(f"name must be a non-empty relative path like 'walls/position', got {name!r}")
+        if name in file["static"]:
+            raise ValueError(f"static dataset {name!r} already exists")
+        data = np.asarray(array)
+        if data.dtype.kind not in "biuf":
+            raise ValueError(f"array for static {name!r} must be numeric, got dtype {data.dtype}")
+        filters = self._filters if data.ndim > 0 and data.size > 0 else {}
+        file["static"].create_dataset(name, data=data, **filters)
+        file.flush()
+
+    def write_frame(self, time: float, step: int, fields: Mapping[str, np.ndarray]) -> None:
+        """Append one frame of per-particle fields, then flush.
+
+        The first frame fixes the field names, per-frame shapes and dtypes; every later frame must
+        match them (``ValueError`` naming the field otherwise). ``time`` is in s, ``step`` the
+        integrator step count.
+        """
+        file = self._open_file()
+        if not np.isfinite(time):
+            raise ValueError(f"time must be finite, got {time!r}")
+        arrays = {name: np.asarray(value) for name, value in fields.items()}
+        if not arrays:
+            raise ValueError("fields must hold at least one array")
+        if self._frame_shapes is None:
+            self._frame_shapes = self._create_frame_datasets(file["frames"], arrays)
+        self._check_frame(arrays)
+        frames = file["frames"]
+        index = frames["time"].shape[0]
+        for name, data in arrays.items():
+            dataset = frames[name]
+            dataset.resize(index + 1, axis=0)
+            dataset[index] = data
+        for name, value in (("step", int(step)), ("time", float(time))):
+            frames[name].resize(index + 1, axis=0)
+            frames[name][index] = value
+        file.flush()
+
+    def _create_frame_datasets(
+        self, frames: h5py.Group, arrays: Mapping[str, np.ndarray]
+    ) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+        """Create one resizable dataset per field from the first frame; return shapes/dtypes."""
+        for name, data in arrays.items():
+            if name in _RESERVED_FRAME_NAMES or not name or "/" in name:
+                raise ValueError(f"frame field name {name!r} is not allowed (reserved, empty or contains '/')")
+            if data.ndim == 0 or data.shape[0] == 0 or data.dtype.kind not in "biuf":
+                raise ValueError(
+                    f"frame field {name!r} must be a numeric array with at least one particle, "
+                    f"got shape {data.shape} and dtype {data.dtype}"
+                )
+        shapes: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+        for name, data in arrays.items():
+            frames.create_dataset(
+                name,
+                shape=(0, *data.shape),
+                maxshape=(None, *data.shape),
+                chunks=(1, *data.shape),
+                dtype=data.dtype,
+                **self._filters,
+            )
+            shapes[name] = (data.shape, data.dtype)
+        return shapes
+
+    def _check_frame(self, arrays: Mapping[str, np.ndarray]) -> None:
+        """Raise ``ValueError`` naming the first field that differs from the first frame."""
+        assert self._frame_shapes is not None
+        expected = self._frame_shapes
+        for name in sorted(set(expected) ^ set(arrays)):
+            state = "missing from" if name in expected else "not in the first frame, unexpected in"
+            raise ValueError(f"frame field {name!r} is {state} this frame; fields are {sorted(expected)}")
+        for name, data in arrays.items():
+            shape, dtype = expected[name]
+            if data.shape != shape:
+                raise ValueError(f"frame field {name!r} has shape {data.shape}, expected {shape}")
+            if not np.can_cast(data.dtype, dtype, casting="same_kind"):
+                raise ValueError(f"frame field {name!r} has dtype {data.dtype}, expected {dtype}")
+
+    def append_series(self, group: str, values: Mapping[str, float | np.ndarray]) -> None:
+        """Append one row to the time series ``/series/<group>/<name>`` for each entry, then flush.
+
+        Scalars make 1-D datasets, vectors of shape (k,) make (n_rows, k) datasets. The first row
+        of a group fixes its names and shapes; later rows must match (``ValueError`` otherwise).
+        Example groups: ``"diagnostics"`` (time, step, dt, kinetic_energy, …) and
+        ``"bodies/<name>"`` (time, position, force, torque, slip, sinkage, …).
+        """
+        file = self._open_file()
+        if not group or group.startswith("/"):
+            raise ValueError(f"group must be a non-empty relative path like 'diagnostics', got {group!r}")
+        rows = {name: np.asarray(value) for name, value in values.items()}
+        if not rows:
+            raise ValueError(f"values for series group {group!r} must hold at least one entry")
+        if group not in self._series_shapes:
+            self._series_shapes[group] = self._create_series(file["series"], group, rows)
+        expected = self._series_shapes[group]
+        for name in sorted(set(expected) ^ set(rows)):
+            raise ValueError(f"series {group!r}: entry {name!r} does not match the first row's entries {sorted(expected)}")
+        series = file["series"][group]
+        for name, data in rows.items():
+            shape, dtype = expected[name]
+            if data.shape != shape or not np.can_cast(data.dtype, dtype, casting="same_kind"):
+                raise ValueError(
+                    f"series {group!r}: entry {name!r} has shape {data.shape} dtype {data.dtype}, "
+                    f"expected shape {shape} dtype {dtype}"
+                )
+        for name, data in rows.items():
+            dataset = series[name]
+            index = dataset.shape[0]
+            dataset.resize(index + 1, axis=0)
+            dataset[index] = data
+        file.flush()
+
+    @staticmethod
+    def _create_series(
+        series: h5py.Group, group: str, rows: Mapping[str, np.ndarray]
+    ) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+        """Create resizable datasets for a series group from its first row; return shapes/dtypes."""
+        for name, data in rows.items():
+            if data.ndim > 1 or data.dtype.kind not in "biuf" or not name or "/" in name:
+                raise ValueError(
+                    f"series {group!r}: entry {name!r} must be a numeric scalar or 1-D vector "
+                    f"with a name without '/', got shape {data.shape} dtype {data.dtype}"
+                )
+        target = series.require_group(group)
+        shapes: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+        for name, data in rows.items():
+            dtype = np.dtype("f8") if data.dtype.kind == "f" else np.dtype("i8") if data.dtype.kind in "iu" else data.dtype
+            target.create_dataset(
+                name,
+                shape=(0, *data.shape),
+                maxshape=(None, *data.shape),
+                chunks=(_SERIES_CHUNK_ROWS, *data.shape),
+                dtype=dtype,
+            )
+            shapes[name] = (data.shape, dtype)
+        return shapes
+
+    def set_attrs(self, path: str, attrs: Mapping[str, Any]) -> None:
+        """Set attributes on the group ``path`` (created if needed), e.g. ``"/results"``, then flush.
+
+        Values may be str, bool, int, float, numeric arrays, or mappings (stored as JSON text).
+        """
+        file = self._open_file()
+        if not path:
+            raise ValueError("path must name a group, e.g. '/results'")
+        target = file if path == "/" else file.require_group(path)
+        converted = {key: _attr_value(key, value) for key, value in attrs.items()}
+        for key, value in converted.items():
+            target.attrs[key] = value
+        file.flush()
+
+
+@dataclass
+class RunData:
+    """Everything in a run file, loaded eagerly into numpy arrays (no open h5py handles).
+
+    Attributes
+    ----------
+    config:
+        The run configuration (parsed from the ``config_json`` root attribute).
+    attrs:
+        The other root attributes (schema version, creation time, units, versions).
+    times, steps:
+        Frame times (s) and step counts, shape (n_frames,).
+    fields:
+        Frame fields, ``fields[name]`` shaped (n_frames, N, ...).
+    static:
+        Static arrays keyed by their path below ``/static`` (e.g. ``"walls/position"``).
+    series:
+        ``series[group][name]`` arrays, group being the path below ``/series`` (e.g.
+        ``"diagnostics"``, ``"bodies/leg"``).
+    group_attrs:
+        Attributes of every other group that has some, keyed by absolute path (e.g. ``"/results"``).
+
+    Loading is eager: fine for the 2D runs of the dissertation (10⁴ particles × 10² frames is tens
+    of MB); for larger runs, open the file with h5py and slice ``/frames/<field>`` directly.
+    """
+
+    config: dict[str, Any]
+    attrs: dict[str, Any]
+    times: np.ndarray
+    steps: np.ndarray
+    fields: dict[str, np.ndarray] = field(default_factory=dict)
+    static: dict[str, np.ndarray] = field(default_factory=dict)
+    series: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    group_attrs: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    @property
+    def n_frames(self) -> int:
+        """Number of complete frames in the file."""
+        return int(self.times.shape[0])
+
+    def frame(self, k: int) -> dict[str, np.ndarray]:
+        """Fields of frame ``k`` (negative indices count from the end) as ``{name: (N, ...) array}``."""
+        if not -self.n_frames <= k < self.n_frames:
+            raise IndexError(f"frame index {k} out of range for {self.n_frames} frames")
+        return {name: values[k] for name, values in self.fields.items()}
+
+
+def _datasets_below(group: h5py.Group) -> dict[str, h5py.Dataset]:
+    """All datasets below ``group`` keyed by their path relative to it."""
+    found: dict[str, h5py.Dataset] = {}
+
+    def visit(name: str, item: h5py.HLObject) -> None:
+        if isinstance(item, h5py.Dataset):
+            found[name] = item
+
+    group.visititems(visit)
+    return found
+
+
+def _group_attrs(file: h5py.File) -> dict[str, dict[str, Any]]:
+    """Attributes of every non-root group that has any, keyed by absolute path."""
+    found: dict[str, dict[str, Any]] = {}
+
+    def visit(name: str, item: h5py.HLObject) -> None:
+        if isinstance(item, h5py.Group) and len(item.attrs) > 0:
+            found["/" + name] = {key: _decode_attr(value) for key, value in item.attrs.items()}
+
+    file.visititems(visit)
+    return found
+
+
+def _read_series(series: h5py.Group) -> dict[str, dict[str, np.ndarray]]:
+    """Read ``/series`` as ``{group: {name: array}}``, trimming each group to its complete rows."""
+    grouped: dict[str, dict[str, np.ndarray]] = {}
+    for path, dataset in _datasets_below(series).items():
+        group, _, name = path.rpartition("/")
+        grouped.setdefault(group, {})[name] = dataset[()]
+    for group, columns in grouped.items():
+        rows = min(values.shape[0] for values in columns.values())
+        grouped[group] = {name: values[:rows] for name, values in columns.items()}
+    return grouped
+
+
+def read_run(path: str | os.PathLike[str]) -> RunData:
+    """Load a run file written by :class:`RunWriter` (eagerly; see :class:`RunData`).
+
+    A file from an interrupted run is read up to its last complete frame: the frame count is the
+    shortest length among ``/frames/time``, ``/frames/step`` and the field datasets.
+    """
+    with h5py.File(path, "r") as file:
+        attrs = {key: _decode_attr(value) for key, value in file.attrs.items()}
+        if "config_json" not in attrs:
+            raise ValueError(f"{path} is not a terrasph run file: root attribute 'config_json' is missing")
+        config = json.loads(attrs.pop("config_json"))
+        frames = file["frames"]
+        n_frames = min(dataset.shape[0] for dataset in frames.values())
+        fields = {
+            name: dataset[:n_frames] for name, dataset in frames.items() if name not in _RESERVED_FRAME_NAMES
+        }
+        return RunData(
+            config=config,
+            attrs=attrs,
+            times=frames["time"][:n_frames],
+            steps=frames["step"][:n_frames],
+            fields=fields,
+            static={name: dataset[()] for name, dataset in _datasets_below(file["static"]).items()},
+            series=_read_series(file["series"]),
+            group_attrs=_group_attrs(file),
+        )
+
+
+def _component_suffixes(shape: tuple[int, ...]) -> list[tuple[str, tuple[int, ...]]]:
+    """Name suffixes and indices of the components of a per-particle value of ``shape``.
+
+    Axes of length 2 are named x, z (e.g. velocity_x, stress_xz); other lengths by index.
+    """
+    axes = [("x", "z") if n == 2 else tuple(str(i) for i in range(n)) for n in shape]
+    suffixes: list[tuple[str, tuple[int, ...]]] = []
+    for index in np.ndindex(*shape):
+        suffixes.append(("_" + "".join(axes[a][i] for a, i in enumerate(index)), index))
+    return suffixes
+
+
+def _number_type(dtype: np.dtype) -> tuple[str, str]:
+    """XDMF NumberType and Precision of a numpy dtype."""
+    kinds = {"f": "Float", "i": "Int", "u": "UInt"}
+    return kinds[dtype.kind], str(dtype.itemsize)
+
+
+def _hyperslab(
+    parent: ET.Element, h5_ref: str, dataset: h5py.Dataset, start: tuple[int, ...], count: tuple[int, ...]
+) -> None:
+    """Append a HyperSlab DataItem selecting ``count`` entries from ``start`` of an HDF5 dataset."""
+    number_type, precision = _number_type(dataset.dtype)
+    dims = " ".join(map(str, count))
+    slab = ET.SubElement(parent, "DataItem", ItemType="HyperSlab", Dimensions=dims, Type="HyperSlab")
+    selection = ET.SubElement(slab, "DataItem", Dimensions=f"3 {len(start)}", Format="XML")
+    selection.text = "\n".join(" ".join(map(str, row)) for row in (start, (1,) * len(start), count))
+    source = ET.SubElement(
+        slab,
+        "DataItem",
+        Dimensions=" ".join(map(str, dataset.shape)),
+        NumberType=number_type,
+        Precision=precision,
+        Format="HDF",
+    )
+    source.text = f"{h5_ref}:{dataset.name}"
+
+
+def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str] | None = None) -> pathlib.Path:
+    """Write an XDMF 2 sidecar so ParaView can open the frames of a run file; return its path.
+
+    The sidecar is a Temporal collection of Polyvertex grids, one per frame, whose geometry is a
+    hyperslab of ``/frames/position``. 2D positions are exposed as XY, so the simulation's z (up)
+    is ParaView's Y. Every other numeric frame field becomes node-centred scalars: scalar fields
+    as themselves, vector and tensor fields one scalar per component (``velocity_x``,
+    ``velocity_z``, ``stress_xx``, ``stress_xz``, ``stress_zx``, ``stress_zz``). The HDF5 file is
+    referenced by its path relative to the sidecar (default: ``h5_path`` with suffix ``.xdmf``),
+    so keep the two files together.
+    """
+    h5_path = pathlib.Path(h5_path)
+    out = pathlib.Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
+    h5_ref = os.path.relpath(h5_path.resolve(), out.resolve().parent)
+    root = ET.Element("Xdmf", Version="2.0")
+    collection = ET.SubElement(
+        ET.SubElement(root, "Domain"), "Grid", Name="particles", GridType="Collection", CollectionType="Temporal"
+    )
+    with h5py.File(h5_path, "r") as file:
+        frames = file["frames"]
+        if "position" not in frames:
+            raise ValueError(f"{h5_path} has no /frames/position; write frames with a 'position' field first")
+        position = frames["position"]
+        if position.ndim != 3 or position.shape[2] != 2:
+            raise ValueError(f"/frames/position must be shaped (n_frames, N, 2), got {position.shape}")
+        n_frames = min(dataset.shape[0] for dataset in frames.values())
+        n_particles = position.shape[1]
+        fields = [
+            dataset
+            for name, dataset in sorted(frames.items())
+            if name not in (*_RESERVED_FRAME_NAMES, "position")
+            and dataset.ndim >= 2
+            and dataset.shape[1] == n_particles
+            and dataset.dtype.kind in "iuf"
+        ]
+        times = frames["time"][:n_frames]
+        for k in range(n_frames):
+            grid = ET.SubElement(collection, "Grid", Name=f"frame_{k}", GridType="Uniform")
+            ET.SubElement(grid, "Time", Value=repr(float(times[k])))
+            ET.SubElement(
+                grid, "Topology", TopologyType="Polyvertex", NumberOfElements=str(n_particles), NodesPerElement="1"
+            )
+            geometry = ET.SubElement(grid, "Geometry", GeometryType="XY")
+            _hyperslab(geometry, h5_ref, position, (k, 0, 0), (1, n_particles, 2))
+            for dataset in fields:
+                name = dataset.name.rsplit("/", 1)[1]
+                trailing = dataset.shape[2:]
+                for suffix, index in _component_suffixes(trailing) if trailing else [("", ())]:
+                    attribute = ET.SubElement(
+                        grid, "Attribute", Name=name + suffix, AttributeType="Scalar", Center="Node"
+                    )
+                    start = (k, 0, *index)
+                    count = (1, n_particles, *(1 for _ in index))
+                    _hyperslab(attribute, h5_ref, dataset, start, count)
+    ET.indent(root)
+    out.write_text('<?xml version="1.0" ?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n' + ET.tostring(root, encoding="unicode") + "\n")
+    return out
