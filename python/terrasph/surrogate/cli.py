@@ -1,0 +1,118 @@
+"""Sub-commands ``terrasph train``, ``terrasph predict`` and ``terrasph make-synthetic-dataset``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def register(subparsers: Any) -> None:
+    """Add the surrogate sub-commands to the ``terrasph`` parser."""
+    from terrasph.surrogate.synthetic import DEFAULT_FEATURES, DEFAULT_TARGETS
+
+    p = subparsers.add_parser(
+        "train", help="train an LSTM surrogate on a directory of HDF5 runs and export it",
+        description="Train a stacked LSTM (standard or peephole cell) on the runs in "
+                    "DATASET_DIR (split by run), then write the model file (docs/lstm_format.md) "
+                    "and a JSON report next to it.")
+    p.add_argument("dataset_dir", metavar="DATASET_DIR", type=Path)
+    p.add_argument("--out", required=True, type=Path, help="model file to write (.tslstm)")
+    p.add_argument("--features", nargs="+", default=list(DEFAULT_FEATURES),
+                   help="input series or run parameters (default: %(default)s)")
+    p.add_argument("--targets", nargs="+", default=list(DEFAULT_TARGETS),
+                   help="target series (default: %(default)s)")
+    p.add_argument("--body", default=None, help="body group in /bodies (default: the only one)")
+    p.add_argument("--cell", choices=("standard", "peephole"), default="standard")
+    p.add_argument("--hidden", type=int, default=32, help="hidden units per layer")
+    p.add_argument("--layers", type=int, default=1, help="stacked LSTM layers")
+    p.add_argument("--epochs", type=int, default=300, help="maximum epochs")
+    p.add_argument("--patience", type=int, default=30, help="early-stopping patience (epochs)")
+    p.add_argument("--lr", type=float, default=5e-3, help="Adam learning rate")
+    p.add_argument("--batch-size", type=int, default=16, help="runs per optimisation step")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--threads", type=int, default=1,
+                   help="torch CPU threads (results are reproducible per thread count)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.set_defaults(handler=_cmd_train)
+
+    p = subparsers.add_parser(
+        "predict", help="predict targets for input sequences with the C++ engine",
+        description="Run an exported model (C++ engine, no PyTorch) on INPUT: an HDF5 run "
+                    "file or directory of runs, a .npy array (T, I) or (B, T, I), or a .csv "
+                    "file with one time step per row.")
+    p.add_argument("model", type=Path, help="model file (.tslstm)")
+    p.add_argument("input", metavar="INPUT", type=Path)
+    p.add_argument("--out", type=Path, default=None,
+                   help="write predictions to .npy (B, T, O) or .csv (default: CSV on stdout)")
+    p.add_argument("--dtype", choices=("float32", "float64"), default="float64")
+    p.add_argument("--body", default=None, help="body group for HDF5 input")
+    p.set_defaults(handler=_cmd_predict)
+
+    p = subparsers.add_parser(
+        "make-synthetic-dataset", help="write driven-wheel runs with a known slip-sinkage law",
+        description="Simulate the synthetic driven wheel (terrasph.surrogate.synthetic) and "
+                    "write one HDF5 run file per run into OUT_DIR.")
+    p.add_argument("out_dir", metavar="OUT_DIR", type=Path)
+    p.add_argument("--runs", type=int, default=120)
+    p.add_argument("--duration", type=float, default=3.0, help="seconds per run")
+    p.add_argument("--dt", type=float, default=0.02, help="sampling interval [s]")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(handler=_cmd_synthetic)
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    import torch
+
+    from terrasph.surrogate.train import TrainConfig, format_report, train_directory
+
+    if args.threads < 1:
+        raise SystemExit(f"--threads must be >= 1, got {args.threads}")
+    torch.set_num_threads(args.threads)
+    config = TrainConfig(
+        features=tuple(args.features), targets=tuple(args.targets), cell=args.cell,
+        hidden_size=args.hidden, num_layers=args.layers, epochs=args.epochs,
+        patience=args.patience, lr=args.lr, batch_size=args.batch_size, seed=args.seed)
+    result = train_directory(args.dataset_dir, args.out, config, body=args.body,
+                             progress=not args.no_progress)
+    print(format_report(result.report))
+    print(f"best epoch {result.best_epoch} of {len(result.history)}; wrote {args.out} "
+          f"and {args.out}.json")
+    return 0
+
+
+def _cmd_predict(args: argparse.Namespace) -> int:
+    from terrasph.surrogate.inference import load_model, predict_sequences, read_sequences
+
+    model = load_model(args.model, args.dtype)
+    results = predict_sequences(model, read_sequences(args.input, model.feature_names,
+                                                      body=args.body))
+    targets = list(model.target_names)
+    if args.out is not None and args.out.suffix == ".npy":
+        lengths = {y.shape[0] for _, y in results}
+        if len(lengths) != 1:
+            raise SystemExit("sequences differ in length; use a .csv output")
+        np.save(args.out, np.stack([y for _, y in results]))
+        return 0
+    lines = [",".join(["sequence", "step"] + targets)]
+    for name, y in results:
+        for t, row in enumerate(y):
+            lines.append(",".join([name, str(t)] + [repr(float(v)) for v in row]))
+    text = "\n".join(lines) + "\n"
+    if args.out is None:
+        sys.stdout.write(text)
+    else:
+        args.out.write_text(text)
+    return 0
+
+
+def _cmd_synthetic(args: argparse.Namespace) -> int:
+    from terrasph.surrogate.synthetic import make_dataset
+
+    paths = make_dataset(args.out_dir, n_runs=args.runs, seed=args.seed,
+                         duration=args.duration, dt=args.dt)
+    print(f"wrote {len(paths)} runs to {args.out_dir}")
+    return 0
