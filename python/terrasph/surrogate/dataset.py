@@ -1,29 +1,31 @@
 """Dataset of runs for the surrogate: HDF5 body time series, feature/target selection,
 normalisation and splits by run.
 
-HDF5 layout read and written here (one run per file, ``docs/lstm.md``)::
+HDF5 layout read and written here (one run per file; the body series of the run files that
+``terrasph.io.RunWriter`` writes, see docs/lstm.md)::
 
-    /                       attrs: run configuration (numeric attributes are run parameters)
-    /bodies/<body>/         group of one body; attrs: run parameters of this body
-    /bodies/<body>/time     (T,) float64, seconds, uniformly sampled
-    /bodies/<body>/<name>   (T,) float64 series: commanded inputs (e.g. omega_cmd) and
-                            targets (e.g. slip, sinkage); attr "units" optional
+    /                              attrs: config_json (run configuration, JSON text) and others
+    /series/bodies/<body>/         group of one body; attrs: fixed run parameters of this body
+    /series/bodies/<body>/time     (T,) float64, seconds, uniformly sampled
+    /series/bodies/<body>/<name>   (T,) float64 series: commanded inputs (e.g. omega_cmd) and
+                                   targets (e.g. slip, sinkage); attr "units" optional
 
-A feature name resolves to a series of the body (varies in time) or else to a numeric scalar
-attribute of the body group or of the root (a fixed run parameter, repeated at every step).
-Targets must be series.
+(``/bodies/<body>/`` is accepted as well.) A feature name resolves to a series of the body
+(varies in time), else to a numeric scalar attribute of the body group, of the root, or a
+numeric leaf of ``config_json`` named by its dotted path (e.g. ``material.mu1``): a fixed run
+parameter, repeated at every step. Targets must be series.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-LAYOUT_NAME = "terrasph-body-timeseries"
-LAYOUT_VERSION = 1
+BODY_GROUPS = ("series/bodies", "bodies")  # where body time series live, first match wins
 
 
 @dataclass
@@ -91,18 +93,28 @@ def _numeric_attrs(attrs: Any) -> dict[str, float]:
     return out
 
 
+def _flatten(obj: Any, prefix: str = "") -> dict[str, float]:
+    """Numeric leaves of a JSON value keyed by dotted path."""
+    out: dict[str, float] = {}
+    if isinstance(obj, dict):
+        for key, value in obj.items():
+            out.update(_flatten(value, f"{prefix}{key}."))
+    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
+        out[prefix[:-1]] = float(obj)
+    return out
+
+
 def write_run(path: str | Path, run: Run, body: str = "wheel",
-              root_attrs: dict[str, Any] | None = None) -> Path:
-    """Write one run in the body time-series layout; run parameters go on the body group."""
+              config: dict[str, Any] | None = None) -> Path:
+    """Write one run: series under ``/series/bodies/<body>``, parameters as that group's attrs,
+    ``config`` (JSON-able) as the root attribute ``config_json``."""
     import h5py
 
     path = Path(path)
     with h5py.File(path, "w") as f:
-        f.attrs["layout"] = LAYOUT_NAME
-        f.attrs["layout_version"] = LAYOUT_VERSION
-        for key, value in (root_attrs or {}).items():
-            f.attrs[key] = value
-        g = f.create_group(f"bodies/{body}")
+        f.attrs["config_json"] = json.dumps(config or {}, sort_keys=True)
+        f.attrs["units"] = "SI"
+        g = f.create_group(f"{BODY_GROUPS[0]}/{body}")
         for key, value in run.params.items():
             g.attrs[key] = float(value)
         d = g.create_dataset("time", data=run.time)
@@ -115,7 +127,7 @@ def write_run(path: str | Path, run: Run, body: str = "wheel",
 
 
 def read_run(path: str | Path, body: str | None = None) -> Run:
-    """Read one run file. ``body`` defaults to the only body in ``/bodies``.
+    """Read one run file. ``body`` defaults to the only body of the file.
 
     Raises:
         ValueError: if the file does not follow the layout (message names what is missing).
@@ -123,31 +135,44 @@ def read_run(path: str | Path, body: str | None = None) -> Run:
     import h5py
 
     path = Path(path)
-    with h5py.File(path, "r") as f:
-        if "bodies" not in f or not isinstance(f["bodies"], h5py.Group):
-            raise ValueError(f"{path}: no '/bodies' group; not a body time-series run file")
-        bodies = sorted(f["bodies"].keys())
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot open as HDF5 ({exc})") from exc
+    with f:
+        base = next((b for b in BODY_GROUPS if isinstance(f.get(b), h5py.Group)), None)
+        if base is None:
+            raise ValueError(f"{path}: no '/series/bodies' (or '/bodies') group; "
+                             "not a run file with body time series")
+        bodies = sorted(f[base].keys())
         if body is None:
             if len(bodies) != 1:
                 raise ValueError(f"{path}: choose a body among {bodies} (argument 'body')")
             body = bodies[0]
         if body not in bodies:
             raise ValueError(f"{path}: body {body!r} not found; bodies: {bodies}")
-        g = f["bodies"][body]
+        g = f[base][body]
         if "time" not in g:
-            raise ValueError(f"{path}: /bodies/{body}/time missing")
-        time = np.asarray(g["time"][()], dtype=np.float64)
+            raise ValueError(f"{path}: /{base}/{body}/time missing")
+        time = np.asarray(g["time"][()], dtype=np.float64).reshape(-1)
         series: dict[str, np.ndarray] = {}
         units: dict[str, str] = {}
         for key, ds in g.items():
             if key == "time" or not isinstance(ds, h5py.Dataset) or ds.shape != time.shape:
                 continue
+            if ds.dtype.kind not in "biuf":
+                continue
             series[key] = np.asarray(ds[()], dtype=np.float64)
             if "units" in ds.attrs:
                 units[key] = str(ds.attrs["units"])
-        params = _numeric_attrs(f.attrs)
+        params: dict[str, float] = {}
+        if "config_json" in f.attrs:
+            try:
+                params.update(_flatten(json.loads(f.attrs["config_json"])))
+            except (TypeError, ValueError):
+                pass  # an unreadable configuration only hides its parameters
+        params.update(_numeric_attrs(f.attrs))
         params.update(_numeric_attrs(g.attrs))
-        params.pop("layout_version", None)
     return Run(name=path.stem, time=time, series=series, params=params, units=units)
 
 

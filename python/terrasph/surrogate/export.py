@@ -180,7 +180,7 @@ def read_model_bytes(data: bytes) -> ModelFile:
         )
     (crc,) = struct.unpack("<I", data[-4:])
     if zlib.crc32(data[:-4]) & 0xFFFFFFFF != crc:
-        raise ModelFileError("model file corrupted: CRC-32 mismatch")
+        raise ModelFileError("model file corrupted or truncated: CRC-32 mismatch")
     cell = {v: k for k, v in CELL_CODES.items()}[cur.u32("cell_type", 0, 1)]
     ni = cur.u32("input_size", 1, MAX_SIZE)
     no = cur.u32("output_size", 1, MAX_SIZE)

@@ -142,11 +142,12 @@ def make_dataset(out_dir: str | Path, n_runs: int = 40, seed: int = 0, duration:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    attrs = {"source": "terrasph.surrogate.synthetic", **{f"wheel.{k}": v for k, v in
-                                                          asdict(WheelParams()).items()}}
+    config = {"scene": "synthetic_wheel", "source": "terrasph.surrogate.synthetic",
+              "wheel": asdict(WheelParams()), "seed": seed, "duration": duration, "dt": dt}
     for r in range(n_runs):
         run = make_run(seed * 100003 + r, duration, dt, name=f"wheel_{r:04d}")
-        paths.append(write_run(out / f"{run.name}.h5", run, body="wheel", root_attrs=attrs))
+        paths.append(write_run(out / f"{run.name}.h5", run, body="wheel",
+                               config={**config, "run_params": run.params}))
     return paths
 
 

@@ -190,7 +190,7 @@ inline ModelData parse_model(const unsigned char* data, std::size_t size) {
   for (int k = 3; k >= 0; --k) stored_crc = (stored_crc << 8) | data[size - 4 + static_cast<std::size_t>(k)];
   const std::uint32_t crc = crc32(data, size - 4);
   if (crc != stored_crc) {
-    throw FormatError("LSTM model file corrupted: CRC-32 mismatch (stored " +
+    throw FormatError("LSTM model file corrupted or truncated: CRC-32 mismatch (stored " +
                       std::to_string(stored_crc) + ", computed " + std::to_string(crc) + ")");
   }
   m.cell = static_cast<CellType>(r.u32_in("cell_type", 0, 1));
