@@ -151,8 +151,9 @@ def front_position(
     Definition, chosen so that single grains thrown ahead do not define the runout:
 
     1. Particles lying wholly below the floor (z + spacing/2 < ``floor``; leaked grains) are ignored.
-    2. The rest are sorted by x and split into clusters wherever consecutive particles are more
-       than ``detach_gap`` (default 2·spacing) apart along x.
+    2. The rest are sorted by x and split into clusters wherever the centres of consecutive
+       particles are more than ``detach_gap`` (default 2·spacing, i.e. one empty column is
+       tolerated) apart along x.
     3. The main body is the cluster with the most particles (the left-most one on ties); clusters
        beyond a gap are detached and ignored.
     4. Within the main body, x-columns of width ``spacing`` holding fewer than ``min_particles``
@@ -168,7 +169,8 @@ def front_position(
     x = np.sort(points[points[:, 1] + 0.5 * spacing >= floor, 0])
     if x.size == 0:
         raise ValueError(f"position holds no particle above floor={floor} (z + spacing/2 >= floor)")
-    starts = np.concatenate(([0], np.flatnonzero(np.diff(x) > gap) + 1))
+    round_off = 1e-9 * spacing  # lattice neighbours exactly detach_gap apart stay connected
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(x) > gap + round_off) + 1))
     sizes = np.diff(np.concatenate((starts, [x.size])))
     main = int(np.argmax(sizes))
     body = x[starts[main] : starts[main] + sizes[main]]

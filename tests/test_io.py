@@ -1,0 +1,202 @@
+"""Tests of terrasph.io: HDF5 round trip, robustness to a killed writer, XDMF sidecar."""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import textwrap
+import xml.etree.ElementTree as ET
+
+import h5py
+import numpy as np
+import pytest
+
+from terrasph import io
+
+N = 12  # particles per frame
+CONFIG = {"scene": "column_collapse", "spacing": 0.002, "mu1": float(np.tan(np.radians(21.0))), "walls": [0, 1]}
+
+
+def frame_fields(k: int) -> dict[str, np.ndarray]:
+    """Deterministic frame k with the fields the run loop writes."""
+    rng = np.random.default_rng(k)
+    return {
+        "position": rng.uniform(0.0, 0.1, (N, 2)),
+        "velocity": rng.normal(size=(N, 2)),
+        "density": np.full(N, 1500.0 + k),
+        "pressure": rng.uniform(0.0, 1e3, N),
+        "stress": rng.normal(size=(N, 2, 2)),
+    }
+
+
+def write_run(path: pathlib.Path, n_frames: int = 3) -> None:
+    """A small complete run file."""
+    with io.RunWriter(path, CONFIG, versions={"terrasph": "0.1.0"}) as writer:
+        writer.write_static("granular/mass", np.full(N, 6.0e-3))
+        writer.write_static("walls/position", np.zeros((4, 2)))
+        writer.write_static("walls/group", np.arange(4, dtype=np.int32))
+        for k in range(n_frames):
+            writer.write_frame(0.05 * k, 100 * k, frame_fields(k))
+            writer.append_series(
+                "diagnostics", {"time": 0.05 * k, "step": 100 * k, "dt": 1e-5, "kinetic_energy": 1.0 / (k + 1)}
+            )
+            writer.append_series("bodies/leg", {"time": 0.05 * k, "force": np.array([0.1 * k, -2.0])})
+        writer.set_attrs("/results", {"runout_normalised": 1.25, "final_height_normalised": 0.55})
+
+
+def test_round_trip(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "run.h5"
+    write_run(path)
+    run = io.read_run(path)
+    assert run.config == CONFIG
+    assert run.attrs["terrasph_schema"] == io.SCHEMA_VERSION
+    assert run.attrs["version_terrasph"] == "0.1.0"
+    assert run.attrs["units"] == io.UNITS
+    assert "created_utc" in run.attrs
+    assert run.n_frames == 3
+    np.testing.assert_array_equal(run.times, [0.0, 0.05, 0.1])
+    np.testing.assert_array_equal(run.steps, [0, 100, 200])
+    for k in range(3):
+        for name, expected in frame_fields(k).items():
+            np.testing.assert_array_equal(run.frame(k)[name], expected)  # bit-exact float64
+    assert run.fields["stress"].shape == (3, N, 2, 2)
+    np.testing.assert_array_equal(run.static["granular/mass"], np.full(N, 6.0e-3))
+    assert run.static["walls/group"].dtype == np.int32
+    np.testing.assert_array_equal(run.series["diagnostics"]["kinetic_energy"], [1.0, 0.5, 1.0 / 3.0])
+    assert run.series["diagnostics"]["step"].dtype == np.int64
+    np.testing.assert_array_equal(run.series["bodies/leg"]["force"], [[0.0, -2.0], [0.1, -2.0], [0.2, -2.0]])
+    assert run.group_attrs["/results"] == {"runout_normalised": 1.25, "final_height_normalised": 0.55}
+    with pytest.raises(IndexError):
+        run.frame(3)
+
+
+def test_frames_are_chunked_per_frame_and_compressed(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "run.h5"
+    write_run(path)
+    with h5py.File(path, "r") as file:
+        stress = file["frames/stress"]
+        assert stress.chunks == (1, N, 2, 2)
+        assert stress.compression == "gzip"
+        assert stress.maxshape == (None, N, 2, 2)
+        assert json.loads(file.attrs["config_json"]) == CONFIG
+
+
+def test_frame_mismatch_names_the_field(tmp_path: pathlib.Path) -> None:
+    with io.RunWriter(tmp_path / "run.h5", CONFIG) as writer:
+        writer.write_frame(0.0, 0, frame_fields(0))
+        bad = frame_fields(1) | {"pressure": np.zeros(N + 1)}
+        with pytest.raises(ValueError, match="'pressure'"):
+            writer.write_frame(0.1, 1, bad)
+        missing = {name: value for name, value in frame_fields(1).items() if name != "velocity"}
+        with pytest.raises(ValueError, match="'velocity'"):
+            writer.write_frame(0.1, 1, missing)
+        with pytest.raises(ValueError, match="'density'"):
+            writer.write_frame(0.1, 1, frame_fields(1) | {"density": np.zeros(N, dtype=complex)})
+        writer.append_series("diagnostics", {"dt": 1e-5})
+        with pytest.raises(ValueError, match="'dt'"):
+            writer.append_series("diagnostics", {"dt": np.ones(2)})
+        assert writer.n_frames == 1  # the rejected frames wrote nothing
+
+
+def test_bad_arguments_are_rejected(tmp_path: pathlib.Path) -> None:
+    with pytest.raises(ValueError, match="compression"):
+        io.RunWriter(tmp_path / "a.h5", CONFIG, compression="zip")
+    write_run(tmp_path / "b.h5", n_frames=1)
+    with pytest.raises(FileExistsError):
+        io.RunWriter(tmp_path / "b.h5", CONFIG, overwrite=False)
+    writer = io.RunWriter(tmp_path / "c.h5", CONFIG)
+    with pytest.raises(ValueError, match="'time'"):
+        writer.write_frame(0.0, 0, {"time": np.zeros(3)})
+    writer.close()
+    with pytest.raises(ValueError, match="closed"):
+        writer.write_static("x", np.zeros(3))
+
+
+def test_writer_closes_on_exception(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "run.h5"
+    with pytest.raises(RuntimeError):
+        with io.RunWriter(path, CONFIG) as writer:
+            writer.write_frame(0.0, 0, frame_fields(0))
+            raise RuntimeError("simulated blow-up")
+    assert writer.closed
+    assert io.read_run(path).n_frames == 1
+
+
+def test_killed_writer_leaves_a_readable_file(tmp_path: pathlib.Path) -> None:
+    # The child writes frames, reports each one after write_frame returned, and is SIGKILLed
+    # while it still holds the file open, after at least 3 frames.
+    path = tmp_path / "killed.h5"
+    script = textwrap.dedent(
+        f"""
+        import sys, time
+        import numpy as np
+        from terrasph import io
+        writer = io.RunWriter({str(path)!r}, {{"scene": "killed"}})
+        for k in range(5):
+            writer.write_frame(0.1 * k, k, {{"position": np.full((50, 2), float(k)), "pressure": np.zeros(50)}})
+            writer.append_series("diagnostics", {{"time": 0.1 * k}})
+            print(k + 1, flush=True)
+        time.sleep(60)
+        """
+    )
+    child = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, env=os.environ.copy())
+    try:
+        flushed = 0
+        while flushed < 3:
+            line = child.stdout.readline()
+            assert line, f"writer exited early with code {child.wait()}"
+            flushed = int(line)
+    finally:
+        child.send_signal(signal.SIGKILL)
+        child.wait(timeout=10)
+    assert child.returncode == -signal.SIGKILL
+    run = io.read_run(path)
+    assert run.n_frames >= flushed
+    assert run.config == {"scene": "killed"}
+    for k in range(run.n_frames):
+        np.testing.assert_array_equal(run.frame(k)["position"], np.full((50, 2), float(k)))
+    assert run.series["diagnostics"]["time"].size >= flushed
+
+
+def test_xdmf_parses_and_references_existing_datasets(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "run.h5"
+    write_run(path, n_frames=4)
+    xdmf = io.write_xdmf(path)
+    assert xdmf == tmp_path / "run.xdmf"
+    root = ET.parse(xdmf).getroot()
+    grids = root.findall("./Domain/Grid/Grid")
+    assert len(grids) == 4
+    assert [float(grid.find("Time").get("Value")) for grid in grids] == pytest.approx([0.0, 0.05, 0.1, 0.15])
+    assert grids[0].find("Geometry").get("GeometryType") == "XY"
+    names = {attribute.get("Name") for attribute in grids[0].findall("Attribute")}
+    assert names == {"density", "pressure", "velocity_x", "velocity_z", "stress_xx", "stress_xz", "stress_zx", "stress_zz"}
+    references = [item for item in root.iter("DataItem") if item.get("Format") == "HDF"]
+    assert references
+    with h5py.File(path, "r") as file:
+        for item in references:
+            filename, dataset = item.text.strip().split(":")
+            assert (xdmf.parent / filename).resolve() == path.resolve()
+            assert dataset in file
+            assert tuple(map(int, item.get("Dimensions").split())) == file[dataset].shape
+
+
+def test_xdmf_slab_selects_the_right_values(tmp_path: pathlib.Path) -> None:
+    # Apply the hyperslab of frame 2's velocity_z by hand: it must equal velocity[2, :, 1].
+    path = tmp_path / "run.h5"
+    write_run(path)
+    (tmp_path / "sub").mkdir()
+    root = ET.parse(io.write_xdmf(path, tmp_path / "sub" / "view.xmf")).getroot()
+    grid = root.findall("./Domain/Grid/Grid")[2]
+    attribute = next(a for a in grid.findall("Attribute") if a.get("Name") == "velocity_z")
+    selection, source = attribute.find("DataItem").findall("DataItem")
+    start, stride, count = (np.array(row.split(), dtype=int) for row in selection.text.strip().splitlines())
+    filename, dataset = source.text.strip().split(":")
+    assert filename == os.path.join("..", "run.h5")
+    with h5py.File(path, "r") as file:
+        data = file[dataset][...]
+    index = tuple(slice(b, b + c * s, s) for b, s, c in zip(start, stride, count))
+    np.testing.assert_array_equal(data[index].ravel(), frame_fields(2)["velocity"][:, 1])

@@ -1,0 +1,90 @@
+"""Tests of terrasph.plotting: figures are built headless, labelled, and saved when asked."""
+
+from __future__ import annotations
+
+import pathlib
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+from terrasph import plotting
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def block(nx: int = 10, nz: int = 8, spacing: float = 0.002) -> np.ndarray:
+    x, z = np.meshgrid((np.arange(nx) + 0.5) * spacing, (np.arange(nz) + 0.5) * spacing)
+    return np.column_stack((x.ravel(), z.ravel()))
+
+
+def assert_png(path: pathlib.Path) -> None:
+    assert path.read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_plot_particles_with_values_and_walls(tmp_path: pathlib.Path) -> None:
+    position = block()
+    walls = np.column_stack((np.full(5, -0.001), np.arange(5) * 0.002))
+    path = tmp_path / "particles.png"
+    figure = plotting.plot_particles(position, position[:, 1] * 1e3, walls=walls, label="pressure (Pa)", path=path)
+    assert isinstance(figure, Figure)
+    axes, colorbar = figure.axes
+    assert axes.get_aspect() == 1.0
+    assert (axes.get_xlabel(), axes.get_ylabel()) == ("x (m)", "z (m)")
+    assert colorbar.get_ylabel() == "pressure (Pa)"
+    assert len(axes.collections) == 2  # walls + particles
+    assert_png(path)
+
+
+def test_plot_particles_into_given_axes() -> None:
+    figure = Figure()
+    ax = figure.add_subplot()
+    assert plotting.plot_particles(block(), ax=ax, s=4.0) is figure
+    assert ax.collections[0].get_sizes()[0] == pytest.approx(4.0)
+
+
+def test_plot_profiles_series_convergence(tmp_path: pathlib.Path) -> None:
+    x = np.linspace(0.0, 0.1, 11)
+    figure = plotting.plot_profiles(
+        [(x, 0.08 * (1 - x / 0.1), "t = 0.2 s"), (x, 0.04 * (1 - x / 0.1), "t = 0.6 s")],
+        initial=(np.array([0.0, 0.07, 0.07]), np.array([0.08, 0.08, 0.0])),
+        path=tmp_path / "profiles.png",
+    )
+    assert [text.get_text() for text in figure.axes[0].get_legend().get_texts()] == ["initial", "t = 0.2 s", "t = 0.6 s"]
+    assert_png(tmp_path / "profiles.png")
+
+    time = np.linspace(0.0, 1.0, 20)
+    figure = plotting.plot_series(time, {"kinetic energy": np.exp(-time)}, ylabel="energy (J)", logy=True)
+    assert figure.axes[0].get_yscale() == "log"
+    assert figure.axes[0].get_xlabel() == "time (s)"
+
+    table = [{"spacing (m)": 0.004, "L* error": 0.2}, {"spacing (m)": 0.002, "L* error": 0.08}]
+    figure = plotting.plot_convergence(table, "spacing (m)", ["L* error"], path=tmp_path / "conv.png")
+    assert figure.axes[0].get_xscale() == "log"
+    np.testing.assert_array_equal(figure.axes[0].lines[0].get_xdata(), [0.002, 0.004])  # sorted by x
+    assert_png(tmp_path / "conv.png")
+
+
+def test_plot_yield_locus_reports_the_fit() -> None:
+    p = np.linspace(0.0, 1000.0, 10)
+    figure = plotting.plot_yield_locus(p, 0.5 * p + 20.0)
+    legend = [text.get_text() for text in figure.axes[0].get_legend().get_texts()]
+    assert "μ = 0.500" in legend[1] and "c = 20 Pa" in legend[1]
+    assert figure.axes[0].get_xlabel() == "pressure p (Pa)"
+
+
+@pytest.mark.parametrize(
+    ("call", "argument"),
+    [
+        (lambda: plotting.plot_particles(np.zeros((4, 3))), "position"),
+        (lambda: plotting.plot_particles(np.zeros((4, 2)), np.zeros(3)), "values"),
+        (lambda: plotting.plot_particles(np.zeros((4, 2)), walls=np.zeros(4)), "walls"),
+        (lambda: plotting.plot_profiles([]), "profiles"),
+        (lambda: plotting.plot_series(np.zeros(3), {"e": np.zeros(4)}), "'e'"),
+        (lambda: plotting.plot_convergence([{"a": 1.0}], "a", ["b"]), "'b'"),
+        (lambda: plotting.plot_yield_locus(np.zeros(3), np.zeros(2)), "tau"),
+    ],
+)
+def test_bad_input_names_the_argument(call, argument: str) -> None:
+    with pytest.raises(ValueError, match=argument):
+        call()
