@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from terrasph import analysis
 
 SPACING = 0.002  # m, the column-collapse lattice spacing (d = 2 mm)

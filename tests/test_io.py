@@ -14,7 +14,6 @@ import xml.etree.ElementTree as ET
 import h5py
 import numpy as np
 import pytest
-
 from terrasph import io
 
 N = 12  # particles per frame
@@ -118,10 +117,9 @@ def test_bad_arguments_are_rejected(tmp_path: pathlib.Path) -> None:
 
 def test_writer_closes_on_exception(tmp_path: pathlib.Path) -> None:
     path = tmp_path / "run.h5"
-    with pytest.raises(RuntimeError):
-        with io.RunWriter(path, CONFIG) as writer:
-            writer.write_frame(0.0, 0, frame_fields(0))
-            raise RuntimeError("simulated blow-up")
+    with pytest.raises(RuntimeError), io.RunWriter(path, CONFIG) as writer:
+        writer.write_frame(0.0, 0, frame_fields(0))
+        raise RuntimeError("simulated blow-up")
     assert writer.closed
     assert io.read_run(path).n_frames == 1
 

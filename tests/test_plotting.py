@@ -7,7 +7,6 @@ import pathlib
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
-
 from terrasph import plotting
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -106,7 +106,7 @@ class RunWriter:
         if compression not in _COMPRESSIONS:
             raise ValueError(f"compression must be one of {_COMPRESSIONS}, got {compression!r}")
         if not isinstance(config, Mapping):
-            raise ValueError(f"config must be a mapping, got {type(config).__name__}")
+            raise TypeError(f"config must be a mapping, got {type(config).__name__}")
         config_json = json.dumps(dict(config), sort_keys=True, default=_json_default)
         self.path = pathlib.Path(path)
         self._filters: dict[str, Any] = (

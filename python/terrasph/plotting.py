@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.figure import Figure
+from matplotlib.figure import Figure, SubFigure
 
 from terrasph.analysis import fit_line
 
@@ -25,9 +25,19 @@ _DPI = 150
 def _new_axes(ax: Axes | None = None, size: tuple[float, float] = (6.4, 4.0)) -> tuple[Figure, Axes]:
     """Return ``ax`` and its figure, or a fresh pyplot-free figure with one axes."""
     if ax is not None:
-        return ax.get_figure(), ax
+        return _root_figure(ax), ax
     figure = Figure(figsize=size, layout="constrained")
     return figure, figure.add_subplot()
+
+
+def _root_figure(ax: Axes) -> Figure:
+    """The top-level Figure that holds ``ax`` (also when ``ax`` lies in a SubFigure)."""
+    figure = ax.get_figure()
+    while isinstance(figure, SubFigure):
+        figure = figure.figure
+    if not isinstance(figure, Figure):
+        raise TypeError("ax must belong to a matplotlib Figure")
+    return figure
 
 
 def _finish(figure: Figure, path: PathLike | None) -> Figure:
@@ -59,7 +69,7 @@ def _marker_size(position: np.ndarray, ax: Axes) -> float:
     span = max(float(extent.max()), 1e-12)
     area = float(extent[0] * extent[1])
     spacing = np.sqrt(area / len(position)) if area > 0 else span / len(position)
-    axes_points = 0.8 * min(ax.get_figure().get_size_inches()) * 72.0
+    axes_points = 0.8 * min(_root_figure(ax).get_size_inches()) * 72.0
     diameter = axes_points * spacing / max(span, spacing)
     return float(np.clip(diameter**2, 0.5, 60.0))
 
