@@ -78,10 +78,17 @@ class PeepholeLSTMCell(nn.Module):
         self.reset_parameters()
 
     def reset_parameters(self) -> None:
-        """Uniform(-1/sqrt(H), 1/sqrt(H)) for every parameter, as torch.nn.LSTM does."""
+        """Input/recurrent weights and biases ~ U(-1/sqrt(H), 1/sqrt(H)) as torch.nn.LSTM;
+        peephole matrices ~ U(-1/H, 1/H).
+
+        The smaller peephole range keeps the untrained cell close to the standard one: with
+        full H×H peepholes at the torch range, the positive feedback c -> f -> c can make the
+        cell state of an untrained network grow without bound over long sequences.
+        """
         bound = 1.0 / math.sqrt(self.hidden_size)
-        for p in self.parameters():
-            nn.init.uniform_(p, -bound, bound)
+        for name, p in self.named_parameters():
+            b = 1.0 / self.hidden_size if name in ("weight_ci", "weight_cf", "weight_co") else bound
+            nn.init.uniform_(p, -b, b)
 
     def forward(
         self, u: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor]
