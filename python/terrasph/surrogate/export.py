@@ -46,7 +46,7 @@ class LayerWeights:
     @property
     def hidden_size(self) -> int:
         """Number of hidden units H."""
-        return int(self.weight_hh.shape[1])
+        return int(self.weight_hh.shape[0]) // 4
 
     @property
     def input_size(self) -> int:

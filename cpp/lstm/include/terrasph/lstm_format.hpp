@@ -219,7 +219,8 @@ inline ModelData parse_model(const unsigned char* data, std::size_t size) {
   for (std::uint32_t i = 0; i < m.output_size; ++i) m.target_names.push_back(r.str("target_name", kMaxNameBytes));
   m.metadata = r.str("metadata", kMaxMetadataBytes);
   if (n_values * 8 != r.remaining()) {
-    throw FormatError("LSTM model file: " + std::to_string(r.remaining()) +
+    throw FormatError("LSTM model file truncated or sizes corrupted: " +
+                      std::to_string(r.remaining()) +
                       " bytes of weights found where the declared sizes need exactly " +
                       std::to_string(n_values * 8));
   }
