@@ -1,5 +1,6 @@
 // Bindings of the SPH core. Particle arrays are exposed as zero-copy numpy views whose base is
 // the Simulation object (row-major (N, D) and (N, D, D)); advance() runs with the GIL released.
+#include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -53,13 +54,14 @@ std::unique_ptr<Sim> make_simulation(
     const py::array_t<double, py::array::c_style | py::array::forcecast>& density,
     const py::array_t<double, py::array::c_style | py::array::forcecast>& mass,
     const py::array_t<double, py::array::c_style | py::array::forcecast>& wall_position,
+    const py::array_t<double, py::array::c_style | py::array::forcecast>& wall_normal,
     const py::array_t<double, py::array::c_style | py::array::forcecast>& wall_mass,
     const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& wall_no_slip,
     const py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>& wall_group) {
   GranularParticles<Dim> granular;
   const VecArray<Dim> x = to_vectors(position, "position");
   const Index n = x.rows();
-  granular.resize(n, params.numerics.xsph > 0.0);
+  granular.resize(n, params.numerics.xsph > 0.0, params.material.elastic_quasi_static);
   granular.position = x;
   granular.velocity = to_vectors(velocity, "velocity");
   if (granular.velocity.rows() != n) throw std::invalid_argument("velocity must have shape (N, 2) like position");
@@ -72,6 +74,8 @@ std::unique_ptr<Sim> make_simulation(
   walls.resize(nw);
   walls.position = xw;
   walls.mass = to_scalars(wall_mass, nw, "wall_mass");
+  walls.normal = to_vectors(wall_normal, "wall_normal");
+  if (walls.normal.rows() != nw) throw std::invalid_argument("wall_normal must have shape (M, 2) like wall_position");
   walls.density.setConstant(nw, params.material.reference_density);
   if (wall_no_slip.size() != nw || wall_group.size() != nw)
     throw std::invalid_argument("wall_no_slip and wall_group must have one entry per wall particle");
@@ -113,7 +117,9 @@ void bind_sph(py::module_& m) {
       .def_readwrite("bulk_stiffness", &MaterialParams::bulk_stiffness)
       .def_readwrite("eos_exponent", &MaterialParams::eos_exponent)
       .def_readwrite("water_content", &MaterialParams::water_content)
-      .def_readwrite("cohesion", &MaterialParams::cohesion);
+      .def_readwrite("cohesion", &MaterialParams::cohesion)
+      .def_readwrite("elastic_quasi_static", &MaterialParams::elastic_quasi_static)
+      .def_readwrite("shear_modulus", &MaterialParams::shear_modulus);
 
   py::class_<NumericsParams>(m, "NumericsParams")
       .def(py::init<>())
@@ -150,7 +156,7 @@ void bind_sph(py::module_& m) {
 
   py::class_<Sim>(m, "Simulation2D", "Granular SPH simulation in plane strain (x, z).")
       .def(py::init(&make_simulation), py::arg("params"), py::arg("position"), py::arg("velocity"),
-           py::arg("density"), py::arg("mass"), py::arg("wall_position"), py::arg("wall_mass"),
+           py::arg("density"), py::arg("mass"), py::arg("wall_position"), py::arg("wall_normal"), py::arg("wall_mass"),
            py::arg("wall_no_slip"), py::arg("wall_group"))
       .def("advance", &Sim::advance, py::arg("t_end"), py::arg("max_steps"),
            py::call_guard<py::gil_scoped_release>(),
@@ -184,10 +190,12 @@ void bind_sph(py::module_& m) {
       .def_property_readonly("pressure", [](py::object self) { return scalar_view(self.cast<Sim&>().granular().pressure, self); })
       .def_property_readonly("mass", [](py::object self) { return scalar_view(self.cast<Sim&>().granular().mass, self); })
       .def_property_readonly("stress", [](py::object self) { return tensor_view(self.cast<Sim&>().granular().stress, self); })
+      .def_property_readonly("deviatoric_stress", [](py::object self) { return tensor_view(self.cast<Sim&>().granular().deviatoric_stress, self); })
       .def_property_readonly("velocity_gradient", [](py::object self) { return tensor_view(self.cast<Sim&>().granular().velocity_gradient, self); })
       .def_property_readonly("wall_position", [](py::object self) { return vector_view(self.cast<Sim&>().walls().position, self); })
       .def_property_readonly("wall_velocity", [](py::object self) { return vector_view(self.cast<Sim&>().walls().velocity, self); })
       .def_property_readonly("wall_density", [](py::object self) { return scalar_view(self.cast<Sim&>().walls().density, self); })
+      .def_property_readonly("wall_normal", [](py::object self) { return vector_view(self.cast<Sim&>().walls().normal, self); })
       .def_property_readonly("wall_stress", [](py::object self) { return tensor_view(self.cast<Sim&>().walls().stress, self); })
       .def_property_readonly("wall_group", [](const Sim& s) {
         const auto& g = s.walls_const().group;

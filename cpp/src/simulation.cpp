@@ -23,12 +23,13 @@ inline double artificial_viscosity(double v_dot_x, double r2, double h, double a
   return -alpha * c0 * phi / rho_mean;
 }
 
-// δ-SPH density diffusion, Molteni & Colagrossi (2009) form of Eq. 2.42–2.43, written so that it
-// reduces density differences: 2δhc0 (ρ_j − ρ_i) (x_ji·∇_iW_ij)/|x_ij|² V_j, where
-// x_ji·∇_iW_ij / |x_ij|² = −(dW/dr)/r = −grad_factor > 0.
-inline double density_diffusion(double delta_h_c0, double rho_i, double rho_j, double volume_j,
-                                double grad_factor) {
-  return 2.0 * delta_h_c0 * (rho_j - rho_i) * (-grad_factor) * volume_j;
+// δ-SPH density diffusion, Molteni & Colagrossi (2009) form of Eq. 2.42–2.43 written so that it
+// reduces density differences, applied to the dynamic part of the difference only (Fourtakis,
+// Rogers et al. 2019): the hydrostatic difference ρ0 g·x_ji / c_eos² is subtracted, so a bed at
+// rest under gravity is not driven by the diffusion of its own lithostatic density gradient.
+//   2δhc0 (ρ_j − ρ_i − ρ0 g·x_ji/c²) (x_ji·∇_iW_ij)/|x_ij|² V_j,   x_ji·∇_iW_ij/|x_ij|² = −grad_factor
+inline double density_diffusion(double delta_h_c0, double rho_difference, double volume_j, double grad_factor) {
+  return 2.0 * delta_h_c0 * rho_difference * (-grad_factor) * volume_j;
 }
 
 }  // namespace
@@ -42,6 +43,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
       rheology_(params.material, params.strain_rate_epsilon()),
       sound_speed_(params.artificial_sound_speed()),
       signal_speed_(params.signal_speed()),
+      shear_modulus_(params.shear_modulus()),
       granular_(std::move(granular)),
       walls_(std::move(walls)) {
   params_.validate();
@@ -52,6 +54,8 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
     throw std::invalid_argument("wall particle arrays have inconsistent lengths");
   const bool with_xsph = params_.numerics.xsph > 0.0;
   if (with_xsph && granular_.xsph_correction.rows() != n) granular_.xsph_correction.setZero(n, D);
+  if (params_.material.elastic_quasi_static && granular_.deviatoric_stress.rows() != n)
+    granular_.deviatoric_stress.setZero(n, D * D);
   for (Index i = 0; i < n; ++i) {
     const Vec<D> x = row_vec<D>(granular_.position, i);
     for (int k = 0; k < D; ++k) {
@@ -68,7 +72,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
 
 template <int D> void Simulation<D>::refresh() {
   neighbours_valid_ = false;
-  compute_rates();
+  compute_rates(0.0);
 }
 
 // ---------------------------------------------------------------- neighbours
@@ -117,10 +121,12 @@ template <int D> void Simulation<D>::update_neighbours_if_needed() {
 
 // ---------------------------------------------------------------- rates
 
-template <int D> void Simulation<D>::compute_rates() {
+// `dt` advances the stress state of the elastic quasi-static branch (0: evaluate only).
+template <int D> void Simulation<D>::compute_rates(double dt) {
   update_neighbours_if_needed();
   wall_velocity_pass();
-  velocity_gradient_and_stress_pass();
+  if (params_.material.elastic_quasi_static) velocity_gradient_and_stress_pass<true>(dt);
+  else velocity_gradient_and_stress_pass<false>(dt);
   wall_stress_pass();
   const bool delta = params_.numerics.delta_sph > 0.0;
   const bool xsph = params_.numerics.xsph > 0.0;
@@ -159,8 +165,10 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
 
 // ∇v_i = Σ_j V_j (v_j − v_i) ⊗ ∇_iW_ij (Eq. 2.48), optionally renormalised by
 // M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_iW_ij so that linear fields are exact; then P (Eq. 2.30) and
-// σ from the μ(I) rheology (Eq. 2.29).
-template <int D> void Simulation<D>::velocity_gradient_and_stress_pass() {
+// σ from the μ(I) rheology (Eq. 2.29), in rate form or with the elastic quasi-static branch.
+template <int D>
+template <bool ElasticQuasiStatic>
+void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
   const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const bool correct = params_.numerics.kernel_gradient_correction;
   const double wall_volume = std::pow(params_.numerics.spacing, D);
@@ -192,7 +200,11 @@ template <int D> void Simulation<D>::velocity_gradient_and_stress_pass() {
     const double rho = granular_.density[i];
     const double p = eos_.pressure(rho);
     granular_.pressure[i] = p;
-    const Mat<D> sigma = rheology_.stress(grad, p);
+    Mat<D> sigma;
+    if constexpr (ElasticQuasiStatic)
+      sigma = rheology_.elastic_plastic_stress(grad, p, dt, shear_modulus_, row_mat<D>(granular_.deviatoric_stress, i));
+    else
+      sigma = rheology_.stress(grad, p);
     row_mat<D>(granular_.stress, i) = sigma;
     row_mat<D>(granular_.stress_over_rho2, i) = sigma / (rho * rho);
   });
@@ -201,8 +213,8 @@ template <int D> void Simulation<D>::velocity_gradient_and_stress_pass() {
 // Wall stress extrapolated from the granular neighbours with the hydrostatic correction
 // (Adami, Hu & Adams 2012, Eq. 3.31, applied to the full stress tensor):
 //   σ_w = Σ_f σ_f W_wf / Σ_f W_wf − [(g − a_w)·Σ_f ρ_f x_wf W_wf / Σ_f W_wf] I,
-// shear kept for a rough (no-slip) wall, dropped for a smooth one; pressure clipped at 0 as in
-// the EOS; ρ_w from the inverse EOS (Eq. 3.32).
+// all of it for a rough (no-slip) wall, less the shear traction on its surface for a smooth one;
+// pressure clipped at 0 as in the EOS; ρ_w from the inverse EOS (Eq. 3.32).
 template <int D> void Simulation<D>::wall_stress_pass() {
   const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const Vec<D> g = params_.domain.gravity;
@@ -224,13 +236,16 @@ template <int D> void Simulation<D>::wall_stress_pass() {
     Mat<D> sigma = Mat<D>::Zero();
     if (sum_w > 0.0) {
       const double hydrostatic = (g - row_vec<D>(walls_.acceleration, w)).dot(sum_rho_x) / sum_w;
-      sigma = sum_sigma / sum_w;
-      double p = -sigma.trace() / D + hydrostatic;
-      p = std::max(p, 0.0);
-      const Mat<D> deviator = walls_.no_slip[w] ? Mat<D>(sigma - (sigma.trace() / D) * Mat<D>::Identity())
-                                                : Mat<D>(Mat<D>::Zero());
-      sigma = deviator - p * Mat<D>::Identity();
-      walls_.density[w] = eos_.density(p);
+      sigma = sum_sigma / sum_w - hydrostatic * Mat<D>::Identity();
+      const double p = -sigma.trace() / D;
+      if (p < 0.0) sigma += p * Mat<D>::Identity();  // no tension, as in the EOS
+      if (!walls_.no_slip[w]) {  // smooth wall: remove the shear traction τ = σn − (n·σn)n
+        const Vec<D> n = row_vec<D>(walls_.normal, w);
+        const Vec<D> traction = sigma * n;
+        const Vec<D> shear = traction - n.dot(traction) * n;
+        sigma -= n * shear.transpose() + shear * n.transpose();
+      }
+      walls_.density[w] = eos_.density(std::max(p, 0.0));
     } else {
       walls_.density[w] = eos_.reference_density();
     }
@@ -250,6 +265,8 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
   const double delta_h_c0 = params_.numerics.delta_sph * h * c0;
   const double chi = params_.numerics.xsph;
   const Vec<D> g = params_.domain.gravity;
+  const double eos_c = params_.eos_sound_speed();
+  const Vec<D> hydrostatic_gradient = params_.material.reference_density / (eos_c * eos_c) * g;  // ∇ρ^H
   double max_acc2 = 0.0;
   const Index n = granular_.size();
 #pragma omp parallel for reduction(max : max_acc2) schedule(static)
@@ -267,13 +284,14 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
       const double r2 = xij.squaredNorm();
       if (r2 >= h2x4) continue;
       const double r = std::sqrt(r2);
-      const Vec<D> grad_w = kernel_.gradient_factor(r) * xij;  // ∇_iW_ij (Eq. 2.39)
+      const double grad_factor = kernel_.gradient_factor(r);
+      const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
       const Vec<D> vij = vi - row_vec<D>(granular_.velocity, j);
       const double m_j = granular_.mass[j];
       const double rho_j = granular_.density[j];
       drho += m_j * vij.dot(grad_w);  // Eq. 2.42, first term
-      if constexpr (UseDelta)
-        drho += density_diffusion(delta_h_c0, rho_i, rho_j, m_j / rho_j, kernel_.gradient_factor(r));
+      if constexpr (UseDelta)  // x_ji = −x_ij
+        drho += density_diffusion(delta_h_c0, rho_j - rho_i + hydrostatic_gradient.dot(xij), m_j / rho_j, grad_factor);
       const double pi_ij = artificial_viscosity(vij.dot(xij), r2, h, alpha, c0, 0.5 * (rho_i + rho_j));
       acc.noalias() += m_j * ((si + row_mat<D>(granular_.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
       if constexpr (UseXsph) xsph -= (chi * m_j / (0.5 * (rho_i + rho_j)) * kernel_.value(r)) * vij;
@@ -337,7 +355,7 @@ template <int D> void Simulation<D>::step(double dt) {
     if (xsph) drift += row_vec<D>(granular_.xsph_correction, i);
     row_vec<D>(granular_.position, i) += dt * drift;
   });
-  compute_rates();
+  compute_rates(dt);
   double max_v2 = 0.0;
 #pragma omp parallel for reduction(max : max_v2) schedule(static)
   for (Index i = 0; i < n; ++i) {  // closing kick
@@ -461,6 +479,7 @@ template <int D> void Simulation<D>::remove_wall_group(std::int32_t group) {
     row_vec<D>(kept.position, k) = row_vec<D>(walls_.position, w);
     row_vec<D>(kept.velocity, k) = row_vec<D>(walls_.velocity, w);
     row_vec<D>(kept.acceleration, k) = row_vec<D>(walls_.acceleration, w);
+    row_vec<D>(kept.normal, k) = row_vec<D>(walls_.normal, w);
     kept.density[k] = walls_.density[w];
     kept.mass[k] = walls_.mass[w];
     kept.no_slip[k] = walls_.no_slip[w];

@@ -22,6 +22,11 @@ struct MaterialParams {
   double eos_exponent = 7.0;          // γ
   double water_content = 0.0;         // w, gravimetric
   double cohesion = 0.0;              // c (Pa), Eq. 2.33–2.34, computed by the Python layer
+  // Quasi-static branch: false → the rate form of Eq. 2.29 everywhere; true → the deviatoric
+  // stress is state, loaded elastically (Jaumann rate, shear modulus G) and capped at μ(I)P + c
+  // (radial return), so a bed at rest holds shear stress below yield (the aim of Eq. 3.6).
+  bool elastic_quasi_static = false;
+  double shear_modulus = 0.0;         // G (Pa); 0 → 3K(1−2ν)/(2(1+ν)), K = κγ(1+w), ν = 0.3
 };
 
 // Discretisation and the optional numerical terms; a term with 0 is switched off.
@@ -70,7 +75,26 @@ template <int D> struct ModelParams {
                      m.reference_density);
   }
 
-  double signal_speed() const { return std::max(artificial_sound_speed(), eos_sound_speed()); }
+  // G of the elastic quasi-static branch.
+  double shear_modulus() const {
+    const MaterialParams& m = material;
+    if (m.shear_modulus > 0.0) return m.shear_modulus;
+    constexpr double poisson = 0.3;
+    const double bulk = m.bulk_stiffness * m.eos_exponent * (1.0 + m.water_content);
+    return 3.0 * bulk * (1.0 - 2.0 * poisson) / (2.0 * (1.0 + poisson));
+  }
+
+  // Fastest wave the explicit step must resolve: c0, the EOS sound speed, and with the elastic
+  // branch the P-wave speed √((K + 4G/3)/ρ0).
+  double signal_speed() const {
+    double c = std::max(artificial_sound_speed(), eos_sound_speed());
+    if (material.elastic_quasi_static) {
+      const MaterialParams& m = material;
+      const double bulk = m.bulk_stiffness * m.eos_exponent * (1.0 + m.water_content);
+      c = std::max(c, std::sqrt((bulk + 4.0 / 3.0 * shear_modulus()) / m.reference_density));
+    }
+    return c;
+  }
 
   double strain_rate_epsilon() const {
     const double h = smoothing_length();
@@ -93,6 +117,8 @@ template <int D> struct ModelParams {
     if (!(m.water_content >= 0.0 && m.water_content < 1.0))
       throw parameter_error("material.water_content", m.water_content, "0 <= w < 1");
     if (!(m.cohesion >= 0.0)) throw parameter_error("material.cohesion", m.cohesion, "c >= 0");
+    if (!(m.shear_modulus >= 0.0))
+      throw parameter_error("material.shear_modulus", m.shear_modulus, ">= 0 (0 = from the EOS)");
     if (n.sound_speed <= 0.0 && !(m.grain_density > m.reference_density))
       throw parameter_error("material.grain_density", m.grain_density,
                             "grain_density > reference_density when c0 comes from Eq. 2.44");

@@ -21,10 +21,11 @@ template <int D> struct GranularParticles {
   MatArray<D> stress;              // Cauchy stress σ
   MatArray<D> stress_over_rho2;    // σ/ρ², cached for the momentum sum
   MatArray<D> velocity_gradient;   // L = ∇v (Eq. 2.48)
+  MatArray<D> deviatoric_stress;   // s, state of the elastic quasi-static branch; else empty
 
   Index size() const { return position.rows(); }
 
-  void resize(Index n, bool with_xsph) {
+  void resize(Index n, bool with_xsph, bool with_stress_state) {
     position.resize(n, D);
     velocity.setZero(n, D);
     acceleration.setZero(n, D);
@@ -36,6 +37,7 @@ template <int D> struct GranularParticles {
     stress.setZero(n, D * D);
     stress_over_rho2.setZero(n, D * D);
     velocity_gradient.setZero(n, D * D);
+    if (with_stress_state) deviatoric_stress.setZero(n, D * D); else deviatoric_stress.resize(0, D * D);
   }
 };
 
@@ -44,6 +46,7 @@ template <int D> struct WallParticles {
   VecArray<D> velocity;       // the wall's own (prescribed) velocity; zero for fixed walls
   VecArray<D> acceleration;   // a_w of Eq. 3.31
   VecArray<D> ghost_velocity; // velocity seen by ∇v: 2v_w − ṽ (no-slip) or ṽ (free-slip)
+  VecArray<D> normal;         // unit normal of the wall surface, pointing into the granular side
   ScalarArray density;        // from the inverse EOS of the extrapolated pressure (Eq. 3.32)
   ScalarArray mass;           // ρ0·Δx^D
   MatArray<D> stress;         // extrapolated stress (Eq. 3.31 applied to σ)
@@ -58,6 +61,7 @@ template <int D> struct WallParticles {
     velocity.setZero(n, D);
     acceleration.setZero(n, D);
     ghost_velocity.setZero(n, D);
+    normal.setZero(n, D);
     density.resize(n);
     mass.resize(n);
     stress.setZero(n, D * D);

@@ -57,6 +57,25 @@ template <int D> class MuIRheology {
     return strength / (shear_rate + epsilon_) * deviator - p * Mat<D>::Identity();
   }
 
+  // Elastic quasi-static branch: the deviatoric stress s is state, advanced with the Jaumann rate
+  //   ds/dt = 2G D′ + Ω s − s Ω,  Ω = ½(L − Lᵀ)   (hypoelastic part of Eq. 2.14/2.26)
+  // and returned radially onto the μ(I) yield surface |s| ≤ μ(I)P + c (Eq. 2.29, 2.31), with
+  // |s| = √(½ s:s) and I from the total |D′|. Returns σ = −P I + s; updates s in place.
+  Mat<D> elastic_plastic_stress(const Mat<D>& velocity_gradient, double p, double dt, double shear_modulus,
+                                Eigen::Ref<Mat<D>> deviatoric) const {
+    const Mat<D> strain_rate = 0.5 * (velocity_gradient + velocity_gradient.transpose());
+    const Mat<D> spin = 0.5 * (velocity_gradient - velocity_gradient.transpose());
+    const Mat<D> strain_deviator = strain_rate - (strain_rate.trace() / D) * Mat<D>::Identity();
+    Mat<D> s = deviatoric;
+    s += dt * (2.0 * shear_modulus * strain_deviator + spin * s - s * spin);
+    const double magnitude = std::sqrt(0.5 * s.cwiseProduct(s).sum());
+    const double shear_rate = std::sqrt(0.5 * strain_deviator.cwiseProduct(strain_deviator).sum());
+    const double yield = friction(shear_rate, p) * p + cohesion_;
+    if (magnitude > yield) s *= yield / magnitude;
+    deviatoric = s;
+    return s - p * Mat<D>::Identity();
+  }
+
   // μ(I) written as μ1 + (μ2 − μ1) I/(I0 + I), which is finite at I = 0.
   double friction(double shear_rate, double p) const {
     if (p <= 0.0) return mu1_ + dmu_;  // I → ∞; irrelevant since μP = 0

@@ -65,9 +65,9 @@ template <int D> class Simulation {
   void step(double dt);
   void update_neighbours_if_needed();
   void build_neighbours();
-  void compute_rates();
+  void compute_rates(double dt);
   void wall_velocity_pass();
-  void velocity_gradient_and_stress_pass();
+  template <bool ElasticQuasiStatic> void velocity_gradient_and_stress_pass(double dt);
   void wall_stress_pass();
   template <bool UseDelta, bool UseXsph> void force_pass();
   void check_health() const;
@@ -78,6 +78,7 @@ template <int D> class Simulation {
   MuIRheology<D> rheology_;
   double sound_speed_;
   double signal_speed_;
+  double shear_modulus_;
 
   GranularParticles<D> granular_;
   WallParticles<D> walls_;

@@ -1,0 +1,144 @@
+"""Particle geometry: granular blocks on a lattice and wall-particle layers along polylines.
+
+Walls are fixed ghost (dummy) particles in ``layers`` rows behind the wall line, enough to fill
+the kernel support 2h (DESIGN §3.5). A polyline's granular side is on the *left* of its direction
+of travel; wall layers go on the right.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["lattice_block", "polyline_wall", "arc_points", "wall_layers_needed"]
+
+
+def wall_layers_needed(h_factor: float) -> int:
+    """Layers of spacing Δx that fill the kernel support 2h = 2·h_factor·Δx behind a wall."""
+    if not 1.0 <= h_factor <= 2.0:
+        raise ValueError(f"h_factor = {h_factor} outside the allowed range [1.0, 2.0]")
+    return int(math.ceil(2.0 * h_factor))
+
+
+def lattice_block(x0: float, z0: float, width: float, height: float, spacing: float) -> np.ndarray:
+    """Particles at cell centres of a square lattice filling [x0, x0+width] × [z0, z0+height].
+
+    The number of columns and rows is the nearest integer to width/Δx and height/Δx, so the block's
+    extent may differ from the request by up to Δx/2 on each axis.
+    """
+    if spacing <= 0:
+        raise ValueError(f"spacing = {spacing} must be > 0")
+    if width <= 0 or height <= 0:
+        raise ValueError(f"block width and height must be > 0, got {width}, {height}")
+    nx = max(1, round(width / spacing))
+    nz = max(1, round(height / spacing))
+    xs = x0 + (np.arange(nx) + 0.5) * spacing
+    zs = z0 + (np.arange(nz) + 0.5) * spacing
+    grid_x, grid_z = np.meshgrid(xs, zs)  # row-major: z rows, x fastest
+    return np.column_stack([grid_x.ravel(), grid_z.ravel()])
+
+
+def arc_points(centre: tuple[float, float], radii: tuple[float, float], start: float, stop: float,
+               spacing: float) -> np.ndarray:
+    """Vertices of an elliptical arc (circle when radii are equal), angles in radians, ~Δx/4 apart."""
+    a, b = radii
+    if a <= 0 or b <= 0:
+        raise ValueError(f"arc radii must be > 0, got {radii}")
+    n = max(8, int(math.ceil(abs(stop - start) * max(a, b) / (0.25 * spacing))))
+    t = np.linspace(start, stop, n + 1)
+    return np.column_stack([centre[0] + a * np.cos(t), centre[1] + b * np.sin(t)])
+
+
+def _resample(path: np.ndarray, spacing: float) -> np.ndarray:
+    """Points every Δx along a polyline, centred in each Δx interval of arc length."""
+    seg = np.diff(path, axis=0)
+    lengths = np.hypot(seg[:, 0], seg[:, 1])
+    total = float(lengths.sum())
+    n = max(1, round(total / spacing))
+    s = (np.arange(n) + 0.5) * total / n
+    cumulative = np.concatenate([[0.0], np.cumsum(lengths)])
+    x = np.interp(s, cumulative, path[:, 0])
+    z = np.interp(s, cumulative, path[:, 1])
+    return np.column_stack([x, z])
+
+
+def _offset_path(vertices: np.ndarray, distance: float) -> np.ndarray:
+    """The polyline shifted by `distance` to its right, with round joins at outer corners."""
+    points: list[np.ndarray] = []
+    directions = np.diff(vertices, axis=0)
+    directions /= np.hypot(directions[:, 0], directions[:, 1])[:, None]
+    right = np.column_stack([directions[:, 1], -directions[:, 0]])
+    for k in range(len(directions)):
+        if k > 0:
+            turn = directions[k - 1, 0] * directions[k, 1] - directions[k - 1, 1] * directions[k, 0]
+            if turn > 1e-12:  # left turn: the right (wall) side opens up; fill it with an arc
+                a0 = math.atan2(right[k - 1, 1], right[k - 1, 0])
+                a1 = math.atan2(right[k, 1], right[k, 0])
+                while a1 > a0:
+                    a1 -= 2 * math.pi
+                for angle in np.linspace(a0, a1, 9)[1:-1]:
+                    points.append(vertices[k] + distance * np.array([math.cos(angle), math.sin(angle)]))
+        points.append(vertices[k] + distance * right[k])
+        points.append(vertices[k + 1] + distance * right[k])
+    return np.array(points)
+
+
+def _nearest_on_polyline(points: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance from each point to a polyline and the nearest point on it."""
+    best = np.full(len(points), np.inf)
+    nearest_best = np.zeros_like(points)
+    for a, b in zip(vertices[:-1], vertices[1:]):
+        ab = b - a
+        t = np.clip(((points - a) @ ab) / float(ab @ ab), 0.0, 1.0)
+        nearest = a + t[:, None] * ab
+        distance = np.hypot(*(points - nearest).T)
+        closer = distance < best
+        best[closer] = distance[closer]
+        nearest_best[closer] = nearest[closer]
+    return best, nearest_best
+
+
+def polyline_wall(vertices: np.ndarray | list[tuple[float, float]], spacing: float,
+                  layers: int) -> tuple[np.ndarray, np.ndarray]:
+    """Wall particles in `layers` rows at depths (k + ½)Δx behind a polyline (on its right side),
+    and their unit normals pointing to the wall line (into the granular side).
+
+    Rows are resampled every Δx along the offset line, so curved beds get smooth walls; where offset
+    rows of neighbouring segments overlap (inner corners), particles closer than ½Δx are merged.
+    """
+    v = np.asarray(vertices, dtype=float)
+    if v.ndim != 2 or v.shape[1] != 2 or len(v) < 2:
+        raise ValueError("vertices must be an array of at least two (x, z) points")
+    if layers < 1:
+        raise ValueError(f"layers = {layers} must be >= 1")
+    rows = []
+    for k in range(layers):
+        depth = (k + 0.5) * spacing
+        row = _resample(_offset_path(v, depth), spacing)
+        keep = _nearest_on_polyline(row, v)[0] > depth - 0.25 * spacing
+        rows.append(row[keep])
+    points = _merge_close(np.concatenate(rows), 0.5 * spacing)
+    distance, nearest = _nearest_on_polyline(points, v)
+    normals = (nearest - points) / distance[:, None]
+    return points, normals
+
+
+def _merge_close(points: np.ndarray, tolerance: float) -> np.ndarray:
+    """Drops points closer than `tolerance` to an earlier kept point (grid hashing, O(N))."""
+    kept: list[int] = []
+    buckets: dict[tuple[int, int], list[int]] = {}
+    cell = tolerance
+    for index, p in enumerate(points):
+        key = (int(math.floor(p[0] / cell)), int(math.floor(p[1] / cell)))
+        clash = False
+        for dx in (-1, 0, 1):
+            for dz in (-1, 0, 1):
+                for other in buckets.get((key[0] + dx, key[1] + dz), ()):
+                    if np.hypot(*(points[other] - p)) < tolerance:
+                        clash = True
+                        break
+        if not clash:
+            kept.append(index)
+            buckets.setdefault(key, []).append(index)
+    return points[kept]

@@ -1,0 +1,276 @@
+"""The Python face of a run: a scene + material + numerics turned into a core simulation, and the
+run loop with progress, HDF5 output, scheduled wall removal and safe interruption."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import platform
+import time as wallclock
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from terrasph import _core
+from terrasph.config import ConfigError, Material, Numerics, as_dict
+from terrasph.scene import Scene, hydrostatic_density
+
+__all__ = ["Simulation", "RunResult", "versions"]
+
+STEPS_PER_CHUNK = 500
+
+
+def versions() -> dict[str, str]:
+    """Versions of terrasph and the libraries that shape a result (saved with every run)."""
+    import h5py
+
+    from terrasph import __version__
+
+    return {"terrasph": __version__, "numpy": np.__version__, "h5py": h5py.__version__,
+            "python": platform.python_version()}
+
+
+@dataclass
+class RunResult:
+    """What a run did: how far it got, how long it took, and where its output is."""
+
+    time: float
+    steps: int
+    wall_time: float
+    frames: int
+    output: str | None
+    status: str  # "completed", "at_rest", "interrupted" or "unstable"
+    diagnostics: dict[str, list[float]] = field(default_factory=dict)
+
+
+class Simulation:
+    """A granular SPH simulation in plane strain, built from a validated scene.
+
+    Particle arrays (``position``, ``velocity``, ``density``, ``pressure``, ``stress``, …) are zero-copy
+    views into the C++ state: read them freely; after writing to them call :meth:`refresh`.
+    Granular masses are per metre of depth (m = ρ·Δx²); multiply by ``width`` for the real sample.
+    """
+
+    def __init__(self, scene: Scene, material: Material, numerics: Numerics, *,
+                 initial_density: np.ndarray | None = None, width: float = 1.0) -> None:
+        if not isinstance(material, Material):
+            raise ConfigError("parameter 'material' must be a terrasph.Material")
+        if not isinstance(numerics, Numerics):
+            raise ConfigError("parameter 'numerics' must be a terrasph.Numerics")
+        if not (width > 0 and math.isfinite(width)):
+            raise ConfigError(f"parameter 'width' = {width!r} is invalid: allowed a finite number > 0 (m)")
+        scene.validate(numerics)
+        self.scene = scene
+        self.material = material
+        self.numerics = numerics
+        self.width = width
+        position = scene.granular_position
+        if initial_density is None:
+            initial_density = hydrostatic_density(position[:, 1].max() + 0.5 * scene.spacing - position[:, 1],
+                                                  material, scene.gravity)
+        density = np.asarray(initial_density, dtype=float)
+        if density.shape != (len(position),):
+            raise ConfigError(f"parameter 'initial_density' must have shape ({len(position)},)")
+        dx2 = scene.spacing**2
+        walls = scene.wall_position
+        wall_group = np.concatenate([np.full(len(w.position), w.group_id, np.int32) for w in scene.walls]) \
+            if scene.walls else np.zeros(0, np.int32)
+        wall_no_slip = np.concatenate([np.full(len(w.position), w.no_slip, np.uint8) for w in scene.walls]) \
+            if scene.walls else np.zeros(0, np.uint8)
+        self._removals = sorted((w.remove_at, w.group_id, w.name) for w in scene.walls if w.remove_at is not None)
+        self.core = _core.Simulation2D(
+            self._core_params(), position, np.zeros_like(position), density, density * dx2,
+            walls, scene.wall_normal, np.full(len(walls), material.reference_density * dx2), wall_no_slip, wall_group)
+
+    def _core_params(self) -> "_core.ModelParams2D":
+        params = _core.ModelParams2D()
+        material = params.material
+        for key in ("grain_density", "reference_density", "grain_diameter", "mu1", "mu2", "inertial_number_i0",
+                    "bulk_stiffness", "eos_exponent", "water_content", "shear_modulus"):
+            setattr(material, key, float(getattr(self.material, key)))
+        material.cohesion = self.material.cohesion
+        material.elastic_quasi_static = self.material.quasi_static == "elastic"
+        params.material = material
+        numerics = params.numerics
+        for f in dataclasses.fields(Numerics):
+            setattr(numerics, f.name, getattr(self.numerics, f.name))
+        params.numerics = numerics
+        lower, upper = self.scene.domain()
+        domain = params.domain
+        domain.lower, domain.upper = lower, upper
+        domain.gravity = np.array([0.0, -self.scene.gravity])
+        params.domain = domain
+        params.validate()
+        return params
+
+    # -- state ----------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return self.core.time
+
+    @property
+    def step_count(self) -> int:
+        """Steps taken so far."""
+        return self.core.step
+
+    @property
+    def position(self) -> np.ndarray:
+        """Granular positions (N, 2), m (view)."""
+        return self.core.position
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Granular velocities (N, 2), m/s (view)."""
+        return self.core.velocity
+
+    @property
+    def density(self) -> np.ndarray:
+        """Granular densities (N,), kg/m³ (view)."""
+        return self.core.density
+
+    @property
+    def pressure(self) -> np.ndarray:
+        """Granular pressures from the EOS (N,), Pa (view)."""
+        return self.core.pressure
+
+    @property
+    def stress(self) -> np.ndarray:
+        """Granular Cauchy stress (N, 2, 2), Pa (view)."""
+        return self.core.stress
+
+    @property
+    def mass(self) -> np.ndarray:
+        """Granular masses per metre of depth (N,), kg/m (view)."""
+        return self.core.mass
+
+    def kinetic_energy(self) -> float:
+        """½ Σ m|v|² for the real width (J)."""
+        v = self.core.velocity
+        return 0.5 * float(np.dot(self.core.mass, np.einsum("ij,ij->i", v, v))) * self.width
+
+    def refresh(self) -> None:
+        """Rebuilds neighbours and rates after the state was edited through a view."""
+        self.core.refresh()
+
+    def advance(self, t_end: float, max_steps: int = 2**62) -> int:
+        """Steps to `t_end` (s), applying scheduled wall removals; returns the steps taken."""
+        taken = 0
+        while self.core.time < t_end * (1 - 1e-14) and taken < max_steps:
+            while self._removals and self._removals[0][0] <= self.core.time:
+                _, group, _ = self._removals.pop(0)
+                self.core.remove_wall_group(group)
+            target = min(t_end, self._removals[0][0]) if self._removals else t_end
+            taken += self.core.advance(target, max_steps - taken)
+        while self._removals and self._removals[0][0] <= self.core.time:
+            self.core.remove_wall_group(self._removals.pop(0)[1])
+        return taken
+
+    # -- run loop -------------------------------------------------------------------------
+    def run(self, t_end: float, *, output: str | os.PathLike | None = None, frame_interval: float = 0.05,
+            progress: bool = True, config: dict[str, Any] | None = None,
+            stop_when_at_rest: float | None = None, min_time: float = 0.0,
+            on_frame: Callable[["Simulation"], None] | None = None) -> RunResult:
+        """Runs to `t_end` (s), writing a frame every `frame_interval` (s) to `output` (HDF5).
+
+        With ``stop_when_at_rest = r`` the run ends once t ≥ `min_time` and the kinetic energy per
+        unit mass ½|v|² (mean) drops below r·g·Δx — a bed whose grains move less than about
+        √(2r g Δx). Ctrl-C ends the run cleanly: the last frame is written and the file closed.
+        An :class:`terrasph.InstabilityError` is recorded in the file before it propagates.
+        """
+        if not (t_end > self.time):
+            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")
+        if not frame_interval > 0:
+            raise ConfigError(f"parameter 'frame_interval' = {frame_interval} is invalid: allowed > 0")
+        from tqdm.auto import tqdm
+
+        from terrasph.io import RunWriter, write_xdmf
+
+        writer = RunWriter(output, config or self.describe(), versions=versions()) if output else None
+        if writer:
+            writer.write_static("granular/mass", np.array(self.mass))
+            writer.write_static("walls/position", np.array(self.core.wall_position))
+            writer.write_static("walls/group", np.array(self.core.wall_group))
+        diagnostics: dict[str, list[float]] = {k: [] for k in ("time", "step", "dt", "kinetic_energy",
+                                                                 "max_speed", "neighbour_builds", "wall_time")}
+        start = wallclock.perf_counter()
+        frames = 0
+        status = "completed"
+        total_mass = float(self.mass.sum())
+        rest_threshold = None if stop_when_at_rest is None else stop_when_at_rest * self.scene.gravity * self.scene.spacing
+
+        def record() -> None:
+            nonlocal frames
+            row = {"time": self.time, "step": self.step_count, "dt": self.core.last_dt,
+                   "kinetic_energy": self.kinetic_energy(), "max_speed": self.core.max_speed,
+                   "neighbour_builds": self.core.neighbour_builds,
+                   "wall_time": wallclock.perf_counter() - start}
+            for key, value in row.items():
+                diagnostics[key].append(float(value))
+            if writer:
+                writer.write_frame(self.time, self.step_count, self.frame_fields())
+                writer.append_series("diagnostics", row)
+            frames += 1
+            if on_frame:
+                on_frame(self)
+
+        bar = tqdm(total=round(t_end - self.time, 9), unit="s", disable=not progress,
+                   bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
+        try:
+            record()
+            next_frame = self.time + frame_interval
+            while self.time < t_end * (1 - 1e-14):
+                before = self.time
+                # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
+                self.advance(min(next_frame, t_end), max_steps=STEPS_PER_CHUNK)
+                bar.update(self.time - before)
+                bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
+                if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
+                    record()
+                    next_frame += frame_interval
+                    if rest_threshold is not None and self.time >= min_time:
+                        if diagnostics["kinetic_energy"][-1] / (total_mass * self.width) < rest_threshold:
+                            status = "at_rest"
+                            break
+        except KeyboardInterrupt:
+            status = "interrupted"
+            if writer:
+                writer.write_frame(self.time, self.step_count, self.frame_fields())
+                writer.set_attrs("/run", {"status": status})
+                writer.close()
+            bar.close()
+            raise
+        except _core.InstabilityError as error:
+            status = "unstable"
+            if writer:
+                writer.set_attrs("/run", {"status": status, "message": str(error), "step": error.step,
+                                          "time": error.time, "particle": error.particle})
+                writer.close()
+            bar.close()
+            raise
+        bar.close()
+        wall_time = wallclock.perf_counter() - start
+        if writer:
+            writer.set_attrs("/run", {"status": status, "wall_time": wall_time, "steps": self.step_count,
+                                      "time": self.time, "granular_particles": len(self.mass),
+                                      "wall_particles": len(self.core.wall_position)})
+            writer.close()
+            write_xdmf(output)
+        return RunResult(self.time, self.step_count, wall_time, frames, os.fspath(output) if output else None,
+                         status, diagnostics)
+
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        """Copies of the per-particle fields written to each frame."""
+        return {"position": np.array(self.position), "velocity": np.array(self.velocity),
+                "density": np.array(self.density), "pressure": np.array(self.pressure),
+                "stress": np.array(self.stress)}
+
+    def describe(self) -> dict[str, Any]:
+        """Configuration of this simulation as plain data (saved with the output)."""
+        return {"material": as_dict(self.material), "numerics": as_dict(self.numerics),
+                "spacing": self.scene.spacing, "width": self.width, "gravity": self.scene.gravity,
+                "walls": [{"name": w.name, "no_slip": w.no_slip, "remove_at": w.remove_at,
+                           "particles": len(w.position)} for w in self.scene.walls],
+                "granular_particles": int(len(self.mass))}
