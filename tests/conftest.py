@@ -1,0 +1,87 @@
+"""Shared fixtures and the ``--runslow`` switch.
+
+Tests marked ``@pytest.mark.slow`` (validation runs of tens of seconds or more) run only with
+``pytest --runslow`` or with the environment variable ``TERRASPH_RUN_SLOW=1``; otherwise they
+are skipped with a reason that says how to run them.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--runslow", action="store_true", default=False,
+                     help="also run tests marked slow (or set TERRASPH_RUN_SLOW=1)")
+
+
+def _run_slow(config: pytest.Config) -> bool:
+    return bool(config.getoption("--runslow")) or os.environ.get("TERRASPH_RUN_SLOW", "") == "1"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # also declared in pyproject.toml; repeated so the marker is known when run from elsewhere
+    config.addinivalue_line("markers", "slow: long validation runs; need --runslow or TERRASPH_RUN_SLOW=1")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if _run_slow(config):
+        return
+    skip = pytest.mark.skip(reason="slow validation run: use --runslow or TERRASPH_RUN_SLOW=1")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A seeded generator, so every random test is reproducible."""
+    return np.random.default_rng(20240611)
+
+
+@pytest.fixture
+def restore_threads():
+    """Restores the OpenMP thread count a test changed (process-wide setting)."""
+    from terrasph import _core
+
+    before = _core.get_max_threads()
+    yield
+    _core.set_num_threads(before)
+
+
+def _free_block(spacing: float, nx: int, nz: int, *, margin: float = 0.5):
+    """A wall-free, gravity-free lattice block of nx × nz particles in a roomy domain box.
+
+    Returns (scene, block positions). The domain is padded by `margin` (m) on every side so that
+    nothing in a short run can reach its edge.
+    """
+    from terrasph.scene import Scene
+
+    scene = Scene(spacing=spacing)
+    scene.gravity = 0.0
+    block = scene.add_block(0.0, 0.0, nx * spacing, nz * spacing)
+    scene.domain_lower = (-margin, -margin)
+    scene.domain_upper = (nx * spacing + margin, nz * spacing + margin)
+    return scene, block
+
+
+def _bulk_mask(position: np.ndarray, block: np.ndarray, distance: float) -> np.ndarray:
+    """Particles at least `distance` from every edge of the block's bounding box."""
+    lo = block.min(axis=0)
+    hi = block.max(axis=0)
+    return np.all((position >= lo + distance) & (position <= hi - distance), axis=1)
+
+
+@pytest.fixture
+def free_block():
+    """Factory ``free_block(spacing, nx, nz, margin=0.5) -> (scene, block)``: no walls, no gravity."""
+    return _free_block
+
+
+@pytest.fixture
+def bulk_mask():
+    """Function ``bulk_mask(position, block, distance)``: particles ≥ distance from the block's edges."""
+    return _bulk_mask
