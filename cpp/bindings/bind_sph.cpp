@@ -5,6 +5,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <omp.h>
+
 #include <string>
 
 #include "terrasph/errors.hpp"
@@ -180,6 +182,17 @@ void bind_sph(py::module_& m) {
       .def_property_readonly("neighbour_builds", [](const Sim& s) { return s.counters().neighbour_builds; })
       .def_property_readonly("max_speed", [](const Sim& s) { return s.counters().max_speed; })
       .def_property_readonly("max_acceleration", [](const Sim& s) { return s.counters().max_acceleration; })
+      .def_property_readonly("phase_seconds", [](const Sim& s) {
+        const PhaseTimes& t = s.counters().phase_seconds;
+        py::dict d;
+        d["neighbours"] = t.neighbours;
+        d["wall_velocity"] = t.wall_velocity;
+        d["velocity_gradient_and_stress"] = t.velocity_gradient_and_stress;
+        d["wall_stress"] = t.wall_stress;
+        d["forces"] = t.forces;
+        d["integrate_and_check"] = t.integrate_and_check;
+        return d;
+      }, "Wall-clock seconds spent in each phase of the step, summed over the run.")
       .def_property_readonly("smoothing_length", &Sim::smoothing_length)
       .def_property_readonly("params", &Sim::params)
       .def_property_readonly("position", [](py::object self) { return vector_view(self.cast<Sim&>().granular().position, self); })
@@ -201,6 +214,12 @@ void bind_sph(py::module_& m) {
         const auto& g = s.walls_const().group;
         return py::array_t<std::int32_t>(static_cast<py::ssize_t>(g.size()), g.data());
       });
+
+  m.def("set_num_threads", [](int n) {
+        if (n < 1) throw std::invalid_argument("threads must be >= 1");
+        omp_set_num_threads(n);
+      }, py::arg("n"), "Number of OpenMP threads for the following runs (process-wide OpenMP setting).");
+  m.def("get_max_threads", &omp_get_max_threads, "OpenMP threads a parallel loop would use now.");
 
   m.def("neighbour_lists", [](const py::array_t<double, py::array::c_style | py::array::forcecast>& points, double radius) {
         const VecArray<Dim> x = to_vectors(points, "points");

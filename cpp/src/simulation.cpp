@@ -2,6 +2,7 @@
 #include "terrasph/simulation.hpp"
 
 #include <Eigen/LU>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,10 +18,10 @@ namespace {
 
 // Monaghan artificial viscosity Π_ij (Eq. 2.46–2.47) with α_Π = alpha, β_Π = 0, c_ij = c0.
 inline double artificial_viscosity(double v_dot_x, double r2, double h, double alpha, double c0,
-                                   double rho_mean) {
+                                   double inv_rho_mean) {
   if (v_dot_x >= 0.0) return 0.0;
   const double phi = h * v_dot_x / (r2 + 0.01 * h * h);
-  return -alpha * c0 * phi / rho_mean;
+  return -alpha * c0 * phi * inv_rho_mean;
 }
 
 // δ-SPH density diffusion, Molteni & Colagrossi (2009) form of Eq. 2.42–2.43 written so that it
@@ -54,6 +55,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
     throw std::invalid_argument("wall particle arrays have inconsistent lengths");
   const bool with_xsph = params_.numerics.xsph > 0.0;
   if (with_xsph && granular_.xsph_correction.rows() != n) granular_.xsph_correction.setZero(n, D);
+  granular_.volume.resize(n);
   if (params_.material.elastic_quasi_static && granular_.deviatoric_stress.rows() != n)
     granular_.deviatoric_stress.setZero(n, D * D);
   for (Index i = 0; i < n; ++i) {
@@ -123,11 +125,23 @@ template <int D> void Simulation<D>::update_neighbours_if_needed() {
 
 // `dt` advances the stress state of the elastic quasi-static branch (0: evaluate only).
 template <int D> void Simulation<D>::compute_rates(double dt) {
+  PhaseTimes& t = counters_.phase_seconds;
+  double clock = omp_get_wtime();
+  auto lap = [&clock](double& phase) {
+    const double now = omp_get_wtime();
+    phase += now - clock;
+    clock = now;
+  };
   update_neighbours_if_needed();
+  lap(t.neighbours);
+  for_each_particle(granular_.size(), [&](Index i) { granular_.volume[i] = granular_.mass[i] / granular_.density[i]; });
   wall_velocity_pass();
+  lap(t.wall_velocity);
   if (params_.material.elastic_quasi_static) velocity_gradient_and_stress_pass<true>(dt);
   else velocity_gradient_and_stress_pass<false>(dt);
+  lap(t.velocity_gradient_and_stress);
   wall_stress_pass();
+  lap(t.wall_stress);
   const bool delta = params_.numerics.delta_sph > 0.0;
   const bool xsph = params_.numerics.xsph > 0.0;
   // optional terms are chosen once per evaluation, not tested per pair
@@ -135,6 +149,7 @@ template <int D> void Simulation<D>::compute_rates(double dt) {
   else if (delta) force_pass<true, false>();
   else if (xsph) force_pass<false, true>();
   else force_pass<false, false>();
+  lap(t.forces);
 }
 
 // Ghost velocity of wall particles for ∇v (Adami, Hu & Adams 2012): ṽ_w = Σ_f v_f W_wf / Σ_f W_wf,
@@ -182,7 +197,7 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
       const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
       const double r2 = xij.squaredNorm();
       if (r2 >= h2x4) continue;
-      const double vf = granular_.mass[j] / granular_.density[j] * kernel_.gradient_factor(std::sqrt(r2));
+      const double vf = granular_.volume[j] * kernel_.gradient_factor(std::sqrt(r2));
       grad.noalias() += (vf * (row_vec<D>(granular_.velocity, j) - vi)) * xij.transpose();
       if (correct) moment.noalias() -= (vf * xij) * xij.transpose();
     }
@@ -289,12 +304,13 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
       const Vec<D> vij = vi - row_vec<D>(granular_.velocity, j);
       const double m_j = granular_.mass[j];
       const double rho_j = granular_.density[j];
+      const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
       drho += m_j * vij.dot(grad_w);  // Eq. 2.42, first term
       if constexpr (UseDelta)  // x_ji = −x_ij
-        drho += density_diffusion(delta_h_c0, rho_j - rho_i + hydrostatic_gradient.dot(xij), m_j / rho_j, grad_factor);
-      const double pi_ij = artificial_viscosity(vij.dot(xij), r2, h, alpha, c0, 0.5 * (rho_i + rho_j));
+        drho += density_diffusion(delta_h_c0, rho_j - rho_i + hydrostatic_gradient.dot(xij), granular_.volume[j], grad_factor);
+      const double pi_ij = artificial_viscosity(vij.dot(xij), r2, h, alpha, c0, inv_rho_mean);
       acc.noalias() += m_j * ((si + row_mat<D>(granular_.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
-      if constexpr (UseXsph) xsph -= (chi * m_j / (0.5 * (rho_i + rho_j)) * kernel_.value(r)) * vij;
+      if constexpr (UseXsph) xsph -= (chi * m_j * inv_rho_mean * kernel_.value(r)) * vij;
     }
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];
@@ -305,7 +321,7 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
       const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
       const double m_w = walls_.mass[w];
       drho += m_w * viw.dot(grad_w);
-      const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha, c0, 0.5 * (rho_i + walls_.density[w]));
+      const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha, c0, 2.0 / (rho_i + walls_.density[w]));
       acc.noalias() += m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
     }
     acc += g;
@@ -344,6 +360,7 @@ template <int D> std::int64_t Simulation<D>::advance(double t_end, std::int64_t 
 }
 
 template <int D> void Simulation<D>::step(double dt) {
+  const double start = omp_get_wtime();
   const Index n = granular_.size();
   const bool xsph = params_.numerics.xsph > 0.0;
   const double half = 0.5 * dt;
@@ -355,7 +372,9 @@ template <int D> void Simulation<D>::step(double dt) {
     if (xsph) drift += row_vec<D>(granular_.xsph_correction, i);
     row_vec<D>(granular_.position, i) += dt * drift;
   });
+  const double before_rates = omp_get_wtime();
   compute_rates(dt);
+  const double after_rates = omp_get_wtime();
   double max_v2 = 0.0;
 #pragma omp parallel for reduction(max : max_v2) schedule(static)
   for (Index i = 0; i < n; ++i) {  // closing kick
@@ -371,6 +390,7 @@ template <int D> void Simulation<D>::step(double dt) {
   const int shepard = params_.numerics.shepard_interval;
   if (shepard > 0 && counters_.step % shepard == 0) apply_shepard_filter();
   check_health();
+  counters_.phase_seconds.integrate_and_check += (before_rates - start) + (omp_get_wtime() - after_rates);
 }
 
 // Stops the run on non-finite state, an escaped particle or a density out of the sane band;

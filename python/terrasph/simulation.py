@@ -216,7 +216,7 @@ class Simulation:
             if on_frame:
                 on_frame(self)
 
-        bar = tqdm(total=round(t_end - self.time, 9), unit="s", disable=not progress,
+        bar = tqdm(total=round(t_end - self.time, 9), unit="s", disable=not progress, mininterval=0.5,
                    bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
         try:
             record()

@@ -8,9 +8,12 @@ namespace terrasph {
 template <int D> struct WendlandC2 {
   double h;
   double alpha;  // α_d = 7/(4πh²) in 2D, 21/(16πh³) in 3D
+  double inv_h;
+  double gradient_coefficient;  // −5α/h²
 
   explicit WendlandC2(double smoothing_length)
-      : h(smoothing_length), alpha(normalisation(smoothing_length)) {}
+      : h(smoothing_length), alpha(normalisation(smoothing_length)), inv_h(1.0 / smoothing_length),
+        gradient_coefficient(-5.0 * alpha / (smoothing_length * smoothing_length)) {}
 
   static double normalisation(double hh) {
     static_assert(D == 2 || D == 3, "Wendland C2 is defined here for 2D and 3D");
@@ -23,7 +26,7 @@ template <int D> struct WendlandC2 {
 
   // W(r) = α (1 − q/2)^4 (2q + 1), q = r/h ≤ 2.
   double value(double r) const {
-    const double q = r / h;
+    const double q = r * inv_h;
     if (q >= 2.0) return 0.0;
     const double s = 1.0 - 0.5 * q;
     const double s2 = s * s;
@@ -32,10 +35,10 @@ template <int D> struct WendlandC2 {
 
   // (dW/dr)/r = −5α(1 − q/2)³/h², finite at r = 0; ∇_i W_ij = x_ij · gradient_factor(r).
   double gradient_factor(double r) const {
-    const double q = r / h;
+    const double q = r * inv_h;
     if (q >= 2.0) return 0.0;
     const double s = 1.0 - 0.5 * q;
-    return -5.0 * alpha * s * s * s / (h * h);
+    return gradient_coefficient * s * s * s;
   }
 
   double self_value() const { return alpha; }

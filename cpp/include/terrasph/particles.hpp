@@ -18,6 +18,7 @@ template <int D> struct GranularParticles {
   ScalarArray density_rate;        // Dρ/Dt of the last rate evaluation
   ScalarArray pressure;
   ScalarArray mass;                // per unit depth in 2D: ρ·Δx²
+  ScalarArray volume;              // V = m/ρ, refreshed before each rate evaluation
   MatArray<D> stress;              // Cauchy stress σ
   MatArray<D> stress_over_rho2;    // σ/ρ², cached for the momentum sum
   MatArray<D> velocity_gradient;   // L = ∇v (Eq. 2.48)
@@ -34,6 +35,7 @@ template <int D> struct GranularParticles {
     density_rate.setZero(n);
     pressure.setZero(n);
     mass.resize(n);
+    volume.resize(n);
     stress.setZero(n, D * D);
     stress_over_rho2.setZero(n, D * D);
     velocity_gradient.setZero(n, D * D);

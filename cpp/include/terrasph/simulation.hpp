@@ -16,6 +16,16 @@
 
 namespace terrasph {
 
+// Wall-clock seconds spent in each phase of the step, summed over the run.
+struct PhaseTimes {
+  double neighbours = 0.0;
+  double wall_velocity = 0.0;
+  double velocity_gradient_and_stress = 0.0;
+  double wall_stress = 0.0;
+  double forces = 0.0;
+  double integrate_and_check = 0.0;
+};
+
 struct RunCounters {
   std::int64_t step = 0;
   double time = 0.0;
@@ -23,6 +33,7 @@ struct RunCounters {
   std::int64_t neighbour_builds = 0;
   double max_speed = 0.0;         // max |v| over granular particles after the last step
   double max_acceleration = 0.0;  // max |a| of the last rate evaluation
+  PhaseTimes phase_seconds;
 };
 
 template <int D> class Simulation {

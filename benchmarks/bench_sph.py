@@ -1,0 +1,116 @@
+"""Throughput, thread scaling, memory per particle and feature cost of the SPH core (issue 2).
+
+    python benchmarks/bench_sph.py throughput [--sizes 20000 80000 320000] [--threads 1 2]
+    python benchmarks/bench_sph.py features [--size 20000]
+
+A scene is a bed of the dry glass beads at rest in a rough box (Δx = 2 mm, gravity on); it is
+stepped a fixed number of steps after a short warm-up. "particle-steps" count granular
+particles. Compare figures within one run (ratios): absolute times on a shared machine are noisy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+
+from terrasph import _core
+from terrasph.config import Material, Numerics
+from terrasph.geometry import wall_layers_needed
+from terrasph.scene import Scene
+from terrasph.simulation import Simulation
+
+SPACING = 0.002
+
+
+def resident_bytes() -> int:
+    """Resident set size of this process (Linux /proc)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def bed(size: int, material: Material, numerics: Numerics) -> Simulation:
+    """A box 2:1 wide:tall holding about `size` granular particles."""
+    width = math.sqrt(2 * size) * SPACING
+    height = width / 2
+    scene = Scene(spacing=SPACING)
+    scene.add_block(0.0, 0.0, width, height)
+    scene.add_wall("box", [(0.0, 1.5 * height), (0.0, 0.0), (width, 0.0), (width, 1.5 * height)],
+                   layers=wall_layers_needed(numerics.h_factor))
+    return Simulation(scene, material, numerics)
+
+
+def time_steps(sim: Simulation, steps: int) -> float:
+    """Seconds per step over `steps` steps after a warm-up of 10."""
+    sim.advance(1e9, max_steps=10)
+    start = time.perf_counter()
+    sim.advance(1e9, max_steps=steps)
+    return (time.perf_counter() - start) / steps
+
+
+def throughput(sizes: list[int], threads: list[int], steps: int) -> None:
+    print("| granular particles | wall particles | threads | M particle-steps/s | per thread | speed-up | bytes/particle |")
+    print("|---|---|---|---|---|---|---|")
+    for size in sizes:
+        base = None
+        for n_threads in threads:
+            _core.set_num_threads(n_threads)
+            before = resident_bytes()
+            sim = bed(size, Material(), Numerics(spacing=SPACING))
+            sim.advance(1e9, max_steps=1)
+            memory = (resident_bytes() - before) / len(sim.mass)
+            per_step = time_steps(sim, steps)
+            rate = len(sim.mass) / per_step / 1e6
+            base = base or rate
+            print(f"| {len(sim.mass)} | {len(sim.core.wall_position)} | {n_threads} | {rate:.2f} | "
+                  f"{rate / n_threads:.2f} | {rate / base:.2f} | {memory:.0f} |", flush=True)
+            del sim
+
+
+FEATURES: dict[str, tuple[dict, dict]] = {
+    "plain (rate μ(I), no δ, no XSPH)": ({"quasi_static": "rate"}, {"delta_sph": 0.0, "xsph": 0.0}),
+    "+ δ-SPH (δ = 0.1)": ({"quasi_static": "rate"}, {"delta_sph": 0.1, "xsph": 0.0}),
+    "+ XSPH (χ = 0.2)": ({"quasi_static": "rate"}, {"delta_sph": 0.0, "xsph": 0.2}),
+    "+ Shepard every 10 steps": ({"quasi_static": "rate"}, {"delta_sph": 0.0, "xsph": 0.0, "shepard_interval": 10}),
+    "+ kernel gradient correction": ({"quasi_static": "rate"}, {"delta_sph": 0.0, "xsph": 0.0,
+                                                               "kernel_gradient_correction": True}),
+    "+ elastic quasi-static branch": ({"quasi_static": "elastic"}, {"delta_sph": 0.0, "xsph": 0.0}),
+    "default (elastic, δ, XSPH)": ({}, {}),
+}
+
+
+def features(size: int, steps: int, repeats: int) -> None:
+    print("| configuration | ms/step | ratio to plain |")
+    print("|---|---|---|")
+    results = {name: [] for name in FEATURES}
+    for _ in range(repeats):  # interleaved so load changes hit every variant alike
+        for name, (material, numerics) in FEATURES.items():
+            sim = bed(size, Material(**material), Numerics(spacing=SPACING, **numerics))
+            results[name].append(time_steps(sim, steps))
+    plain = min(results[next(iter(FEATURES))])
+    for name, times in results.items():
+        best = min(times)
+        print(f"| {name} | {1e3 * best:.2f} | {best / plain:.2f} |", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="what", required=True)
+    p = sub.add_parser("throughput")
+    p.add_argument("--sizes", type=int, nargs="+", default=[20000, 80000, 320000])
+    p.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    p.add_argument("--steps", type=int, default=100)
+    f = sub.add_parser("features")
+    f.add_argument("--size", type=int, default=20000)
+    f.add_argument("--steps", type=int, default=100)
+    f.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    if args.what == "throughput":
+        throughput(args.sizes, args.threads, args.steps)
+    else:
+        features(args.size, args.steps, args.repeats)
+
+
+if __name__ == "__main__":
+    main()
