@@ -15,6 +15,15 @@ torch = pytest.importorskip("torch")
 
 TOL = {"float32": 1e-5, "float64": 1e-10}
 
+
+@pytest.fixture(autouse=True)
+def one_torch_thread():
+    """Small fixtures run fastest on one torch thread (and do not fight other processes)."""
+    old = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(old)
+
 # (cell, layers, hidden, steps): every layer count and hidden size for both cells, plus the
 # sequence-length extremes 1 and 10 000.
 CASES = [

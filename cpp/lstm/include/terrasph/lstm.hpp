@@ -30,6 +30,88 @@
 namespace terrasph {
 namespace lstm {
 
+namespace detail {
+
+// y += W z for a column-major W (rows x cols): blocks of B rows are accumulated in registers
+// across all columns, so each weight is read once per step. W is read straight from memory;
+// for H >= 64 it does not fit in L1, so this product bounds the step time.
+template <int B, typename Scalar>
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+inline void gemv_rows(const Scalar* w, Eigen::Index rows, Eigen::Index r0, Eigen::Index cols,
+                      const Scalar* z, Scalar* y) {
+  Scalar acc[B];
+  for (int k = 0; k < B; ++k) acc[k] = y[r0 + k];
+  for (Eigen::Index j = 0; j < cols; ++j) {
+    const Scalar zj = z[j];
+    const Scalar* col = w + j * rows + r0;
+    for (int k = 0; k < B; ++k) acc[k] += col[k] * zj;
+  }
+  for (int k = 0; k < B; ++k) y[r0 + k] = acc[k];
+}
+
+template <typename Scalar>
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+inline void gemv_body(const Scalar* w, Eigen::Index rows, Eigen::Index cols, const Scalar* z,
+                      Scalar* y) {
+  constexpr int kBig = 256 / static_cast<int>(sizeof(Scalar));  // 8 AVX registers of acc.
+  Eigen::Index r = 0;
+  for (; r + kBig <= rows; r += kBig) gemv_rows<kBig>(w, rows, r, cols, z, y);
+  for (; r + 8 <= rows; r += 8) gemv_rows<8>(w, rows, r, cols, z, y);
+  for (; r < rows; ++r) gemv_rows<1>(w, rows, r, cols, z, y);
+}
+
+template <typename Scalar>
+void gemv_generic(const Scalar* w, Eigen::Index rows, Eigen::Index cols, const Scalar* z,
+                  Scalar* y) {
+  gemv_body(w, rows, cols, z, y);
+}
+
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__AVX2__) && \
+    !defined(TERRASPH_LSTM_NO_DISPATCH)
+#define TERRASPH_LSTM_AVX2_DISPATCH 1
+// Same kernel compiled for AVX2 + FMA, chosen at run time when the CPU has them, so a build
+// for baseline x86-64 (like a Python wheel) still uses 256-bit vectors.
+template <typename Scalar>
+__attribute__((target("avx2,fma"))) void gemv_avx2(const Scalar* w, Eigen::Index rows,
+                                                   Eigen::Index cols, const Scalar* z,
+                                                   Scalar* y) {
+  gemv_body(w, rows, cols, z, y);
+}
+inline bool cpu_has_avx2_fma() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+#endif
+
+/// y += W z with the best kernel for this CPU (fixed per Model, so results are reproducible).
+template <typename Scalar>
+inline void gemv(bool use_avx2, const Scalar* w, Eigen::Index rows, Eigen::Index cols,
+                 const Scalar* z, Scalar* y) {
+#ifdef TERRASPH_LSTM_AVX2_DISPATCH
+  if (use_avx2) {
+    gemv_avx2(w, rows, cols, z, y);
+    return;
+  }
+#else
+  (void)use_avx2;
+#endif
+  gemv_generic(w, rows, cols, z, y);
+}
+
+inline bool default_use_avx2() {
+#ifdef TERRASPH_LSTM_AVX2_DISPATCH
+  return cpu_has_avx2_fma();
+#else
+  return false;
+#endif
+}
+
+}  // namespace detail
+
 /// One recurrent layer in the working precision.
 template <typename Scalar>
 struct Layer {
@@ -111,6 +193,8 @@ class Model {
   const Vector& output_scale() const { return out_scale_; }
   const Matrix& head_weight() const { return w_out_; }
   const Vector& head_bias() const { return b_out_; }
+  /// True if the gate products use the run-time selected AVX2/FMA kernel.
+  bool uses_avx2() const { return use_avx2_; }
 
  private:
   static Vector to_vector(const std::vector<double>& v, Eigen::Index n, const char* what) {
@@ -140,6 +224,7 @@ class Model {
   std::vector<Layer<Scalar>> layers_;
   Matrix w_out_;
   Vector b_out_;
+  bool use_avx2_ = detail::default_use_avx2();
 };
 
 /// Recurrent state of one sequence plus preallocated work buffers.
@@ -194,7 +279,7 @@ class Stream {
     z_[0].head(ni) = (xv - m.input_mean()).cwiseQuotient(m.input_scale());
     const std::size_t n_layers = m.layers().size();
     for (std::size_t l = 0; l < n_layers; ++l) {
-      step_layer(m.layers()[l], m.cell_type(), z_[l], c_[l], gates_[l]);
+      step_layer(m.layers()[l], m.cell_type(), m.uses_avx2(), z_[l], c_[l], gates_[l]);
       const Eigen::Index H = m.layers()[l].hidden_size;
       if (l + 1 < n_layers) z_[l + 1].head(H) = z_[l].tail(H);
     }
@@ -227,11 +312,12 @@ class Stream {
 
   // One cell update. z = [u_t ; h_{t-1}] on entry, z.tail(H) = h_t on exit; c is updated in
   // place. Gate blocks of g are PyTorch's i, f, g (cell candidate), o.
-  static void step_layer(const Layer<Scalar>& L, CellType cell, Vector& z, Vector& c,
-                         Vector& g) {
+  static void step_layer(const Layer<Scalar>& L, CellType cell, bool avx2, Vector& z,
+                         Vector& c, Vector& g) {
     const Eigen::Index H = L.hidden_size;
     g = L.bias;
-    g.noalias() += L.w * z;  // W_u* u_t + W_h* h_{t-1} + b_*, all four gates at once
+    // W_u* u_t + W_h* h_{t-1} + b_*, all four gates at once
+    detail::gemv(avx2, L.w.data(), L.w.rows(), L.w.cols(), z.data(), g.data());
     if (cell == CellType::Peephole) {
       g.segment(0, H).noalias() += L.w_ci * c;  // + W_ci c_{t-1}   (Eq. 4.9)
       g.segment(H, H).noalias() += L.w_cf * c;  // + W_cf c_{t-1}   (Eq. 4.10)
