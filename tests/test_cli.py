@@ -1,0 +1,102 @@
+"""Command line: ``terrasph --help`` and ``terrasph run column-collapse`` (issue 2, item 5).
+
+The LSTM commands (``train``, ``predict``) are tested in test_lstm_*.py; here they only have to
+be listed. The real run is 0.05 s of the coarse collapse (~3 500 steps, a few seconds).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+from terrasph.cli import build_parser, main
+from terrasph.io import read_run
+
+
+def run_cli(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    """`python -m terrasph.cli ARGS` in a subprocess, with this interpreter and sys.path."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
+    return subprocess.run([sys.executable, "-m", "terrasph.cli", *args], capture_output=True, text=True,
+                          timeout=timeout, env=env)
+
+
+def test_top_level_help_lists_commands(capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    for command in ("run", "train", "predict"):
+        assert f"    {command} " in out or f"    {command}\n" in out, f"'{command}' missing from --help"
+
+
+def test_no_command_is_an_error(capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([])
+    assert exit_info.value.code == 2
+    assert "COMMAND" in capsys.readouterr().err
+
+
+def test_run_column_collapse_help(capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["run", "column-collapse", "--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    for option in ("--resolution", "--out", "--t-end", "--no-progress", "--mu1-deg", "--threads"):
+        assert option in out
+    assert "coarse" in out
+
+
+def test_run_lists_its_scenes(capsys) -> None:
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["run", "--help"])
+    assert "column-collapse" in capsys.readouterr().out
+
+
+def test_bad_choices_are_refused(capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["run", "column-collapse", "--resolution", "ultra"])
+    assert exit_info.value.code == 2
+    assert "--resolution" in capsys.readouterr().err
+
+
+def test_bad_friction_is_refused_naming_the_parameter(tmp_path) -> None:
+    out = tmp_path / "never.h5"
+    result = run_cli("run", "column-collapse", "--mu1-deg", "40", "--mu2-deg", "33", "--out", str(out),
+                     "--no-progress", timeout=120)
+    assert result.returncode != 0
+    assert "friction_angles_deg" in result.stderr
+    assert not out.exists()  # refused before any work
+
+
+def test_short_real_run_writes_h5_and_png(tmp_path) -> None:
+    out = tmp_path / "short.h5"
+    result = run_cli("run", "column-collapse", "--resolution", "coarse", "--t-end", "0.05", "--out", str(out),
+                     "--no-progress", "--threads", "1")
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    assert summary["output"] == str(out)
+    assert summary["status"] == "completed"
+    assert summary["time"] == pytest.approx(0.05)
+    assert summary["granular_particles"] == pytest.approx(475, rel=0.05)
+    assert out.exists()
+    png = out.with_suffix(".png")
+    assert summary["plot"] == str(png)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    run = read_run(out)
+    assert run.group_attrs["/run"]["status"] == "completed"
+    assert run.n_frames >= 2
+    assert run.times[-1] == pytest.approx(0.05)
+    assert run.frame(-1)["position"].shape == (summary["granular_particles"], 2)
+    assert "runout_normalised" in run.group_attrs["/results"]
+
+
+@pytest.mark.skipif(shutil.which("terrasph") is None, reason="console script not installed (pip install .)")
+def test_console_script_help() -> None:
+    result = subprocess.run(["terrasph", "--help"], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0
+    assert "run" in result.stdout and "train" in result.stdout and "predict" in result.stdout
