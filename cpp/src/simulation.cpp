@@ -343,6 +343,7 @@ template <int D> double Simulation<D>::stable_time_step() const {
 }
 
 template <int D> std::int64_t Simulation<D>::advance(double t_end, std::int64_t max_steps) {
+  check_health();  // the state may have been edited since the last step; catch it before it spreads
   std::int64_t taken = 0;
   const double fixed = params_.numerics.fixed_dt;
   while (taken < max_steps && counters_.time < t_end * (1.0 - 1e-14)) {
