@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-__all__ = ["lattice_block", "polyline_wall", "arc_points", "wall_layers_needed"]
+__all__ = ["arc_points", "lattice_block", "polyline_wall", "wall_layers_needed"]
 
 
 def wall_layers_needed(h_factor: float) -> int:

@@ -9,7 +9,7 @@ import numpy as np
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import lattice_block, polyline_wall, wall_layers_needed
 
-__all__ = ["WallGroup", "Scene", "hydrostatic_density"]
+__all__ = ["Scene", "WallGroup", "hydrostatic_density"]
 
 GRAVITY = 9.81
 

@@ -8,8 +8,9 @@ import math
 import os
 import platform
 import time as wallclock
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -17,7 +18,7 @@ from terrasph import _core
 from terrasph.config import ConfigError, Material, Numerics, as_dict
 from terrasph.scene import Scene, hydrostatic_density
 
-__all__ = ["Simulation", "RunResult", "versions"]
+__all__ = ["RunResult", "Simulation", "versions"]
 
 STEPS_PER_CHUNK = 500
 
@@ -84,7 +85,7 @@ class Simulation:
             self._core_params(), position, np.zeros_like(position), density, density * dx2,
             walls, scene.wall_normal, np.full(len(walls), material.reference_density * dx2), wall_no_slip, wall_group)
 
-    def _core_params(self) -> "_core.ModelParams2D":
+    def _core_params(self) -> _core.ModelParams2D:
         params = _core.ModelParams2D()
         material = params.material
         for key in ("grain_density", "reference_density", "grain_diameter", "mu1", "mu2", "inertial_number_i0",
@@ -172,7 +173,7 @@ class Simulation:
     def run(self, t_end: float, *, output: str | os.PathLike | None = None, frame_interval: float = 0.05,
             progress: bool = True, config: dict[str, Any] | None = None,
             stop_when_at_rest: float | None = None, min_time: float = 0.0,
-            on_frame: Callable[["Simulation"], None] | None = None) -> RunResult:
+            on_frame: Callable[[Simulation], None] | None = None) -> RunResult:
         """Runs to `t_end` (s), writing a frame every `frame_interval` (s) to `output` (HDF5).
 
         With ``stop_when_at_rest = r`` the run ends once t ≥ `min_time` and the kinetic energy per
@@ -230,10 +231,10 @@ class Simulation:
                 if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
                     record()
                     next_frame += frame_interval
-                    if rest_threshold is not None and self.time >= min_time:
-                        if diagnostics["kinetic_energy"][-1] / (total_mass * self.width) < rest_threshold:
-                            status = "at_rest"
-                            break
+                    specific_energy = diagnostics["kinetic_energy"][-1] / (total_mass * self.width)
+                    if rest_threshold is not None and self.time >= min_time and specific_energy < rest_threshold:
+                        status = "at_rest"
+                        break
         except KeyboardInterrupt:
             status = "interrupted"
             if writer:
@@ -273,4 +274,4 @@ class Simulation:
                 "spacing": self.scene.spacing, "width": self.width, "gravity": self.scene.gravity,
                 "walls": [{"name": w.name, "no_slip": w.no_slip, "remove_at": w.remove_at,
                            "particles": len(w.position)} for w in self.scene.walls],
-                "granular_particles": int(len(self.mass))}
+                "granular_particles": len(self.mass)}

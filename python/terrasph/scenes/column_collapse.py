@@ -17,7 +17,7 @@ from terrasph.geometry import wall_layers_needed
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 
-__all__ = ["ColumnCollapse", "RESOLUTIONS", "build_column_collapse", "run_column_collapse", "ColumnResult"]
+__all__ = ["RESOLUTIONS", "ColumnCollapse", "ColumnResult", "build_column_collapse", "run_column_collapse"]
 
 #: Target numbers of interior (granular) particles: the dissertation's 475 / 1036 / 2310 (Fig. 2.5d)
 #: and two finer levels, 2× and 4× "fine".
@@ -149,11 +149,8 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
             png = Path(output).with_suffix(".png")
             centres0, heights0 = analysis.surface_profile(initial, dx)
             centres, heights = analysis.surface_profile(final, dx)
-            fig = plotting.plot_profiles([(centres, heights, f"t = {run.time:.2f} s, L* = {result.runout_normalised:.2f}, "
-                                                             f"H* = {result.final_height_normalised:.2f}")],
-                                         initial=(centres0, heights0), path=png)
-            import matplotlib.pyplot as plt
-
-            plt.close(fig)
+            label = (f"t = {run.time:.2f} s, L* = {result.runout_normalised:.2f}, "
+                     f"H* = {result.final_height_normalised:.2f}")
+            plotting.plot_profiles([(centres, heights, label)], initial=(centres0, heights0), path=png)
             result.plot = os.fspath(png)
     return result
