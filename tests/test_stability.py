@@ -11,7 +11,9 @@ References and tolerances
 * A column with H0/L0 = 10 (1 cm × 10 cm, Δx = 2.5 mm, 160 particles) collapses for 0.2 s without
   blow-up: all particles stay finite and inside the domain, the top falls below 0.5 H0 (measured
   0.31 H0), the front advances beyond 5 L0 (measured 10 L0).
-* A NaN written into a velocity is caught at the next step with step, time and particle index set.
+* A NaN written into a velocity or density is caught when advance() starts, at its own particle,
+  with step and time set; a run that goes unstable with output leaves a readable file whose /run
+  status is "unstable".
 """
 
 from __future__ import annotations
@@ -87,36 +89,44 @@ def test_tall_column_collapses_without_blow_up() -> None:
     assert x[:, 0].max() > 5 * config.column_width
 
 
-def _nan_case() -> tuple[Simulation, int]:
+def _nan_case(field: str = "velocity", refresh: bool = False) -> tuple[Simulation, int]:
     sim = small_collapse()
     sim.advance(1.0, max_steps=10)
     injected = 27  # an interior particle of the 8 × 8 column, not index 0
-    sim.velocity[injected, 0] = np.nan
+    if field == "velocity":
+        sim.velocity[injected, 0] = np.nan
+    else:
+        sim.density[injected] = np.nan
+    if refresh:  # the rates are re-evaluated: the NaN reaches the neighbours' accelerations
+        sim.refresh()
     return sim, injected
 
 
-def test_injected_nan_is_caught_with_step_and_time() -> None:
-    sim, _ = _nan_case()
+@pytest.mark.parametrize("field, refresh", [("velocity", False), ("velocity", True), ("density", False)])
+def test_injected_nan_is_caught_with_step_time_and_particle(field, refresh) -> None:
+    """The state is checked when advance() starts, so a NaN written through a view is reported at
+    its own particle, before it spreads, with the step count and time at which it was found."""
+    sim, injected = _nan_case(field, refresh)
     time_before = sim.time
     with pytest.raises(terrasph.InstabilityError, match="non-finite") as caught:
         sim.advance(1.0, max_steps=10)
     error = caught.value
-    assert error.step == 11  # the step that carried the NaN
-    assert error.time > time_before
-    assert 0 <= error.particle < len(sim.mass)
+    assert error.particle == injected
+    assert error.step == 10 and error.time == time_before  # found before another step was taken
     assert "non-finite" in error.reason
-    assert f"particle {error.particle}" in str(error)
+    assert f"particle {injected}" in str(error)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "core bug: check_health runs after compute_rates, so the NaN has already spread to the "
-    "neighbours' accelerations/velocities and the lowest contaminated index is reported "
-    "(e.g. 27 injected -> an earlier neighbour)"))
-def test_injected_nan_reports_the_injected_particle() -> None:
-    sim, injected = _nan_case()
-    with pytest.raises(terrasph.InstabilityError) as caught:
+def test_nan_arising_during_a_step_is_caught_at_that_step() -> None:
+    """A NaN that appears inside a step (here: a NaN mass, which only enters the rates) stops the
+    run at the end of that step, with the step counted and a particle index in range."""
+    sim = small_collapse()
+    sim.advance(1.0, max_steps=5)
+    sim.mass[27] = np.nan
+    with pytest.raises(terrasph.InstabilityError, match="non-finite") as caught:
         sim.advance(1.0, max_steps=10)
-    assert caught.value.particle == injected
+    assert caught.value.step in (5, 6)
+    assert 0 <= caught.value.particle < len(sim.mass)
 
 
 def test_unstable_run_leaves_a_readable_file(tmp_path) -> None:
@@ -128,6 +138,6 @@ def test_unstable_run_leaves_a_readable_file(tmp_path) -> None:
     attrs = run.group_attrs["/run"]
     assert attrs["status"] == "unstable"
     assert "non-finite" in attrs["message"]
-    assert attrs["step"] == 11
+    assert attrs["step"] == 10 and attrs["particle"] == 27
     assert run.n_frames >= 1  # the frame written at the start of the run
     assert run.frame(0)["position"].shape == (len(sim.mass), 2)
