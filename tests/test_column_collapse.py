@@ -65,9 +65,10 @@ def test_collapse_conserves_mass_and_loses_no_particle(coarse_run) -> None:
     # never changes a mass: see test_conservation), so the total mass is the column's
     fresh = Simulation(*build_column_collapse(ColumnCollapse(resolution="coarse")))
     assert np.array_equal(mass, fresh.mass)
-    # N ρ0 Δx² per metre of depth; the hydrostatic start density exceeds ρ0 by < 0.1 %
+    # N ρ0 Δx² per metre of depth; the hydrostatic start density exceeds ρ0 by up to
+    # ρ0 g H0 / (γ κ) ≈ 1 % at the floor (0.5 % on average)
     lattice = len(mass) * fresh.material.reference_density * scene.spacing**2
-    assert lattice <= np.sum(mass) < 1.001 * lattice
+    assert lattice <= np.sum(mass) < 1.01 * lattice
     assert run.group_attrs["/run"]["status"] == result.run.status
 
 
