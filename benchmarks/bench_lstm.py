@@ -12,6 +12,7 @@ cell, hidden 16/32/64/128, batch 1 and 64, in one run. Reports
 Each figure is the best of ``--repeats`` timings. Usage::
 
     python benchmarks/bench_lstm.py [--steps 2000] [--seq-len 1000] [--repeats 3]
+                                    [--torch-threads 1]
 """
 
 from __future__ import annotations
@@ -85,7 +86,10 @@ def main() -> None:
     ap.add_argument("--cell", choices=("standard", "peephole"), default="standard")
     ap.add_argument("--hidden", type=int, nargs="+", default=[16, 32, 64, 128])
     ap.add_argument("--batch", type=int, nargs="+", default=[1, 64])
+    ap.add_argument("--torch-threads", type=int, default=1,
+                    help="torch CPU threads (1: like the single-threaded C++ engine)")
     args = ap.parse_args()
+    torch.set_num_threads(args.torch_threads)
 
     print(f"# terrasph LSTM inference benchmark: {args.cell} cell, {args.layers} layer(s), "
           f"float32, {N_IN} inputs, {N_OUT} outputs")
