@@ -32,42 +32,59 @@ namespace lstm {
 
 namespace detail {
 
-// y += W z for a column-major W (rows x cols): blocks of B rows are accumulated in registers
-// across all columns, so each weight is read once per step. W is read straight from memory;
-// for H >= 64 it does not fit in L1, so this product bounds the step time.
+/// Rows per register block of the gate product: 8 AVX registers of accumulators.
+template <typename Scalar>
+constexpr int big_block() {
+  return 256 / static_cast<int>(sizeof(Scalar));
+}
+
+/// Copy the leading whole row blocks of big_block() rows into the layout the kernel streams
+/// through: block after block, within a block column after column (B values each).
+template <typename Scalar, typename Mat>
+std::vector<Scalar> pack_blocks(const Mat& w) {
+  constexpr Eigen::Index kBig = big_block<Scalar>();
+  std::vector<Scalar> out;
+  out.reserve(static_cast<std::size_t>(w.rows() / kBig * kBig * w.cols()));
+  for (Eigen::Index r = 0; r + kBig <= w.rows(); r += kBig)
+    for (Eigen::Index j = 0; j < w.cols(); ++j)
+      for (Eigen::Index k = 0; k < kBig; ++k) out.push_back(w(r + k, j));
+  return out;
+}
+
+// y[r0, r0+B) += W_block z: B accumulators stay in registers across all columns and the block's
+// weights are read once, sequentially.
 template <int B, typename Scalar>
 #if defined(__GNUC__)
 __attribute__((always_inline))
 #endif
-inline void gemv_rows(const Scalar* w, Eigen::Index rows, Eigen::Index r0, Eigen::Index cols,
-                      const Scalar* z, Scalar* y) {
+inline void gemv_rows(const Scalar* blk, Eigen::Index r0, Eigen::Index cols, const Scalar* z,
+                      Scalar* y) {
   Scalar acc[B];
   for (int k = 0; k < B; ++k) acc[k] = y[r0 + k];
   for (Eigen::Index j = 0; j < cols; ++j) {
     const Scalar zj = z[j];
-    const Scalar* col = w + j * rows + r0;
+    const Scalar* col = blk + j * B;
     for (int k = 0; k < B; ++k) acc[k] += col[k] * zj;
   }
   for (int k = 0; k < B; ++k) y[r0 + k] = acc[k];
 }
 
+// y[0, n_blocks * B) += W z for the packed leading row blocks of W (pack_blocks).
 template <typename Scalar>
 #if defined(__GNUC__)
 __attribute__((always_inline))
 #endif
-inline void gemv_body(const Scalar* w, Eigen::Index rows, Eigen::Index cols, const Scalar* z,
-                      Scalar* y) {
-  constexpr int kBig = 256 / static_cast<int>(sizeof(Scalar));  // 8 AVX registers of acc.
-  Eigen::Index r = 0;
-  for (; r + kBig <= rows; r += kBig) gemv_rows<kBig>(w, rows, r, cols, z, y);
-  for (; r + 8 <= rows; r += 8) gemv_rows<8>(w, rows, r, cols, z, y);
-  for (; r < rows; ++r) gemv_rows<1>(w, rows, r, cols, z, y);
+inline void gemv_body(const Scalar* packed, Eigen::Index n_blocks, Eigen::Index cols,
+                      const Scalar* z, Scalar* y) {
+  constexpr int kBig = big_block<Scalar>();
+  for (Eigen::Index b = 0; b < n_blocks; ++b)
+    gemv_rows<kBig>(packed + b * kBig * cols, b * kBig, cols, z, y);
 }
 
 template <typename Scalar>
-void gemv_generic(const Scalar* w, Eigen::Index rows, Eigen::Index cols, const Scalar* z,
+void gemv_generic(const Scalar* packed, Eigen::Index rows, Eigen::Index cols, const Scalar* z,
                   Scalar* y) {
-  gemv_body(w, rows, cols, z, y);
+  gemv_body(packed, rows, cols, z, y);
 }
 
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__AVX2__) && \
@@ -76,10 +93,10 @@ void gemv_generic(const Scalar* w, Eigen::Index rows, Eigen::Index cols, const S
 // Same kernel compiled for AVX2 + FMA, chosen at run time when the CPU has them, so a build
 // for baseline x86-64 (like a Python wheel) still uses 256-bit vectors.
 template <typename Scalar>
-__attribute__((target("avx2,fma"))) void gemv_avx2(const Scalar* w, Eigen::Index rows,
+__attribute__((target("avx2,fma"))) void gemv_avx2(const Scalar* packed, Eigen::Index rows,
                                                    Eigen::Index cols, const Scalar* z,
                                                    Scalar* y) {
-  gemv_body(w, rows, cols, z, y);
+  gemv_body(packed, rows, cols, z, y);
 }
 inline bool cpu_has_avx2_fma() {
   __builtin_cpu_init();
@@ -87,19 +104,32 @@ inline bool cpu_has_avx2_fma() {
 }
 #endif
 
-/// y += W z with the best kernel for this CPU (fixed per Model, so results are reproducible).
-template <typename Scalar>
-inline void gemv(bool use_avx2, const Scalar* w, Eigen::Index rows, Eigen::Index cols,
+/// y += W z: the packed kernel (chosen for this CPU once per Model, so results are
+/// reproducible) for the leading whole blocks of rows, Eigen's product for the remaining rows
+/// (all rows when the matrix is smaller than one block).
+template <typename Scalar, typename Mat>
+inline void gemv(bool use_avx2, const std::vector<Scalar>& packed, const Mat& w,
                  const Scalar* z, Scalar* y) {
+  using Vec = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+  const Eigen::Index rows = w.rows(), cols = w.cols();
+  const Eigen::Index n_blocks = rows / big_block<Scalar>();
+  const Eigen::Index done = n_blocks * big_block<Scalar>();
+  if (n_blocks > 0) {
 #ifdef TERRASPH_LSTM_AVX2_DISPATCH
-  if (use_avx2) {
-    gemv_avx2(w, rows, cols, z, y);
-    return;
-  }
+    if (use_avx2) {
+      gemv_avx2(packed.data(), n_blocks, cols, z, y);
+    } else {
+      gemv_generic(packed.data(), n_blocks, cols, z, y);
+    }
 #else
-  (void)use_avx2;
+    (void)use_avx2;
+    gemv_generic(packed.data(), n_blocks, cols, z, y);
 #endif
-  gemv_generic(w, rows, cols, z, y);
+  }
+  if (done < rows) {
+    Eigen::Map<Vec> tail(y + done, rows - done);
+    tail.noalias() += w.bottomRows(rows - done) * Eigen::Map<const Vec>(z, cols);
+  }
 }
 
 inline bool default_use_avx2() {
@@ -122,6 +152,8 @@ struct Layer {
   Matrix w;     // (4H, in + H) = [W_ih | W_hh], gate rows in PyTorch order i, f, g, o
   Vector bias;  // (4H,) = b_ih + b_hh
   Matrix w_ci, w_cf, w_co;  // (H, H) peephole matrices (Eq. 4.9, 4.10, 4.12); empty if standard
+  // The same matrices in the kernel's blocked layout (detail::pack_blocks).
+  std::vector<Scalar> w_packed, w_ci_packed, w_cf_packed, w_co_packed;
 };
 
 /// Immutable model: cell type, layer weights, dense head and normalisation.
@@ -162,7 +194,11 @@ class Model {
         L.w_ci = to_matrix(ld.w_ci, H, H, "weight_ci");
         L.w_cf = to_matrix(ld.w_cf, H, H, "weight_cf");
         L.w_co = to_matrix(ld.w_co, H, H, "weight_co");
+        L.w_ci_packed = detail::pack_blocks<Scalar>(L.w_ci);
+        L.w_cf_packed = detail::pack_blocks<Scalar>(L.w_cf);
+        L.w_co_packed = detail::pack_blocks<Scalar>(L.w_co);
       }
+      L.w_packed = detail::pack_blocks<Scalar>(L.w);
       layers_.push_back(std::move(L));
       in = H;
     }
@@ -317,17 +353,17 @@ class Stream {
     const Eigen::Index H = L.hidden_size;
     g = L.bias;
     // W_u* u_t + W_h* h_{t-1} + b_*, all four gates at once
-    detail::gemv(avx2, L.w.data(), L.w.rows(), L.w.cols(), z.data(), g.data());
+    detail::gemv(avx2, L.w_packed, L.w, z.data(), g.data());
     if (cell == CellType::Peephole) {
-      g.segment(0, H).noalias() += L.w_ci * c;  // + W_ci c_{t-1}   (Eq. 4.9)
-      g.segment(H, H).noalias() += L.w_cf * c;  // + W_cf c_{t-1}   (Eq. 4.10)
+      detail::gemv(avx2, L.w_ci_packed, L.w_ci, c.data(), g.data());      // + W_ci c_{t-1} (4.9)
+      detail::gemv(avx2, L.w_cf_packed, L.w_cf, c.data(), g.data() + H);  // + W_cf c_{t-1} (4.10)
     }
     g.head(2 * H) = g.head(2 * H).array().logistic();        // i, f gates (Eq. 4.9, 4.10)
     g.segment(2 * H, H) = g.segment(2 * H, H).array().tanh();  // cell candidate
     c.array() = g.segment(H, H).array() * c.array() +
                 g.segment(0, H).array() * g.segment(2 * H, H).array();  // c_t (Eq. 4.11)
     if (cell == CellType::Peephole) {
-      g.segment(3 * H, H).noalias() += L.w_co * c;  // + W_co c_t     (Eq. 4.12)
+      detail::gemv(avx2, L.w_co_packed, L.w_co, c.data(), g.data() + 3 * H);  // + W_co c_t (4.12)
     }
     g.segment(3 * H, H) = g.segment(3 * H, H).array().logistic();  // o gate (Eq. 4.12)
     z.tail(H).array() = g.segment(3 * H, H).array() * c.array().tanh();  // h_t (Eq. 4.13)
