@@ -11,7 +11,7 @@ cell, hidden 16/32/64/128, batch 1 and 64, in one run. Reports
 
 Each figure is the best of ``--repeats`` timings. Usage::
 
-    python benchmarks/bench_lstm.py [--steps 2000] [--seq-len 1000] [--repeats 3]
+    python benchmarks/bench_lstm.py [--steps 2000] [--seq-len 1000] [--repeats 5]
                                     [--torch-threads 1]
 """
 
@@ -81,7 +81,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--steps", type=int, default=2000, help="streaming steps per timing")
     ap.add_argument("--seq-len", type=int, default=1000, help="sequence length for throughput")
-    ap.add_argument("--repeats", type=int, default=3, help="timings per figure (best kept)")
+    ap.add_argument("--repeats", type=int, default=5, help="timings per figure (best kept)")
     ap.add_argument("--layers", type=int, default=1)
     ap.add_argument("--cell", choices=("standard", "peephole"), default="standard")
     ap.add_argument("--hidden", type=int, nargs="+", default=[16, 32, 64, 128])
