@@ -131,6 +131,7 @@ void bind_sph(py::module_& m) {
       .def_readwrite("fixed_dt", &NumericsParams::fixed_dt)
       .def_readwrite("sound_speed", &NumericsParams::sound_speed)
       .def_readwrite("artificial_viscosity", &NumericsParams::artificial_viscosity)
+      .def_readwrite("wall_artificial_viscosity", &NumericsParams::wall_artificial_viscosity)
       .def_readwrite("delta_sph", &NumericsParams::delta_sph)
       .def_readwrite("xsph", &NumericsParams::xsph)
       .def_readwrite("shepard_interval", &NumericsParams::shepard_interval)

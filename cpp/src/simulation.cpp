@@ -276,6 +276,7 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
   const double h = kernel_.h;
   const double h2x4 = 4.0 * h * h;
   const double alpha = params_.numerics.artificial_viscosity;
+  const double alpha_wall = params_.numerics.wall_artificial_viscosity;
   const double c0 = sound_speed_;
   const double delta_h_c0 = params_.numerics.delta_sph * h * c0;
   const double chi = params_.numerics.xsph;
@@ -321,7 +322,7 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
       const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
       const double m_w = walls_.mass[w];
       drho += m_w * viw.dot(grad_w);
-      const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha, c0, 2.0 / (rho_i + walls_.density[w]));
+      const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha_wall, c0, 2.0 / (rho_i + walls_.density[w]));
       acc.noalias() += m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
     }
     acc += g;

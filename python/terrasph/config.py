@@ -107,7 +107,8 @@ class Numerics:
     cfl: float = 0.25  #: C of the adaptive step
     fixed_dt: float = 0.0  #: > 0: fixed step (s), checked against the stable bound every step
     sound_speed: float = 0.0  #: c0 (m/s); 0 → Eq. 2.44
-    artificial_viscosity: float = 1.0  #: α_Π (Eq. 2.46)
+    artificial_viscosity: float = 0.1  #: α_Π (Eq. 2.46) between grains; the dissertation uses 1 (docs/design_decisions.md)
+    wall_artificial_viscosity: float = 1.0  #: α_Π for granular–wall pairs, which keeps grains out of walls
     delta_sph: float = 0.1  #: δ of the density diffusion (Eq. 2.42–2.43)
     xsph: float = 0.2  #: χ (Eq. 2.49)
     shepard_interval: int = 0  #: Shepard filter every N steps (Eq. 2.41); 0 = off
@@ -124,6 +125,8 @@ class Numerics:
         _require(self.fixed_dt >= 0, "numerics.fixed_dt", self.fixed_dt, ">= 0 (0 = adaptive)")
         _require(self.sound_speed >= 0, "numerics.sound_speed", self.sound_speed, ">= 0 (0 = Eq. 2.44)")
         _require(self.artificial_viscosity >= 0, "numerics.artificial_viscosity", self.artificial_viscosity, ">= 0")
+        _require(self.wall_artificial_viscosity >= 0, "numerics.wall_artificial_viscosity",
+                 self.wall_artificial_viscosity, ">= 0")
         _require(0 <= self.delta_sph <= 1, "numerics.delta_sph", self.delta_sph, "0 <= delta <= 1")
         _require(0 <= self.xsph <= 1, "numerics.xsph", self.xsph, "0 <= chi <= 1")
         _require(isinstance(self.shepard_interval, int) and self.shepard_interval >= 0,

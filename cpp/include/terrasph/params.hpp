@@ -36,7 +36,8 @@ struct NumericsParams {
   double cfl = 0.25;                        // C in dt = C·min(h/(c+|v|), √(h/|a|))
   double fixed_dt = 0.0;                    // 0: adaptive step; > 0: fixed, checked every step
   double sound_speed = 0.0;                 // c0; 0: Eq. 2.44 from the material
-  double artificial_viscosity = 1.0;        // α_Π (Eq. 2.46); β_Π = 0
+  double artificial_viscosity = 0.1;        // α_Π (Eq. 2.46) between grains; β_Π = 0; see docs/design_decisions.md
+  double wall_artificial_viscosity = 1.0;   // α_Π for granular–wall pairs: keeps grains out of walls
   double delta_sph = 0.1;                   // δ of the density diffusion (Eq. 2.42–2.43)
   double xsph = 0.2;                        // χ (Eq. 2.49)
   int shepard_interval = 0;                 // Shepard filter every N steps (Eq. 2.41); 0: off
@@ -130,6 +131,8 @@ template <int D> struct ModelParams {
     if (!(n.fixed_dt >= 0.0)) throw parameter_error("numerics.fixed_dt", n.fixed_dt, ">= 0");
     if (!(n.artificial_viscosity >= 0.0))
       throw parameter_error("numerics.artificial_viscosity", n.artificial_viscosity, ">= 0");
+    if (!(n.wall_artificial_viscosity >= 0.0))
+      throw parameter_error("numerics.wall_artificial_viscosity", n.wall_artificial_viscosity, ">= 0");
     if (!(n.delta_sph >= 0.0 && n.delta_sph <= 1.0))
       throw parameter_error("numerics.delta_sph", n.delta_sph, "0 <= delta <= 1");
     if (!(n.xsph >= 0.0 && n.xsph <= 1.0))

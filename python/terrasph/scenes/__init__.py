@@ -1,5 +1,5 @@
 """Ready-made scenes from the dissertation."""
 
-from terrasph.scenes.column_collapse import ColumnCollapse, RESOLUTIONS, build_column_collapse, run_column_collapse
+from terrasph.scenes.column_collapse import RESOLUTIONS, ColumnCollapse, build_column_collapse, run_column_collapse
 
-__all__ = ["ColumnCollapse", "RESOLUTIONS", "build_column_collapse", "run_column_collapse"]
+__all__ = ["RESOLUTIONS", "ColumnCollapse", "build_column_collapse", "run_column_collapse"]
