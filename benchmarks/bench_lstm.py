@@ -20,11 +20,11 @@ from __future__ import annotations
 import argparse
 import platform
 import time
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import torch
-
 from terrasph import _core
 from terrasph.surrogate.export import from_torch, model_to_bytes
 from terrasph.surrogate.model import ModelConfig, SurrogateNet
@@ -32,9 +32,24 @@ from terrasph.surrogate.model import ModelConfig, SurrogateNet
 N_IN, N_OUT = 4, 2
 
 
-def best_of(repeats: int, fn: Callable[[], float]) -> float:
-    """Minimum over ``repeats`` calls of a function returning seconds."""
-    return min(fn() for _ in range(repeats))
+def best_of(repeats: int, fn: Callable[..., float], *args: Any) -> float:
+    """Minimum over ``repeats`` calls of ``fn(*args)``, a function returning seconds."""
+    return min(fn(*args) for _ in range(repeats))
+
+
+def cpp_sequence_time(model: Any, x: np.ndarray) -> float:
+    """Seconds for C++ whole-sequence prediction of x (B, T, I)."""
+    t0 = time.perf_counter()
+    model.predict(x)
+    return time.perf_counter() - t0
+
+
+def torch_sequence_time(net: Any, xt: Any) -> float:
+    """Seconds for the PyTorch forward pass on xt (B, T, I)."""
+    with torch.no_grad():
+        t0 = time.perf_counter()
+        net(xt)
+        return time.perf_counter() - t0
 
 
 def make_models(hidden: int, layers: int, cell: str) -> tuple[Any, Any]:
@@ -111,29 +126,15 @@ def main() -> None:
             stream = model.stream(batch)
             xin = x1[0] if batch == 1 else x1
             n_cpp = max(args.steps, 20000 // batch)
-            cpp_step = best_of(args.repeats, lambda: stream.time_steps(xin, n_cpp))
-            cpp_py = best_of(args.repeats, lambda: cpp_step_latency_python(model, batch,
-                                                                           args.steps))
-            t_step = best_of(args.repeats, lambda: torch_step_latency(net, batch, args.steps))
+            cpp_step = best_of(args.repeats, stream.time_steps, xin, n_cpp)
+            cpp_py = best_of(args.repeats, cpp_step_latency_python, model, batch, args.steps)
+            t_step = best_of(args.repeats, torch_step_latency, net, batch, args.steps)
 
             seq_len = args.seq_len if args.cell == "standard" else min(args.seq_len, 200)
             x = np.random.default_rng(2).normal(size=(batch, seq_len, N_IN)).astype(np.float32)
-            xt = torch.from_numpy(x)
-
-            def cpp_seq() -> float:
-                t0 = time.perf_counter()
-                model.predict(x)
-                return time.perf_counter() - t0
-
-            def torch_seq() -> float:
-                with torch.no_grad():
-                    t0 = time.perf_counter()
-                    net(xt)
-                    return time.perf_counter() - t0
-
             n = batch * seq_len
-            cpp_tp = n / best_of(args.repeats, cpp_seq)
-            t_tp = n / best_of(args.repeats, torch_seq)
+            cpp_tp = n / best_of(args.repeats, cpp_sequence_time, model, x)
+            t_tp = n / best_of(args.repeats, torch_sequence_time, net, torch.from_numpy(x))
             print(f"{hidden:>6} {batch:>5} | {cpp_step * 1e6:>10.3f} {cpp_py * 1e6:>10.3f} "
                   f"{t_step * 1e6:>10.2f} {t_step / cpp_step:>8.1f} | {cpp_tp:>11.3g} "
                   f"{t_tp:>11.3g} {cpp_tp / t_tp:>8.2f}")

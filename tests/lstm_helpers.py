@@ -24,7 +24,6 @@ def make_net(cell: str, hidden: int, layers: int, seed: int, n_in: int = len(FEA
     """A seeded, untrained SurrogateNet (torch's own initialisation), optionally with a random
     non-trivial normalisation."""
     import torch
-
     from terrasph.surrogate.model import ModelConfig, SurrogateNet
 
     torch.manual_seed(seed)

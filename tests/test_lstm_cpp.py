@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from lstm_helpers import core_lstm, inputs, make_net, model_bytes
 
 torch = pytest.importorskip("torch")
@@ -68,7 +67,8 @@ def compiler() -> list[str]:
 
 
 def _compile(cmd: list[str], src: Path, exe: Path) -> None:
-    proc = subprocess.run([*cmd, str(src), "-o", str(exe)], capture_output=True, text=True)
+    proc = subprocess.run([*cmd, str(src), "-o", str(exe)], capture_output=True, text=True,
+                          check=False)
     assert proc.returncode == 0, proc.stderr
     assert "warning" not in proc.stderr, f"C++ warnings:\n{proc.stderr}"
 
@@ -106,12 +106,13 @@ def test_example_program_matches_python_module(compiler, models, tmp_path) -> No
 
     broken = tmp_path / "broken.tslstm"
     broken.write_bytes(models[0].read_bytes()[:-10])
-    proc = subprocess.run([str(exe), str(broken), str(csv)], capture_output=True, text=True)
+    proc = subprocess.run([str(exe), str(broken), str(csv)], capture_output=True, text=True,
+                          check=False)
     assert proc.returncode == 1 and "CRC-32" in proc.stderr
     bad_csv = tmp_path / "bad.csv"
     bad_csv.write_text("1,2,3\n")
     proc = subprocess.run([str(exe), str(models[0]), str(bad_csv)], capture_output=True,
-                          text=True)
+                          text=True, check=False)
     assert proc.returncode == 1 and "expected 4 columns, got 3" in proc.stderr
 
 
@@ -122,6 +123,7 @@ def test_step_is_allocation_free(compiler, models, tmp_path) -> None:
     src.write_text(NO_MALLOC_SRC)
     exe = tmp_path / "no_malloc"
     _compile(compiler, src, exe)
-    proc = subprocess.run([str(exe), *map(str, models)], capture_output=True, text=True)
+    proc = subprocess.run([str(exe), *map(str, models)], capture_output=True, text=True,
+                          check=False)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.count(" ok ") == 4

@@ -11,12 +11,11 @@ import zlib
 
 import numpy as np
 import pytest
-
 from lstm_helpers import core_lstm, make_net, model_bytes
 
 torch = pytest.importorskip("torch")
 
-from terrasph.surrogate.export import (  # noqa: E402
+from terrasph.surrogate.export import (
     ModelFileError,
     from_torch,
     model_to_bytes,

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from lstm_helpers import core_lstm, inputs, make_net, model_bytes, torch_predict
 
 torch = pytest.importorskip("torch")

@@ -7,12 +7,11 @@ import math
 
 import numpy as np
 import pytest
-
 from lstm_helpers import core_lstm
 
 torch = pytest.importorskip("torch")
 
-from terrasph.surrogate.dataset import (  # noqa: E402
+from terrasph.surrogate.dataset import (
     Normalisation,
     Run,
     common_time_step,
@@ -22,15 +21,14 @@ from terrasph.surrogate.dataset import (  # noqa: E402
     split_runs,
     write_run,
 )
-from terrasph.surrogate.model import PeepholeLSTMCell  # noqa: E402
-from terrasph.surrogate.synthetic import (  # noqa: E402
+from terrasph.surrogate.model import PeepholeLSTMCell
+from terrasph.surrogate.synthetic import (
     DEFAULT_FEATURES,
     DEFAULT_TARGETS,
-    make_dataset,
     make_run,
     slip,
 )
-from terrasph.surrogate.train import TrainConfig, train  # noqa: E402
+from terrasph.surrogate.train import TrainConfig, train
 
 
 @pytest.fixture
@@ -226,7 +224,7 @@ def test_cli_make_train_predict(tmp_path, one_thread, capsys) -> None:
     assert "test   slip" in out and model_path.exists()
     assert (tmp_path / "m.tslstm.json").exists()
 
-    run_file = sorted(ds.glob("*.h5"))[0]
+    run_file = min(ds.glob("*.h5"))
     csv_out = tmp_path / "pred.csv"
     assert main(["predict", str(model_path), str(run_file), "--out", str(csv_out)]) == 0
     rows = np.loadtxt(csv_out, delimiter=",", skiprows=1, usecols=(1, 2, 3))

@@ -85,7 +85,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
-    from terrasph.surrogate.inference import load_model, predict_sequences, read_sequences
+    from terrasph.surrogate.inference import (
+        load_model,
+        predict_sequences,
+        read_sequences,
+    )
 
     model = load_model(args.model, args.dtype)
     results = predict_sequences(model, read_sequences(args.input, model.feature_names,

@@ -19,9 +19,10 @@ parameter, repeated at every step. Targets must be series.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -115,12 +116,12 @@ def write_run(path: str | Path, run: Run, body: str = "wheel",
         f.attrs["config_json"] = json.dumps(config or {}, sort_keys=True)
         f.attrs["units"] = "SI"
         g = f.create_group(f"{BODY_GROUPS[0]}/{body}")
-        for key, value in run.params.items():
-            g.attrs[key] = float(value)
+        for key, param in run.params.items():
+            g.attrs[key] = float(param)
         d = g.create_dataset("time", data=run.time)
         d.attrs["units"] = "s"
-        for key, value in run.series.items():
-            d = g.create_dataset(key, data=value)
+        for key, values in run.series.items():
+            d = g.create_dataset(key, data=values)
             if key in run.units:
                 d.attrs["units"] = run.units[key]
     return path
@@ -200,8 +201,8 @@ def split_runs(n_runs: int, fractions: tuple[float, float, float] = (0.7, 0.15, 
     if fr.shape != (3,) or (fr <= 0).any() or abs(fr.sum() - 1.0) > 1e-9:
         raise ValueError(f"fractions must be three positive numbers summing to 1, got {fractions}")
     perm = np.random.default_rng(seed).permutation(n_runs)
-    n_val = max(1, int(round(fr[1] * n_runs)))
-    n_test = max(1, int(round(fr[2] * n_runs)))
+    n_val = max(1, round(float(fr[1]) * n_runs))
+    n_test = max(1, round(float(fr[2]) * n_runs))
     n_train = n_runs - n_val - n_test
     if n_train < 1:
         raise ValueError(f"too few runs ({n_runs}) for the fractions {fractions}")
@@ -219,7 +220,7 @@ class Normalisation:
     output_scale: np.ndarray
 
     @staticmethod
-    def fit(inputs: Iterable[np.ndarray], outputs: Iterable[np.ndarray]) -> "Normalisation":
+    def fit(inputs: Iterable[np.ndarray], outputs: Iterable[np.ndarray]) -> Normalisation:
         """Mean and standard deviation over all time steps of the given (T, n) arrays.
 
         A (near-)constant column gets scale 1 so it is centred but not blown up.

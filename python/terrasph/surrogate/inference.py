@@ -7,8 +7,9 @@ streaming object that takes one time step per call and keeps its state until ``r
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 

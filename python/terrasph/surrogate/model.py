@@ -148,6 +148,11 @@ class SurrogateNet(nn.Module):
     normalised data through ``forward_normalised``.
     """
 
+    input_mean: torch.Tensor
+    input_scale: torch.Tensor
+    output_mean: torch.Tensor
+    output_scale: torch.Tensor
+
     def __init__(self, config: ModelConfig) -> None:
         super().__init__()
         self.config = config

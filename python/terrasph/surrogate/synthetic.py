@@ -118,7 +118,7 @@ def make_run(seed: int, duration: float = 6.0, dt: float = 0.02,
     if duration <= 0:
         raise ValueError(f"duration must be > 0, got {duration}")
     rng = np.random.default_rng(seed)
-    time = np.arange(int(round(duration / dt)) + 1) * dt
+    time = np.arange(round(duration / dt) + 1) * dt
     omega = omega_profile(rng, time)
     run_params = {
         "load": float(rng.uniform(2.0, 8.0)),
