@@ -13,6 +13,8 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
+
 from terrasph import _core
 from terrasph.plotting import plot_convergence
 from terrasph.scenes import ColumnCollapse, run_column_collapse
@@ -33,12 +35,13 @@ def main() -> None:
                                      progress=False, plot=False)
         row = {"level": level, **result.summary()}
         rows.append(row)
+        np.save(args.out / f"column_final_{level}.npy", result.final_position)
         print(json.dumps(row), flush=True)
     finest = rows[-1]
     for row in rows:
         row["runout_change"] = abs(row["runout_normalised"] - finest["runout_normalised"]) / finest["runout_normalised"]
         row["height_change"] = abs(row["final_height_normalised"] - finest["final_height_normalised"]) / finest["final_height_normalised"]
-    print(f"\n| level | particles | steps | wall time (s) | L* | H* | ΔL* vs finest | ΔH* vs finest | status |")
+    print("\n| level | particles | steps | wall time (s) | L* | H* | ΔL* vs finest | ΔH* vs finest | status |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['level']} | {r['granular_particles']} | {r['steps']} | {r['wall_time']:.1f} | "

@@ -194,3 +194,23 @@ def test_vertical_stress_profile_is_linear_with_depth() -> None:
 def test_bad_input_names_the_argument(call, argument: str) -> None:
     with pytest.raises(ValueError, match=rf"\b{argument}\b"):
         call()
+
+
+def test_deposit_front_stops_at_the_first_thin_bin() -> None:
+    """A 10-particle-tall block followed by a one-particle tail and a detached clump: with a
+    threshold of 3 particles the front is the block's right edge (x = 10Δx), exactly."""
+    dx = 0.01
+    block = analysis_lattice(0, 10, 0, 10, dx)
+    tail = analysis_lattice(10, 20, 0, 1, dx)
+    clump = analysis_lattice(25, 27, 0, 5, dx)
+    points = np.concatenate([block, tail, clump])
+    assert analysis.deposit_front(points, dx, 3 * dx) == pytest.approx(10 * dx)
+    assert analysis.deposit_front(points, dx, 0.5 * dx) == pytest.approx(20 * dx)  # the tail counts
+    with pytest.raises(ValueError, match="min_thickness"):
+        analysis.deposit_front(points, dx, 0.0)
+
+
+def analysis_lattice(i0: int, i1: int, k0: int, k1: int, dx: float) -> np.ndarray:
+    """Cell-centred lattice points of columns i0..i1-1 and rows k0..k1-1."""
+    i, k = np.meshgrid(np.arange(i0, i1), np.arange(k0, k1))
+    return np.column_stack([(i.ravel() + 0.5) * dx, (k.ravel() + 0.5) * dx])

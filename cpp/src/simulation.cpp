@@ -350,8 +350,8 @@ template <int D> std::int64_t Simulation<D>::advance(double t_end, std::int64_t 
   while (taken < max_steps && counters_.time < t_end * (1.0 - 1e-14)) {
     const double bound = stable_time_step();
     if (fixed > 0.0 && fixed > bound)
-      throw InstabilityError("fixed time step numerics.fixed_dt = " + std::to_string(fixed) +
-                                 " s exceeds the stable bound " + std::to_string(bound) + " s",
+      throw InstabilityError("fixed time step numerics.fixed_dt = " + format_number(fixed) +
+                                 " s exceeds the stable bound " + format_number(bound) + " s",
                              counters_.step, counters_.time, -1);
     double dt = fixed > 0.0 ? fixed : bound;
     if (counters_.time + dt > t_end) dt = t_end - counters_.time;
@@ -420,8 +420,8 @@ template <int D> void Simulation<D>::check_health() const {
   if (!(x.allFinite() && row_vec<D>(granular_.velocity, first_bad).allFinite() && std::isfinite(rho)))
     reason = "non-finite position, velocity or density";
   else if (rho < lo || rho > hi)
-    reason = "density " + std::to_string(rho) + " kg/m3 outside the band [" + std::to_string(lo) +
-             ", " + std::to_string(hi) + "] (numerics.density_ratio_min/max)";
+    reason = "density " + format_number(rho) + " kg/m3 outside the band [" + format_number(lo) + ", " +
+             format_number(hi) + "] (numerics.density_ratio_min/max)";
   else
     reason = "particle left the domain box (a leak through a wall or an escape)";
   throw InstabilityError(reason, counters_.step, counters_.time, first_bad);

@@ -346,3 +346,23 @@ def vertical_stress_profile(
     filled = counts > 0
     centres = 0.5 * (edges[:-1] + edges[1:])
     return centres[filled], sums[filled] / counts[filled]
+
+
+def deposit_front(position: np.ndarray, spacing: float, min_thickness: float, *, floor: float = 0.0) -> float:
+    """Front of a deposit: the right edge of the first surface-profile bin, going right from the
+    leftmost occupied bin, after which the deposit is thinner than `min_thickness` (m).
+
+    Unlike :func:`front_position`, a thin tail or a detached clump beyond the first drop does not
+    count, so the front is where the deposit is resolved.
+    """
+    if not min_thickness > 0:
+        raise ValueError(f"min_thickness must be > 0, got {min_thickness!r}")
+    centres, heights = surface_profile(position, spacing, floor=floor)
+    occupied = np.flatnonzero(heights > 0)
+    if len(occupied) == 0:
+        raise ValueError("position holds no particle above the floor")
+    thick = heights[occupied[0]:] >= min_thickness
+    if not thick[0]:
+        return float(centres[occupied[0]] - 0.5 * spacing)
+    last = occupied[0] + (len(thick) if thick.all() else int(np.argmin(thick))) - 1
+    return float(centres[last] + 0.5 * spacing)

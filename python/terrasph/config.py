@@ -24,9 +24,12 @@ def _require(condition: bool, name: str, value: Any, allowed: str) -> None:
         raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed {allowed}")
 
 
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _finite_positive(name: str, value: float) -> None:
-    _require(isinstance(value, (int, float)) and math.isfinite(value) and value > 0, name, value,
-             "a finite number > 0")
+    _require(_is_number(value) and math.isfinite(value) and value > 0, name, value, "a finite number > 0")
 
 
 @dataclass(frozen=True)
@@ -129,7 +132,8 @@ class Numerics:
                  self.wall_artificial_viscosity, ">= 0")
         _require(0 <= self.delta_sph <= 1, "numerics.delta_sph", self.delta_sph, "0 <= delta <= 1")
         _require(0 <= self.xsph <= 1, "numerics.xsph", self.xsph, "0 <= chi <= 1")
-        _require(isinstance(self.shepard_interval, int) and self.shepard_interval >= 0,
+        _require(isinstance(self.shepard_interval, int) and not isinstance(self.shepard_interval, bool)
+                 and self.shepard_interval >= 0,
                  "numerics.shepard_interval", self.shepard_interval, "an integer >= 0")
         _require(0 <= self.neighbour_skin <= 1, "numerics.neighbour_skin", self.neighbour_skin, "0 <= skin <= 1")
         _require(0 < self.density_ratio_min < 1, "numerics.density_ratio_min", self.density_ratio_min, "(0, 1)")

@@ -125,8 +125,9 @@ class Scene:
             both = np.concatenate([x, walls])
             offsets, indices = neighbour_lists(both, 0.5 * self.spacing)
             n = len(x)
-            for i in range(n):
-                hits = indices[offsets[i]:offsets[i + 1]]
-                if np.any(hits >= n):
-                    raise ConfigError(f"granular particle {i} at {x[i].tolist()} overlaps a wall particle "
-                                      "(closer than Δx/2); move the block or the wall")
+            rows = np.repeat(np.arange(len(both)), np.diff(offsets))
+            clashes = rows[(rows < n) & (indices >= n)]
+            if len(clashes):
+                i = int(clashes.min())
+                raise ConfigError(f"granular particle {i} at {x[i].tolist()} overlaps a wall particle "
+                                  "(closer than Δx/2); move the block or the wall")

@@ -2,10 +2,19 @@
 #pragma once
 
 #include <cstdint>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
 namespace terrasph {
+
+// A number for a message: 6 significant digits, so 1.5e-06 does not print as 0.000001.
+inline std::string format_number(double value) {
+  std::ostringstream out;
+  out.precision(6);
+  out << value;
+  return out.str();
+}
 
 // A run that went unstable: where and when, so the user can find it in the output.
 class InstabilityError : public std::runtime_error {
@@ -22,8 +31,7 @@ class InstabilityError : public std::runtime_error {
  private:
   static std::string format(const std::string& reason, std::int64_t step, double time,
                             std::int64_t particle) {
-    std::string msg = reason + " at step " + std::to_string(step) + ", t = " +
-                      std::to_string(time) + " s";
+    std::string msg = reason + " at step " + std::to_string(step) + ", t = " + format_number(time) + " s";
     if (particle >= 0) msg += ", granular particle " + std::to_string(particle);
     return msg;
   }
@@ -36,7 +44,7 @@ class InstabilityError : public std::runtime_error {
 // A parameter outside its allowed range: the message names it and the range.
 inline std::invalid_argument parameter_error(const std::string& name, double value,
                                              const std::string& allowed) {
-  return std::invalid_argument("parameter '" + name + "' = " + std::to_string(value) +
+  return std::invalid_argument("parameter '" + name + "' = " + format_number(value) +
                                " is invalid: allowed " + allowed);
 }
 

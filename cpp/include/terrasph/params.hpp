@@ -110,7 +110,7 @@ template <int D> struct ModelParams {
     require_positive("material.grain_diameter", m.grain_diameter);
     if (!(m.mu1 >= 0.0)) throw parameter_error("material.mu1", m.mu1, "mu1 >= 0");
     if (!(m.mu2 >= m.mu1))
-      throw parameter_error("material.mu2", m.mu2, "mu2 >= mu1 = " + std::to_string(m.mu1));
+      throw parameter_error("material.mu2", m.mu2, "mu2 >= mu1 = " + format_number(m.mu1));
     require_positive("material.inertial_number_i0", m.inertial_number_i0);
     require_positive("material.bulk_stiffness", m.bulk_stiffness);
     if (!(m.eos_exponent >= 1.0))

@@ -19,11 +19,12 @@ from terrasph.simulation import RunResult, Simulation
 
 __all__ = ["RESOLUTIONS", "ColumnCollapse", "ColumnResult", "build_column_collapse", "run_column_collapse"]
 
-#: The runout front is the farthest x-column of the deposit holding at least this many particles.
-#: A single particle layer at the toe has no overburden, so P ≈ 0 and no basal friction: it slides
-#: on as a resolution artefact (measured: it reaches about the same x for μ1 = tan 21° and tan 32°
-#: while the two-layer front moves 3 cm). Its extent is reported separately as `toe_front`.
-DEPOSIT_LAYERS = 2
+#: The runout front is where the deposit first becomes thinner than this fraction of H0 (8 mm,
+#: four grain diameters, for the 8 cm column). The thin tail beyond it is not resolved: one to three
+#: particles thick, with no overburden, so P ≈ 0 and no basal friction, it slides on as a resolution
+#: artefact and lengthens with refinement (docs/design_decisions.md). Its reach is reported
+#: separately as `toe_front`.
+DEPOSIT_THICKNESS_FRACTION = 0.1
 
 #: Target numbers of interior (granular) particles: the dissertation's 475 / 1036 / 2310 (Fig. 2.5d)
 #: and two finer levels, 2× and 4× "fine".
@@ -56,8 +57,8 @@ class ColumnCollapse:
         if self.spacing is None and self.resolution not in RESOLUTIONS:
             raise ConfigError(f"parameter 'resolution' = {self.resolution!r} is invalid: allowed one of "
                               f"{', '.join(RESOLUTIONS)}")
-        if self.spacing is not None and not self.spacing > 0:
-            raise ConfigError(f"parameter 'spacing' = {self.spacing!r} is invalid: allowed > 0")
+        if self.spacing is not None and not (self.spacing > 0 and math.isfinite(self.spacing)):
+            raise ConfigError(f"parameter 'spacing' = {self.spacing!r} is invalid: allowed a finite number > 0")
         if self.floor_length <= self.column_width:
             raise ConfigError(f"parameter 'floor_length' = {self.floor_length} is invalid: allowed > column_width")
         if not 0 <= self.release_time < self.t_end:
@@ -104,7 +105,7 @@ def build_column_collapse(config: ColumnCollapse) -> tuple[Scene, Material, Nume
 @dataclass
 class ColumnResult:
     """Outcome of a column collapse: normalised runout L* = (L − L0)/L0 (L: front of the deposit at
-    least DEPOSIT_LAYERS particles thick) and height H* = H_f/H0; `toe_front` is the x reached by any
+    least DEPOSIT_THICKNESS_FRACTION·H0 thick) and height H* = H_f/H0; `toe_front` is the x reached by any
     connected particle, the monolayer toe included."""
 
     runout_normalised: float
@@ -115,6 +116,7 @@ class ColumnResult:
     spacing: float
     run: RunResult
     toe_front: float = float("nan")
+    final_position: np.ndarray | None = None
     plot: str | None = None
 
     def summary(self) -> dict[str, Any]:
@@ -143,11 +145,11 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
                           **sim.describe()},
                   stop_when_at_rest=config.rest_threshold, min_time=config.release_time + 0.3)
     final = np.array(sim.position)
-    front = analysis.front_position(final, dx, min_particles=DEPOSIT_LAYERS)
+    front = analysis.deposit_front(final, dx, DEPOSIT_THICKNESS_FRACTION * height0)
     toe = analysis.front_position(final, dx)
     result = ColumnResult(analysis.normalised_runout(front, 0.0, length0),
                           analysis.final_height(final, dx) / height0, length0, height0, len(final), dx, run,
-                          toe_front=toe)
+                          toe_front=toe, final_position=final)
     if output is not None:
         import h5py
 
