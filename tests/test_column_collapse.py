@@ -9,8 +9,8 @@ L* = (L − L0)/L0 ≈ 1.2 a ≈ 1.4 for a ≲ 1.8 (Lube et al. 2005; Lajeunesse
 find the same linear law in a channel), and a final height close to H0 for a ≲ 1 with a slow
 decrease beyond (H* ≈ 0.8–1 at a ≈ 1.1). The dissertation's Fig. 2.6c/e (μ1 = tan 21° … tan 32°)
 puts L* between about 1 and 2.5 and H* between about 0.6 and 1; the coarse SPH gives
-L* ≈ 1.9 and H* ≈ 0.69 for (21°, 33°) (low quasi-static friction: longer runout than the
-glass-bead experiments). Asserted: 1.0 < L* < 3.0 and 0.4 < H* < 1.0.
+L* ≈ 1.3 (front where the deposit first thins below 0.1 H0) and H* ≈ 0.65 for (21°, 33°).
+Asserted: 1.0 < L* < 3.0 and 0.4 < H* < 1.0.
 
 Raising μ1 from tan 21° to tan 32° (μ2 = tan 33° kept) must shorten the final runout by more than
 the resolution (one particle spacing). With the dissertation's α_Π = 1 it did not (L* 1.913 vs
