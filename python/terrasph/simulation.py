@@ -50,7 +50,9 @@ class Simulation:
     """A granular SPH simulation in plane strain, built from a validated scene.
 
     Particle arrays (``position``, ``velocity``, ``density``, ``pressure``, ``stress``, …) are zero-copy
-    views into the C++ state: read them freely; after writing to them call :meth:`refresh`.
+    views into the C++ state: read them freely; after writing to them call :meth:`refresh`. Granular
+    views stay valid for the simulation's lifetime; views of wall arrays (``core.wall_position``, …)
+    are invalidated when a wall group is removed, so take them afresh after a removal.
     Granular masses are per metre of depth (m = ρ·Δx²); multiply by ``width`` for the real sample.
     """
 
