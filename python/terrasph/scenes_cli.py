@@ -10,7 +10,7 @@ from terrasph.scenes.column_collapse import RESOLUTIONS, ColumnCollapse, run_col
 __all__ = ["register"]
 
 
-def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Adds the ``run`` command and its scenes."""
     run = subparsers.add_parser("run", help="run a ready-made scene", description="Run a ready-made scene.")
     scenes = run.add_subparsers(dest="scene", required=True, metavar="SCENE")
