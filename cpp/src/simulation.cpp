@@ -17,10 +17,11 @@ namespace terrasph {
 namespace {
 
 // Monaghan artificial viscosity Π_ij (Eq. 2.46–2.47) with α_Π = alpha, β_Π = 0, c_ij = c0.
+// Written without a branch: approaching and receding pairs are equally likely, so a branch on the
+// sign of v_ij·x_ij would be mispredicted half the time.
 inline double artificial_viscosity(double v_dot_x, double r2, double h, double alpha, double c0,
                                    double inv_rho_mean) {
-  if (v_dot_x >= 0.0) return 0.0;
-  const double phi = h * v_dot_x / (r2 + 0.01 * h * h);
+  const double phi = h * std::min(v_dot_x, 0.0) / (r2 + 0.01 * h * h);
   return -alpha * c0 * phi * inv_rho_mean;
 }
 
@@ -186,6 +187,8 @@ template <bool ElasticQuasiStatic>
 void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
   const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const bool correct = params_.numerics.kernel_gradient_correction;
+  pair_kernel_value_.resize(granular_granular_.indices.size());
+  pair_gradient_factor_.resize(granular_granular_.indices.size());
   const double wall_volume = std::pow(params_.numerics.spacing, D);
   for_each_particle(granular_.size(), [&](Index i) {
     const Vec<D> xi = row_vec<D>(granular_.position, i);
@@ -196,8 +199,15 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
       const std::int32_t j = granular_granular_.indices[s];
       const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
       const double r2 = xij.squaredNorm();
-      if (r2 >= h2x4) continue;
-      const double vf = granular_.volume[j] * kernel_.gradient_factor(std::sqrt(r2));
+      if (r2 >= h2x4) {  // in the Verlet skin, outside the support
+        pair_kernel_value_[s] = 0.0;
+        pair_gradient_factor_[s] = 0.0;
+        continue;
+      }
+      double grad_factor = 0.0;
+      kernel_.value_and_gradient_factor(std::sqrt(r2), pair_kernel_value_[s], grad_factor);
+      pair_gradient_factor_[s] = grad_factor;
+      const double vf = granular_.volume[j] * grad_factor;
       grad.noalias() += (vf * (row_vec<D>(granular_.velocity, j) - vi)) * xij.transpose();
       if (correct) moment.noalias() -= (vf * xij) * xij.transpose();
     }
@@ -295,12 +305,11 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
     Vec<D> xsph = Vec<D>::Zero();
     double drho = 0.0;
     for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
+      const double grad_factor = pair_gradient_factor_[s];  // cached by the ∇v pass
+      if (grad_factor == 0.0) continue;                    // outside the support
       const std::int32_t j = granular_granular_.indices[s];
       const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
       const double r2 = xij.squaredNorm();
-      if (r2 >= h2x4) continue;
-      const double r = std::sqrt(r2);
-      const double grad_factor = kernel_.gradient_factor(r);
       const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
       const Vec<D> vij = vi - row_vec<D>(granular_.velocity, j);
       const double m_j = granular_.mass[j];
@@ -311,7 +320,7 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
         drho += density_diffusion(delta_h_c0, rho_j - rho_i + hydrostatic_gradient.dot(xij), granular_.volume[j], grad_factor);
       const double pi_ij = artificial_viscosity(vij.dot(xij), r2, h, alpha, c0, inv_rho_mean);
       acc.noalias() += m_j * ((si + row_mat<D>(granular_.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
-      if constexpr (UseXsph) xsph -= (chi * m_j * inv_rho_mean * kernel_.value(r)) * vij;
+      if constexpr (UseXsph) xsph -= (chi * m_j * inv_rho_mean * pair_kernel_value_[s]) * vij;
     }
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];

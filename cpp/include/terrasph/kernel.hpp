@@ -41,6 +41,20 @@ template <int D> struct WendlandC2 {
     return gradient_coefficient * s * s * s;
   }
 
+  // W(r) and (dW/dr)/r together, sharing (1 − q/2); both 0 for q ≥ 2.
+  void value_and_gradient_factor(double r, double& w, double& gradient) const {
+    const double q = r * inv_h;
+    if (q >= 2.0) {
+      w = 0.0;
+      gradient = 0.0;
+      return;
+    }
+    const double s = 1.0 - 0.5 * q;
+    const double s3 = s * s * s;
+    w = alpha * s3 * s * (2.0 * q + 1.0);
+    gradient = gradient_coefficient * s3;
+  }
+
   double self_value() const { return alpha; }
 };
 

@@ -101,6 +101,10 @@ template <int D> class Simulation {
   NeighbourList granular_granular_;
   NeighbourList granular_wall_;
   NeighbourList wall_granular_;
+  // W and (dW/dr)/r of every listed granular pair at the current positions, written by the
+  // ∇v pass and read by the force pass (0 beyond the support)
+  std::vector<double> pair_kernel_value_;
+  std::vector<double> pair_gradient_factor_;
   VecArray<D> granular_position_at_build_;
   VecArray<D> wall_position_at_build_;
   bool neighbours_valid_ = false;
