@@ -1,6 +1,6 @@
 """Throughput, thread scaling, memory per particle and feature cost of the SPH core (issue 2).
 
-    python benchmarks/bench_sph.py throughput [--sizes 20000 80000 320000] [--threads 1 2]
+    python benchmarks/bench_sph.py throughput [--sizes 20000 80000 320000] [--threads 1 2] [--steps 200]
     python benchmarks/bench_sph.py features [--size 20000]
 
 A scene is a bed of the dry glass beads at rest in a rough box (Δx = 2 mm, gravity on); it is
@@ -100,10 +100,10 @@ def main() -> None:
     p = sub.add_parser("throughput")
     p.add_argument("--sizes", type=int, nargs="+", default=[20000, 80000, 320000])
     p.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    p.add_argument("--steps", type=int, default=100)
+    p.add_argument("--steps", type=int, default=200)
     f = sub.add_parser("features")
     f.add_argument("--size", type=int, default=20000)
-    f.add_argument("--steps", type=int, default=100)
+    f.add_argument("--steps", type=int, default=200)
     f.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
     if args.what == "throughput":
