@@ -48,7 +48,10 @@ def main() -> None:
               f"{r['runout_normalised']:.3f} | {r['final_height_normalised']:.3f} | {100 * r['runout_change']:.1f}% | "
               f"{100 * r['height_change']:.1f}% | {r['status']} |")
     (args.out / "column_convergence.json").write_text(json.dumps(rows, indent=2))
-    plot_convergence(rows[:-1], "wall_time", ["runout_change", "height_change"],
+    plot_rows = [{"wall time (s)": r["wall_time"], "relative change of L* vs finest": r["runout_change"],
+                  "relative change of H* vs finest": r["height_change"]} for r in rows[:-1]]
+    plot_convergence(plot_rows, "wall time (s)",
+                     ["relative change of L* vs finest", "relative change of H* vs finest"],
                      path=args.out / "column_convergence.png")
 
 
