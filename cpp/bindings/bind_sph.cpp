@@ -170,13 +170,6 @@ void bind_sph(py::module_& m) {
       .def("apply_shepard_filter", &Sim::apply_shepard_filter)
       .def("kernel_sum", &Sim::kernel_sum)
       .def("kernel_gradient_sum", &Sim::kernel_gradient_sum)
-      .def("granular_neighbour_counts", [](const Sim& s) {
-        const NeighbourList& l = s.granular_neighbours();
-        py::array_t<std::int64_t> counts(static_cast<py::ssize_t>(l.offsets.size() - 1));
-        auto c = counts.mutable_unchecked<1>();
-        for (py::ssize_t i = 0; i < c.shape(0); ++i) c(i) = l.count(i);
-        return counts;
-      })
       .def_property_readonly("step", [](const Sim& s) { return s.counters().step; })
       .def_property_readonly("time", [](const Sim& s) { return s.counters().time; })
       .def_property_readonly("last_dt", [](const Sim& s) { return s.counters().last_dt; })

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-__all__ = ["arc_points", "lattice_block", "polyline_wall", "wall_layers_needed"]
+__all__ = ["lattice_block", "polyline_wall", "wall_layers_needed"]
 
 
 def wall_layers_needed(h_factor: float) -> int:
@@ -37,17 +37,6 @@ def lattice_block(x0: float, z0: float, width: float, height: float, spacing: fl
     zs = z0 + (np.arange(nz) + 0.5) * spacing
     grid_x, grid_z = np.meshgrid(xs, zs)  # row-major: z rows, x fastest
     return np.column_stack([grid_x.ravel(), grid_z.ravel()])
-
-
-def arc_points(centre: tuple[float, float], radii: tuple[float, float], start: float, stop: float,
-               spacing: float) -> np.ndarray:
-    """Vertices of an elliptical arc (circle when radii are equal), angles in radians, ~Δx/4 apart."""
-    a, b = radii
-    if a <= 0 or b <= 0:
-        raise ValueError(f"arc radii must be > 0, got {radii}")
-    n = max(8, int(math.ceil(abs(stop - start) * max(a, b) / (0.25 * spacing))))
-    t = np.linspace(start, stop, n + 1)
-    return np.column_stack([centre[0] + a * np.cos(t), centre[1] + b * np.sin(t)])
 
 
 def _resample(path: np.ndarray, spacing: float) -> np.ndarray:

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from terrasph.config import ConfigError, Material, Numerics
-from terrasph.geometry import lattice_block, polyline_wall, wall_layers_needed
+from terrasph.geometry import lattice_block, polyline_wall
 
 __all__ = ["Scene", "WallGroup", "hydrostatic_density"]
 
@@ -73,10 +73,6 @@ class Scene:
         group = WallGroup(name, len(self.walls), position, normal, no_slip, remove_at)
         self.walls.append(group)
         return group
-
-    def wall_layers(self, numerics: Numerics) -> int:
-        """Wall layers that fill the kernel support for these numerics."""
-        return wall_layers_needed(numerics.h_factor)
 
     # -- views ----------------------------------------------------------------------------
     @property

@@ -82,7 +82,7 @@ class Simulation:
             if scene.walls else np.zeros(0, np.int32)
         wall_no_slip = np.concatenate([np.full(len(w.position), w.no_slip, np.uint8) for w in scene.walls]) \
             if scene.walls else np.zeros(0, np.uint8)
-        self._removals = sorted((w.remove_at, w.group_id, w.name) for w in scene.walls if w.remove_at is not None)
+        self._removals = sorted((w.remove_at, w.group_id) for w in scene.walls if w.remove_at is not None)
         self.core = _core.Simulation2D(
             self._core_params(), position, np.zeros_like(position), density, density * dx2,
             walls, scene.wall_normal, np.full(len(walls), material.reference_density * dx2), wall_no_slip, wall_group)
@@ -161,15 +161,17 @@ class Simulation:
     def advance(self, t_end: float, max_steps: int = 2**62) -> int:
         """Steps to `t_end` (s), applying scheduled wall removals; returns the steps taken."""
         taken = 0
+        self._remove_due_walls()
         while self.core.time < t_end * (1 - 1e-14) and taken < max_steps:
-            while self._removals and self._removals[0][0] <= self.core.time:
-                _, group, _ = self._removals.pop(0)
-                self.core.remove_wall_group(group)
             target = min(t_end, self._removals[0][0]) if self._removals else t_end
             taken += self.core.advance(target, max_steps - taken)
+            self._remove_due_walls()
+        return taken
+
+    def _remove_due_walls(self) -> None:
+        """Removes the wall groups whose removal time has come."""
         while self._removals and self._removals[0][0] <= self.core.time:
             self.core.remove_wall_group(self._removals.pop(0)[1])
-        return taken
 
     # -- run loop -------------------------------------------------------------------------
     def run(self, t_end: float, *, output: str | os.PathLike | None = None, frame_interval: float = 0.05,

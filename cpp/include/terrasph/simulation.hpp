@@ -70,7 +70,6 @@ template <int D> class Simulation {
   // Applies the Shepard density filter once (Eq. 2.41).
   void apply_shepard_filter();
 
-  const NeighbourList& granular_neighbours() const { return granular_granular_; }
 
  private:
   void step(double dt);
