@@ -7,7 +7,9 @@
 
 #include <omp.h>
 
+#include <array>
 #include <string>
+#include <vector>
 
 #include "terrasph/errors.hpp"
 #include "terrasph/kernel.hpp"
@@ -84,6 +86,34 @@ std::unique_ptr<Sim> make_simulation(
   walls.no_slip.assign(wall_no_slip.data(), wall_no_slip.data() + nw);
   walls.group.assign(wall_group.data(), wall_group.data() + nw);
   return std::make_unique<Sim>(params, std::move(granular), std::move(walls));
+}
+
+// Motion segments from Python rows (duration s, vx m/s, vz m/s, spin rad/s clockwise).
+std::vector<MotionSegment<Dim>> to_segments(const std::vector<std::array<double, 4>>& rows) {
+  std::vector<MotionSegment<Dim>> out;
+  for (const auto& row : rows) {
+    MotionSegment<Dim> s;
+    s.duration = row[0];
+    s.velocity = Vec<Dim>(row[1], row[2]);
+    s.spin = row[3];
+    out.push_back(s);
+  }
+  return out;
+}
+
+py::dict body_state(const RigidBody<Dim>& b) {
+  py::dict d;
+  d["reference"] = Vec<Dim>(b.kinematics.reference);
+  d["angle"] = b.kinematics.angle;
+  d["velocity"] = Vec<Dim>(b.kinematics.velocity);
+  d["spin"] = b.kinematics.spin;
+  d["force"] = Vec<Dim>(b.force);
+  d["torque"] = b.torque;
+  const double t = b.impulse_time;
+  d["mean_force"] = t > 0.0 ? Vec<Dim>(b.impulse / t) : Vec<Dim>(b.force);
+  d["mean_torque"] = t > 0.0 ? b.angular_impulse / t : b.torque;
+  d["averaged_over"] = t;
+  return d;
 }
 
 }  // namespace
@@ -166,6 +196,25 @@ void bind_sph(py::module_& m) {
            "Step until t_end or max_steps; returns the number of steps taken.")
       .def("refresh", &Sim::refresh, "Rebuild neighbours and rates after editing the state.")
       .def("remove_wall_group", &Sim::remove_wall_group, py::arg("group"))
+      .def("add_body", [](Sim& s, std::int32_t group, const Vec<Dim>& reference, double angle,
+                          const std::vector<std::array<double, 4>>& motion) {
+             return s.add_body(group, reference, angle, to_segments(motion));
+           }, py::arg("group"), py::arg("reference"), py::arg("angle"), py::arg("motion"),
+           "Make a wall group a rigid body with reference point `reference` (m) and current clockwise "
+           "angle `angle` (rad), following `motion`: rows (duration s, vx, vz m/s, spin rad/s clockwise) "
+           "from now on, holding still after the last. Returns the body index.")
+      .def_property_readonly("body_count", [](const Sim& s) { return s.bodies().size(); })
+      .def("body_state", [](const Sim& s, std::size_t b) {
+             if (b >= s.bodies().size()) throw py::index_error("no body " + std::to_string(b));
+             return body_state(s.bodies()[b]);
+           }, py::arg("body"),
+           "Pose, rates and granular load of a body: force (N/m) and clockwise torque (N·m/m) about the "
+           "reference point at the last step, and their time averages since reset_body_means().")
+      .def("reset_body_means", &Sim::reset_body_impulses, "Restart the time averages of body loads.")
+      .def_property_readonly("penetrating_particles", [](const Sim& s) { return s.counters().penetrating_particles; },
+           "Granular particles closer than spacing/2 to a wall particle (inside a wall) at the last step.")
+      .def_property_readonly("penetrated_particles", [](const Sim& s) { return s.counters().penetrated_particles; },
+           "Distinct granular particles that have been inside a wall at any step of the run (leak counter).")
       .def("stable_time_step", &Sim::stable_time_step)
       .def("apply_shepard_filter", &Sim::apply_shepard_filter)
       .def("kernel_sum", &Sim::kernel_sum)

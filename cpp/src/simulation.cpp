@@ -70,6 +70,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
       throw std::invalid_argument("granular particle " + std::to_string(i) +
                                   " has a non-positive mass or density");
   }
+  penetrated_.assign(static_cast<size_t>(n), 0);
   refresh();
 }
 
@@ -92,6 +93,7 @@ template <int D> void Simulation<D>::build_neighbours() {
                           granular_wall_);
   build_neighbour_list<D>(walls_.position, granular_.position, granular_grid_, radius, false,
                           wall_granular_);
+  if (!bodies_.empty()) pair_body_force_.resize(static_cast<Index>(granular_wall_.indices.size()), D);
   granular_position_at_build_ = granular_.position;
   wall_position_at_build_ = walls_.position;
   neighbours_valid_ = true;
@@ -146,10 +148,18 @@ template <int D> void Simulation<D>::compute_rates(double dt) {
   const bool delta = params_.numerics.delta_sph > 0.0;
   const bool xsph = params_.numerics.xsph > 0.0;
   // optional terms are chosen once per evaluation, not tested per pair
-  if (delta && xsph) force_pass<true, true>();
-  else if (delta) force_pass<true, false>();
-  else if (xsph) force_pass<false, true>();
-  else force_pass<false, false>();
+  if (bodies_.empty()) {
+    if (delta && xsph) force_pass<true, true, false>();
+    else if (delta) force_pass<true, false, false>();
+    else if (xsph) force_pass<false, true, false>();
+    else force_pass<false, false, false>();
+  } else {
+    if (delta && xsph) force_pass<true, true, true>();
+    else if (delta) force_pass<true, false, true>();
+    else if (xsph) force_pass<false, true, true>();
+    else force_pass<false, false, true>();
+    accumulate_body_loads(dt);
+  }
   lap(t.forces);
 }
 
@@ -282,7 +292,9 @@ template <int D> void Simulation<D>::wall_stress_pass() {
 
 // Continuity with δ-SPH (Eq. 2.42–2.43), momentum with artificial viscosity (Eq. 2.45–2.47) and
 // the XSPH velocity correction (Eq. 2.49), fused into one gather over each particle's pairs.
-template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::force_pass() {
+// WithBodies: the force of each granular–body pair on the body is kept for Eq. 3.24–3.25.
+// Leak diagnostic: a granular particle closer than Δx/2 to a wall particle is inside the wall.
+template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Simulation<D>::force_pass() {
   const double h = kernel_.h;
   const double h2x4 = 4.0 * h * h;
   const double alpha = params_.numerics.artificial_viscosity;
@@ -293,9 +305,11 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
   const Vec<D> g = params_.domain.gravity;
   const double eos_c = params_.eos_sound_speed();
   const Vec<D> hydrostatic_gradient = params_.material.reference_density / (eos_c * eos_c) * g;  // ∇ρ^H
+  const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
   double max_acc2 = 0.0;
+  std::int64_t penetrating = 0, newly_penetrated = 0;
   const Index n = granular_.size();
-#pragma omp parallel for reduction(max : max_acc2) schedule(static)
+#pragma omp parallel for reduction(max : max_acc2) reduction(+ : penetrating, newly_penetrated) schedule(static)
   for (Index i = 0; i < n; ++i) {
     const Vec<D> xi = row_vec<D>(granular_.position, i);
     const Vec<D> vi = row_vec<D>(granular_.velocity, i);
@@ -322,17 +336,30 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
       acc.noalias() += m_j * ((si + row_mat<D>(granular_.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
       if constexpr (UseXsph) xsph -= (chi * m_j * inv_rho_mean * pair_kernel_value_[s]) * vij;
     }
+    double nearest_wall2 = std::numeric_limits<double>::infinity();
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];
+      const bool on_body = WithBodies && walls_.body[w] >= 0;
+      if (on_body) row_vec<D>(pair_body_force_, s).setZero();
       const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
       const double r2 = xiw.squaredNorm();
+      nearest_wall2 = std::min(nearest_wall2, r2);
       if (r2 >= h2x4) continue;
       const Vec<D> grad_w = kernel_.gradient_factor(std::sqrt(r2)) * xiw;
       const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
       const double m_w = walls_.mass[w];
       drho += m_w * viw.dot(grad_w);
       const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha_wall, c0, 2.0 / (rho_i + walls_.density[w]));
-      acc.noalias() += m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
+      const Vec<D> pair_acc = m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
+      acc.noalias() += pair_acc;
+      if (on_body) row_vec<D>(pair_body_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
+    }
+    if (nearest_wall2 < inside_wall2) {
+      ++penetrating;
+      if (!penetrated_[static_cast<size_t>(i)]) {
+        penetrated_[static_cast<size_t>(i)] = 1;
+        ++newly_penetrated;
+      }
     }
     acc += g;
     row_vec<D>(granular_.acceleration, i) = acc;
@@ -341,6 +368,93 @@ template <int D> template <bool UseDelta, bool UseXsph> void Simulation<D>::forc
     max_acc2 = std::max(max_acc2, acc.squaredNorm());
   }
   counters_.max_acceleration = std::sqrt(max_acc2);
+  counters_.penetrating_particles = penetrating;
+  counters_.penetrated_particles += newly_penetrated;
+}
+
+// ---------------------------------------------------------------- rigid bodies
+
+template <int D>
+int Simulation<D>::add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
+                            std::vector<MotionSegment<D>> motion) {
+  if (!reference.allFinite() || !std::isfinite(angle))
+    throw std::invalid_argument("body reference point and angle must be finite");
+  const int index = static_cast<int>(bodies_.size());
+  Index members = 0;
+  for (Index w = 0; w < walls_.size(); ++w) {
+    if (walls_.group[w] != wall_group) continue;
+    if (walls_.body[w] >= 0)
+      throw std::invalid_argument("wall group " + std::to_string(wall_group) + " is already a body");
+    walls_.body[w] = index;
+    row_vec<D>(walls_.body_offset, w) = rotate_clockwise<D>(row_vec<D>(walls_.position, w) - reference, -angle);
+    row_vec<D>(walls_.body_normal, w) = rotate_clockwise<D>(row_vec<D>(walls_.normal, w), -angle);
+    ++members;
+  }
+  if (members == 0)
+    throw std::invalid_argument("wall group " + std::to_string(wall_group) + " has no particles to make a body of");
+  BodyKinematics<D> start;
+  start.reference = reference;
+  start.angle = angle;
+  RigidBody<D> body;
+  body.wall_group = wall_group;
+  body.motion = PrescribedMotion<D>(start, std::move(motion));
+  body.motion_start = counters_.time;
+  bodies_.push_back(std::move(body));
+  move_bodies(counters_.time);
+  refresh();
+  reset_body_impulses();
+  return index;
+}
+
+template <int D> void Simulation<D>::reset_body_impulses() {
+  for (RigidBody<D>& body : bodies_) {
+    body.impulse.setZero();
+    body.angular_impulse = 0.0;
+    body.impulse_time = 0.0;
+  }
+}
+
+// Places every body particle at its prescribed pose: x = c + R(θ) r, v = v_c + ω J R r, and the
+// acceleration a = −ω² R r of a steady spin, which enters the wall pressure as (g − a_w) (Eq. 3.31).
+template <int D> void Simulation<D>::move_bodies(double time) {
+  for (RigidBody<D>& body : bodies_) body.kinematics = body.motion.at(time - body.motion_start);
+  for_each_particle(walls_.size(), [&](Index w) {
+    const std::int32_t b = walls_.body[w];
+    if (b < 0) return;
+    const BodyKinematics<D>& k = bodies_[static_cast<size_t>(b)].kinematics;
+    const Vec<D> arm = rotate_clockwise<D>(row_vec<D>(walls_.body_offset, w), k.angle);
+    row_vec<D>(walls_.position, w) = k.reference + arm;
+    row_vec<D>(walls_.velocity, w) = k.velocity + k.spin * quarter_turn_clockwise<D>(arm);
+    row_vec<D>(walls_.acceleration, w) = -(k.spin * k.spin) * arm;
+    row_vec<D>(walls_.normal, w) = rotate_clockwise<D>(row_vec<D>(walls_.body_normal, w), k.angle);
+  });
+}
+
+// Force and clockwise torque of the terrain on each body (Eq. 3.24–3.25), summed from the stored
+// pair forces in a fixed order (granular particle, then its neighbour list), so the totals do not
+// depend on the thread count and are the exact opposite of the pair forces on the grains.
+template <int D> void Simulation<D>::accumulate_body_loads(double dt) {
+  for (RigidBody<D>& body : bodies_) {
+    body.force.setZero();
+    body.torque = 0.0;
+  }
+  const Index n = granular_.size();
+  for (Index i = 0; i < n; ++i) {
+    for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
+      const std::int32_t w = granular_wall_.indices[s];
+      const std::int32_t b = walls_.body[w];
+      if (b < 0) continue;
+      RigidBody<D>& body = bodies_[static_cast<size_t>(b)];
+      const Vec<D> f = row_vec<D>(pair_body_force_, s);
+      body.force += f;
+      body.torque += quarter_turn_clockwise<D>(row_vec<D>(walls_.position, w) - body.kinematics.reference).dot(f);
+    }
+  }
+  for (RigidBody<D>& body : bodies_) {
+    body.impulse += dt * body.force;
+    body.angular_impulse += dt * body.torque;
+    body.impulse_time += dt;
+  }
 }
 
 // ---------------------------------------------------------------- time stepping
@@ -383,6 +497,7 @@ template <int D> void Simulation<D>::step(double dt) {
     if (xsph) drift += row_vec<D>(granular_.xsph_correction, i);
     row_vec<D>(granular_.position, i) += dt * drift;
   });
+  if (!bodies_.empty()) move_bodies(counters_.time + dt);
   const double before_rates = omp_get_wtime();
   compute_rates(dt);
   const double after_rates = omp_get_wtime();
@@ -515,6 +630,9 @@ template <int D> void Simulation<D>::remove_wall_group(std::int32_t group) {
     kept.mass[k] = walls_.mass[w];
     kept.no_slip[k] = walls_.no_slip[w];
     kept.group[k] = walls_.group[w];
+    kept.body[k] = walls_.body[w];
+    row_vec<D>(kept.body_offset, k) = row_vec<D>(walls_.body_offset, w);
+    row_vec<D>(kept.body_normal, k) = row_vec<D>(walls_.body_normal, w);
   }
   walls_ = std::move(kept);
   refresh();

@@ -58,7 +58,7 @@ from .geometry import wall_layers_needed
 
 __all__ = [
     "BodyShape", "flat_leg", "c_leg", "reversed_c_leg", "l_leg", "reversed_l_leg", "wheel",
-    "leg_wheel", "minimum_thickness", "check_thickness", "rotation_matrix", "SPOKES",
+    "leg_wheel", "plate", "minimum_thickness", "check_thickness", "rotation_matrix", "SPOKES",
 ]
 
 
@@ -308,6 +308,20 @@ def flat_leg(radius: float, thickness: float, width: float, spacing: float) -> B
     pts = _straight(np.array([0.0, 0.0]), np.array([0.0, -r]), offsets, dx)
     outline = np.array([[-h, 0.0], [-h, -r], [h, -r], [h, 0.0]])
     return _build("flat-leg", pts, [outline], dx, t, w, r)
+
+
+def plate(length: float, thickness: float, width: float, spacing: float) -> BodyShape:
+    """Horizontal plate (intruder) of `length` along x centred on the origin, its reference point.
+
+    ``radius`` of the returned shape is the half length.
+    """
+    r, t, w, dx = _common(0.5 * length, thickness, width, spacing)
+    offsets = _rows(t, dx)
+    h = 0.5 * len(offsets) * dx
+    # centre line right -> left; its left is −z, so offsets run from below to above
+    pts = _straight(np.array([r, 0.0]), np.array([-r, 0.0]), offsets, dx)
+    outline = np.array([[-r, -h], [r, -h], [r, h], [-r, h]])
+    return _build("plate", pts, [outline], dx, t, w, r)
 
 
 def c_leg(radius: float, thickness: float, width: float, spacing: float) -> BodyShape:

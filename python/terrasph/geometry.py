@@ -62,10 +62,11 @@ def _offset_path(vertices: np.ndarray, distance: float) -> np.ndarray:
         if k > 0:
             turn = directions[k - 1, 0] * directions[k, 1] - directions[k - 1, 1] * directions[k, 0]
             if turn > 1e-12:  # left turn: the right (wall) side opens up; fill it with an arc
+                # the right normal turns counter-clockwise with the direction, from a0 up to a1
                 a0 = math.atan2(right[k - 1, 1], right[k - 1, 0])
                 a1 = math.atan2(right[k, 1], right[k, 0])
-                while a1 > a0:
-                    a1 -= 2 * math.pi
+                while a1 < a0:
+                    a1 += 2 * math.pi
                 for angle in np.linspace(a0, a1, 9)[1:-1]:
                     points.append(vertices[k] + distance * np.array([math.cos(angle), math.sin(angle)]))
         points.append(vertices[k] + distance * right[k])

@@ -16,7 +16,7 @@ from matplotlib.figure import Figure, SubFigure
 
 from terrasph.analysis import fit_line
 
-__all__ = ["plot_convergence", "plot_particles", "plot_profiles", "plot_series", "plot_yield_locus"]
+__all__ = ["plot_convergence", "plot_leg_loads", "plot_particles", "plot_profiles", "plot_series", "plot_yield_locus"]
 
 PathLike = str | os.PathLike[str]
 _DPI = 150
@@ -139,6 +139,35 @@ def plot_profiles(
     axes.set_xlabel(xlabel)
     axes.set_ylabel(ylabel)
     axes.legend()
+    return _finish(figure, path)
+
+
+def plot_leg_loads(
+    curves: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, str]],
+    *,
+    path: PathLike | None = None,
+    title: str | None = None,
+) -> Figure:
+    """Lift F_z and thrust F_x (N) against the leg angle θ (rad, clockwise), one panel each, as in
+    Fig. 3.2–3.5 of the dissertation; ``curves`` holds (θ, F_z, F_x, label) tuples."""
+    if not curves:
+        raise ValueError("curves must hold at least one (theta, lift, thrust, label) tuple")
+    figure = Figure(figsize=(9.0, 3.6), layout="constrained")
+    lift_axes, thrust_axes = figure.subplots(1, 2, sharex=True)
+    for theta, lift, thrust, name in curves:
+        t, fz = _curve(f"lift {name!r}", theta, lift)
+        _, fx = _curve(f"thrust {name!r}", theta, thrust)
+        lift_axes.plot(t, fz, label=name)
+        thrust_axes.plot(t, fx, label=name)
+    for axes, label in ((lift_axes, "lift $F_z$ (N)"), (thrust_axes, "thrust $F_x$ (N)")):
+        axes.set_xlabel(r"leg angle $\theta$ (rad, clockwise)")
+        axes.set_ylabel(label)
+        axes.axhline(0.0, color="0.6", lw=0.8)
+        axes.set_xticks([-np.pi / 4, -np.pi / 8, 0, np.pi / 8, np.pi / 4],
+                        [r"$-\pi/4$", r"$-\pi/8$", "0", r"$\pi/8$", r"$\pi/4$"])
+    lift_axes.legend()
+    if title:
+        figure.suptitle(title)
     return _finish(figure, path)
 
 

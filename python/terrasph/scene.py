@@ -6,10 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from terrasph.bodies import BodyShape, check_thickness
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import lattice_block, polyline_wall
+from terrasph.motion import Motion
 
-__all__ = ["Scene", "WallGroup", "hydrostatic_density"]
+__all__ = ["BodyGroup", "Scene", "WallGroup", "hydrostatic_density"]
 
 GRAVITY = 9.81
 
@@ -24,6 +26,31 @@ class WallGroup:
     normal: np.ndarray
     no_slip: bool = True
     remove_at: float | None = None
+
+
+@dataclass
+class BodyGroup(WallGroup):
+    """A wall group that is a rigid body: its shape placed at `reference` turned clockwise by
+    `angle` (rad), following `motion` from t = 0. Loads are reported for the real `width` (m)."""
+
+    shape: BodyShape | None = None
+    reference: tuple[float, float] = (0.0, 0.0)
+    angle: float = 0.0
+    motion: Motion = field(default_factory=Motion)
+    width: float = 1.0
+
+
+def _close_pairs(a: np.ndarray, b: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i in a, j in b) closer than `radius`, through the core's neighbour search."""
+    from terrasph._core import neighbour_lists
+
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros(0, int), np.zeros(0, int)
+    both = np.concatenate([a, b])
+    offsets, indices = neighbour_lists(both, radius)
+    rows = np.repeat(np.arange(len(both)), np.diff(offsets))
+    keep = (rows < len(a)) & (indices >= len(a))
+    return rows[keep], indices[keep] - len(a)
 
 
 def hydrostatic_density(depth: np.ndarray, material: Material, gravity: float = GRAVITY) -> np.ndarray:
@@ -50,6 +77,8 @@ class Scene:
     domain_lower: tuple[float, float] | None = None
     domain_upper: tuple[float, float] | None = None
     gravity: float = GRAVITY
+    #: z of the undisturbed free surface, for the sinkage of bodies (DESIGN §3.8); None: not reported
+    surface_level: float | None = None
 
     def __post_init__(self) -> None:
         if not (self.spacing > 0 and np.isfinite(self.spacing)):
@@ -73,6 +102,53 @@ class Scene:
         group = WallGroup(name, len(self.walls), position, normal, no_slip, remove_at)
         self.walls.append(group)
         return group
+
+    def add_body(self, name: str, shape: BodyShape, *, reference: tuple[float, float], angle: float = 0.0,
+                 motion: Motion | None = None, width: float | None = None, no_slip: bool = True,
+                 clear_granular: bool = True) -> BodyGroup:
+        """Adds a rigid body: `shape` turned clockwise by `angle` (rad) about its reference point,
+        placed at `reference` (m), following `motion` (default: held still). Loads are reported in
+        N for `width` (default: the shape's width). With `clear_granular`, granular particles
+        closer than Δx to the body are removed so it starts in a hole of its own shape."""
+        if any(w.name == name for w in self.walls):
+            raise ConfigError(f"wall name '{name}' is used twice")
+        if not isinstance(shape, BodyShape):
+            raise ConfigError(f"parameter 'shape' of body '{name}' must be a terrasph.bodies.BodyShape")
+        if abs(shape.spacing - self.spacing) > 1e-9 * self.spacing:
+            raise ConfigError(f"body '{name}' was sampled at spacing {shape.spacing}, the scene uses "
+                              f"{self.spacing}; build the shape with the scene's spacing")
+        width = shape.width if width is None else width
+        if not (isinstance(width, (int, float)) and np.isfinite(width) and width > 0):
+            raise ConfigError(f"parameter 'width' of body '{name}' = {width!r} is invalid: allowed > 0 (m)")
+        if not np.isfinite(angle) or len(reference) != 2 or not np.all(np.isfinite(reference)):
+            raise ConfigError(f"body '{name}': reference must be (x, z) and angle finite")
+        motion = Motion() if motion is None else motion
+        if not isinstance(motion, Motion):
+            raise ConfigError(f"parameter 'motion' of body '{name}' must be a terrasph.motion.Motion")
+        position, normal = shape.transformed(angle, (float(reference[0]), float(reference[1])))
+        group = BodyGroup(name, len(self.walls), position, normal, no_slip, None, shape,
+                          (float(reference[0]), float(reference[1])), float(angle), motion, float(width))
+        self.walls.append(group)
+        if clear_granular:
+            self.clear_granular_near(position, self.spacing)
+        return group
+
+    def clear_granular_near(self, points: np.ndarray, distance: float) -> int:
+        """Removes granular particles closer than `distance` to any of `points`; returns how many."""
+        removed = 0
+        for k, block in enumerate(self.granular):
+            close, _ = _close_pairs(block, np.asarray(points, float), distance)
+            if len(close):
+                keep = np.ones(len(block), bool)
+                keep[close] = False
+                removed += int((~keep).sum())
+                self.granular[k] = block[keep]
+        return removed
+
+    @property
+    def bodies(self) -> list[BodyGroup]:
+        """The rigid bodies, in the order they were added (the core's body indices)."""
+        return [w for w in self.walls if isinstance(w, BodyGroup)]
 
     # -- views ----------------------------------------------------------------------------
     @property
@@ -116,14 +192,21 @@ class Scene:
         walls = self.wall_position
         if len(walls):
             # a granular particle inside a wall would be pushed through it at the first step
-            from terrasph._core import neighbour_lists
-
-            both = np.concatenate([x, walls])
-            offsets, indices = neighbour_lists(both, 0.5 * self.spacing)
-            n = len(x)
-            rows = np.repeat(np.arange(len(both)), np.diff(offsets))
-            clashes = rows[(rows < n) & (indices >= n)]
+            clashes, _ = _close_pairs(x, walls, 0.5 * self.spacing)
             if len(clashes):
                 i = int(clashes.min())
                 raise ConfigError(f"granular particle {i} at {x[i].tolist()} overlaps a wall particle "
                                   "(closer than Δx/2); move the block or the wall")
+        for body in self.bodies:
+            try:
+                check_thickness(body.shape, self.spacing, numerics.h_factor)
+            except ValueError as error:
+                raise ConfigError(f"body '{body.name}': {error}") from None
+            others = [w.position for w in self.walls if w is not body]
+            if others:
+                # the solids overlap when particles of the two are closer than one spacing
+                hits, _ = _close_pairs(body.position, np.concatenate(others), 0.99 * self.spacing)
+                if len(hits):
+                    k = int(hits.min())
+                    raise ConfigError(f"body '{body.name}' intersects another wall at start (its particle "
+                                      f"{k} at {body.position[k].tolist()}); move it or change its angle")

@@ -44,6 +44,8 @@ class RunResult:
     output: str | None
     status: str  # "completed", "at_rest", "interrupted" or "unstable"
     diagnostics: dict[str, list[float]] = field(default_factory=dict)
+    #: per body: time series of pose and load as in :meth:`Simulation.body_state` (arrays)
+    bodies: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
 class Simulation:
@@ -86,6 +88,9 @@ class Simulation:
         self.core = _core.Simulation2D(
             self._core_params(), position, np.zeros_like(position), density, density * dx2,
             walls, scene.wall_normal, np.full(len(walls), material.reference_density * dx2), wall_no_slip, wall_group)
+        self.bodies = scene.bodies
+        for body in self.bodies:
+            self.core.add_body(body.group_id, np.asarray(body.reference), body.angle, body.motion.rows())
 
     def _core_params(self) -> _core.ModelParams2D:
         params = _core.ModelParams2D()
@@ -154,6 +159,45 @@ class Simulation:
         v = self.core.velocity
         return 0.5 * float(np.dot(self.core.mass, np.einsum("ij,ij->i", v, v))) * self.width
 
+    def body_state(self, name: str) -> dict[str, Any]:
+        """Pose and load of a body, loads in N and N·m for its real width (DESIGN §2).
+
+        Keys: ``reference`` (x, z) m, ``angle`` rad and ``omega`` rad/s (clockwise-positive),
+        ``velocity`` (vx, vz) m/s, ``force`` (F_x, F_z) N of the terrain on the body and ``torque``
+        N·m (clockwise-positive, about the reference point), both averaged over the time since the
+        last :meth:`reset_body_means` (a box filter; the instant values are ``force_now`` and
+        ``torque_now``), ``lowest_z`` m and, when the scene has a ``surface_level``, ``sinkage`` m.
+        """
+        index = self._body_index(name)
+        body = self.bodies[index]
+        raw = self.core.body_state(index)
+        mask = np.asarray(self.core.wall_group) == body.group_id
+        lowest = float(np.asarray(self.core.wall_position)[mask, 1].min() - 0.5 * self.scene.spacing)
+        state = {"reference": np.asarray(raw["reference"]), "angle": raw["angle"],
+                 "velocity": np.asarray(raw["velocity"]), "omega": raw["spin"],
+                 "force": np.asarray(raw["mean_force"]) * body.width, "torque": raw["mean_torque"] * body.width,
+                 "force_now": np.asarray(raw["force"]) * body.width, "torque_now": raw["torque"] * body.width,
+                 "lowest_z": lowest}
+        if self.scene.surface_level is not None:
+            state["sinkage"] = self.scene.surface_level - lowest
+        return state
+
+    def reset_body_means(self) -> None:
+        """Restarts the time averages of body forces and torques."""
+        self.core.reset_body_means()
+
+    def _body_index(self, name: str) -> int:
+        for index, body in enumerate(self.bodies):
+            if body.name == name:
+                return index
+        raise KeyError(f"no body named {name!r}; bodies: {[b.name for b in self.bodies]}")
+
+    @property
+    def leaked_particles(self) -> int:
+        """Distinct granular particles that have been inside a wall or body (closer than Δx/2 to a
+        wall particle) at any step so far: the leak counter of DESIGN §3.5."""
+        return int(self.core.penetrated_particles)
+
     def refresh(self) -> None:
         """Rebuilds neighbours and rates after the state was edited through a view."""
         self.core.refresh()
@@ -177,8 +221,12 @@ class Simulation:
     def run(self, t_end: float, *, output: str | os.PathLike | None = None, frame_interval: float = 0.05,
             progress: bool = True, config: dict[str, Any] | None = None,
             stop_when_at_rest: float | None = None, min_time: float = 0.0,
-            on_frame: Callable[[Simulation], None] | None = None) -> RunResult:
+            on_frame: Callable[[Simulation], None] | None = None,
+            body_interval: float = 0.01) -> RunResult:
         """Runs to `t_end` (s), writing a frame every `frame_interval` (s) to `output` (HDF5).
+
+        Every `body_interval` (s) each body's pose and load, averaged over the interval, is
+        appended to ``/series/bodies/<name>`` and to ``RunResult.bodies``.
 
         With ``stop_when_at_rest = r`` the run ends once t ≥ `min_time` and the kinetic energy per
         unit mass ½|v|² (mean) drops below r·g·Δx — a bed whose grains move less than about
@@ -189,6 +237,8 @@ class Simulation:
             raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")
         if not frame_interval > 0:
             raise ConfigError(f"parameter 'frame_interval' = {frame_interval} is invalid: allowed > 0")
+        if not body_interval > 0:
+            raise ConfigError(f"parameter 'body_interval' = {body_interval} is invalid: allowed > 0")
         from tqdm.auto import tqdm
 
         from terrasph.io import RunWriter, write_xdmf
@@ -199,7 +249,9 @@ class Simulation:
             writer.write_static("walls/position", np.array(self.core.wall_position))
             writer.write_static("walls/group", np.array(self.core.wall_group))
         diagnostics: dict[str, list[float]] = {k: [] for k in ("time", "step", "dt", "kinetic_energy",
-                                                                 "max_speed", "neighbour_builds", "wall_time")}
+                                                                 "max_speed", "neighbour_builds", "wall_time",
+                                                                 "leaked_particles")}
+        body_series: dict[str, dict[str, list[Any]]] = {b.name: {} for b in self.bodies}
         start = wallclock.perf_counter()
         frames = 0
         status = "completed"
@@ -211,7 +263,7 @@ class Simulation:
             row = {"time": self.time, "step": self.step_count, "dt": self.core.last_dt,
                    "kinetic_energy": self.kinetic_energy(), "max_speed": self.core.max_speed,
                    "neighbour_builds": self.core.neighbour_builds,
-                   "wall_time": wallclock.perf_counter() - start}
+                   "wall_time": wallclock.perf_counter() - start, "leaked_particles": self.leaked_particles}
             for key, value in row.items():
                 diagnostics[key].append(float(value))
             if writer:
@@ -221,15 +273,30 @@ class Simulation:
             if on_frame:
                 on_frame(self)
 
+        def record_bodies() -> None:
+            for body in self.bodies:
+                row = {"time": self.time, **self.body_state(body.name)}
+                for key, value in row.items():
+                    body_series[body.name].setdefault(key, []).append(value)
+                if writer:
+                    writer.append_series(f"bodies/{body.name}", row)
+            self.reset_body_means()
+
         bar = tqdm(total=round(t_end - self.time, 9), unit="s", disable=not progress, mininterval=0.5,
                    bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
         try:
             record()
+            if self.bodies:
+                record_bodies()
             next_frame = self.time + frame_interval
+            next_sample = self.time + body_interval if self.bodies else math.inf
             while self.time < t_end * (1 - 1e-14):
                 before = self.time
                 # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
-                self.advance(min(next_frame, t_end), max_steps=STEPS_PER_CHUNK)
+                self.advance(min(next_frame, next_sample, t_end), max_steps=STEPS_PER_CHUNK)
+                if self.time >= next_sample * (1 - 1e-12) or (self.bodies and self.time >= t_end * (1 - 1e-14)):
+                    record_bodies()
+                    next_sample += body_interval
                 bar.update(self.time - before)
                 bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
                 if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
@@ -260,11 +327,14 @@ class Simulation:
         if writer:
             writer.set_attrs("/run", {"status": status, "wall_time": wall_time, "steps": self.step_count,
                                       "time": self.time, "granular_particles": len(self.mass),
-                                      "wall_particles": len(self.core.wall_position)})
+                                      "wall_particles": len(self.core.wall_position),
+                                      "leaked_particles": self.leaked_particles})
             writer.close()
             write_xdmf(output)
+        bodies = {name: {key: np.asarray(values) for key, values in series.items()}
+                  for name, series in body_series.items()}
         return RunResult(self.time, self.step_count, wall_time, frames, os.fspath(output) if output else None,
-                         status, diagnostics)
+                         status, diagnostics, bodies)
 
     def frame_fields(self) -> dict[str, np.ndarray]:
         """Copies of the per-particle fields written to each frame."""
@@ -278,4 +348,8 @@ class Simulation:
                 "spacing": self.scene.spacing, "width": self.width, "gravity": self.scene.gravity,
                 "walls": [{"name": w.name, "no_slip": w.no_slip, "remove_at": w.remove_at,
                            "particles": len(w.position)} for w in self.scene.walls],
+                "bodies": [{"name": b.name, "shape": b.shape.name if b.shape else None, "reference": list(b.reference),
+                            "angle": b.angle, "width": b.width, "motion": b.motion.rows(),
+                            "units": "force N and torque N*m for the body's width; angles clockwise"}
+                           for b in self.bodies],
                 "granular_particles": len(self.mass)}

@@ -55,6 +55,9 @@ template <int D> struct WallParticles {
   MatArray<D> stress_over_rho2;
   std::vector<std::uint8_t> no_slip;  // 1: rough wall (shear transmitted), 0: smooth
   std::vector<std::int32_t> group;    // wall group, e.g. floor, gate, body
+  std::vector<std::int32_t> body;     // index of the rigid body it belongs to, −1 for a fixed wall
+  VecArray<D> body_offset;            // position in the body frame (relative to its reference point)
+  VecArray<D> body_normal;            // normal in the body frame
 
   Index size() const { return position.rows(); }
 
@@ -70,6 +73,9 @@ template <int D> struct WallParticles {
     stress_over_rho2.setZero(n, D * D);
     no_slip.assign(static_cast<size_t>(n), 1);
     group.assign(static_cast<size_t>(n), 0);
+    body.assign(static_cast<size_t>(n), -1);
+    body_offset.setZero(n, D);
+    body_normal.setZero(n, D);
   }
 };
 

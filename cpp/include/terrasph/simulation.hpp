@@ -7,7 +7,9 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
+#include "terrasph/bodies.hpp"
 #include "terrasph/kernel.hpp"
 #include "terrasph/neighbours.hpp"
 #include "terrasph/params.hpp"
@@ -33,6 +35,9 @@ struct RunCounters {
   std::int64_t neighbour_builds = 0;
   double max_speed = 0.0;         // max |v| over granular particles after the last step
   double max_acceleration = 0.0;  // max |a| of the last rate evaluation
+  // leak diagnostics: granular particles closer than Δx/2 to a wall particle are inside a wall
+  std::int64_t penetrating_particles = 0;  // at the last rate evaluation
+  std::int64_t penetrated_particles = 0;   // distinct particles that ever were, over the run
   PhaseTimes phase_seconds;
 };
 
@@ -70,6 +75,15 @@ template <int D> class Simulation {
   // Applies the Shepard density filter once (Eq. 2.41).
   void apply_shepard_filter();
 
+  // Makes the wall particles of `wall_group` a rigid body whose reference point is at `reference`
+  // and whose current particle layout is the body rotated clockwise by `angle` (rad). From now on
+  // it follows `motion` (times relative to now) and the granular load on it is accumulated.
+  // Returns the body's index.
+  int add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
+               std::vector<MotionSegment<D>> motion);
+  const std::vector<RigidBody<D>>& bodies() const { return bodies_; }
+  // Restarts the time averages of force and torque (impulse / elapsed time) of every body.
+  void reset_body_impulses();
 
  private:
   void step(double dt);
@@ -79,7 +93,9 @@ template <int D> class Simulation {
   void wall_velocity_pass();
   template <bool ElasticQuasiStatic> void velocity_gradient_and_stress_pass(double dt);
   void wall_stress_pass();
-  template <bool UseDelta, bool UseXsph> void force_pass();
+  template <bool UseDelta, bool UseXsph, bool WithBodies> void force_pass();
+  void move_bodies(double time);
+  void accumulate_body_loads(double dt);
   void check_health() const;
 
   ModelParams<D> params_;
@@ -104,6 +120,10 @@ template <int D> class Simulation {
   // ∇v pass and read by the force pass (0 beyond the support)
   std::vector<double> pair_kernel_value_;
   std::vector<double> pair_gradient_factor_;
+  // force each granular–wall pair exerts on the wall, kept for walls that belong to a body
+  VecArray<D> pair_body_force_;
+  std::vector<RigidBody<D>> bodies_;
+  std::vector<std::uint8_t> penetrated_;   // 1 once a granular particle has been inside a wall
   VecArray<D> granular_position_at_build_;
   VecArray<D> wall_position_at_build_;
   bool neighbours_valid_ = false;
