@@ -101,3 +101,39 @@ def test_console_script_help() -> None:
     result = subprocess.run(["terrasph", "--help"], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0
     assert "run" in result.stdout and "train" in result.stdout and "predict" in result.stdout
+
+
+def test_run_leg_rotation_refuses_bad_input_before_work(tmp_path) -> None:
+    out = tmp_path / "never.h5"
+    result = run_cli("run", "leg-rotation", "--omega", "-0.2", "--out", str(out), "--no-progress", timeout=120)
+    assert result.returncode == 2
+    assert "omega" in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not out.exists()
+
+
+def test_short_leg_rotation_writes_body_series_and_plot(tmp_path) -> None:
+    """A fast sweep (ω = 20 rad/s, no pause, 7 cm bed: ~2 400 steps, ~10 s) through the real command.
+
+    At this speed (toe at 1.5 m/s) a couple of grains are pressed onto the leg's surface and are
+    counted by the leak counter; the slow sweeps of test_leg_rotation.py must have none."""
+    out = tmp_path / "leg.h5"
+    result = run_cli("run", "leg-rotation", "--leg", "flat", "--omega", "20", "--settle", "0", "--bed-depth", "0.07",
+                     "--out", str(out), "--no-progress", "--threads", "1")
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    assert out.with_suffix(".png").stat().st_size > 0
+    run = read_run(out)
+    assert summary["leaked_particles"] == run.group_attrs["/run"]["leaked_particles"]
+    series = run.series["bodies/leg"]
+    assert series["angle"][0] == pytest.approx(-0.7854, abs=1e-3)
+    assert series["angle"][-1] == pytest.approx(0.7854, abs=1e-3)
+    assert series["force"].shape == (len(series["time"]), 2)
+    assert summary["peak_thrust"] > 0
+
+
+def test_leg_that_would_hit_the_floor_is_refused(tmp_path) -> None:
+    result = run_cli("run", "leg-rotation", "--bed-depth", "0.04", "--out", str(tmp_path / "never.h5"),
+                     "--no-progress", timeout=120)
+    assert result.returncode == 2
+    assert "bed_depth" in result.stderr

@@ -26,7 +26,13 @@ import math
 
 import pytest
 from terrasph.config import ConfigError
-from terrasph.scenes.leg_rotation import LEGS, LegResult, LegRotation, build_leg_rotation, run_leg_rotation
+from terrasph.scenes.leg_rotation import (
+    LEGS,
+    LegResult,
+    LegRotation,
+    build_leg_rotation,
+    run_leg_rotation,
+)
 
 CI_BED = {"bed_depth": 0.08, "settle_time": 0.3}
 NOISE_LIMIT = 0.05
@@ -88,10 +94,10 @@ def test_bad_input_is_refused_before_any_work() -> None:
         LegRotation(hip_height=0.1)  # above the toe's reach: the leg would never touch the beads
     with pytest.raises(ConfigError, match="thinner than allowed|below the minimum"):
         # 6.4 mm at Δx = 3 mm holds two layers; the kernel needs three
-        scene, material, numerics = build_leg_rotation(LegRotation(spacing=0.003))
+        scene, _, numerics = build_leg_rotation(LegRotation(spacing=0.003))
         scene.validate(numerics)
     with pytest.raises(ConfigError, match="intersects"):
-        # a hip 10 cm below the surface puts the toe through the container floor of an 8 cm bed
-        scene, material, numerics = build_leg_rotation(LegRotation(hip_height=-0.03, bed_depth=0.04,
+        # a hip 3 cm below the surface puts the toe 10.6 cm deep, through the floor of a 4 cm bed
+        scene, _, numerics = build_leg_rotation(LegRotation(hip_height=-0.03, bed_depth=0.04,
                                                                    start_angle=-0.1))
         scene.validate(numerics)

@@ -14,13 +14,15 @@ physical laws, with their tolerances:
 * Prescribed motion is followed exactly: body particles sit at c + R(θ) r with θ from the
   schedule, and move with v = ω J R r, to 1e-12 m and 1e-12 m/s.
 * Loads scale with the body's real width (N for the width, DESIGN §2).
-* Leak counter: zero in a settled bed; it counts a grain put inside a wall.
+* Leak counter: zero in a settled bed; a grain pressed onto a wall's surface row is not counted, a
+  grain on the second layer is.
 * Bad input (a negative duration, a body through a wall, a body thinner than its wall layers,
   a shape sampled at another spacing) is refused with the parameter named.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -144,11 +146,44 @@ def test_leak_counter_counts_a_grain_inside_a_wall() -> None:
     sim = Simulation(bed_scene(box_is_body=False), Material(), NUMERICS)
     sim.advance(0.01)
     assert sim.leaked_particles == 0
+    # along the left wall, the row at x = −Δx/2 is the surface; the rows behind it are interior
+    interior = np.asarray(sim.core.wall_interior).astype(bool)
+    x, z = np.asarray(sim.core.wall_position).T
+    side = (z > 2 * DX) & (z < HEIGHT) & (x < 0)
+    assert side.sum() > 0
+    assert np.array_equal(interior[side], x[side] < -DX)
     corner = int(np.argmin(np.asarray(sim.position).sum(axis=1)))  # the grain in the bottom-left corner
-    sim.position[corner] = [-0.5 * DX, 0.5 * DX]  # on the first wall layer
+    sim.position[corner] = [-0.5 * DX, 0.5 * DX]  # pressed onto the surface row: not yet a leak
+    sim.refresh()
+    assert sim.core.penetrating_particles == 0
+    sim.position[corner] = [-1.5 * DX, 0.5 * DX]  # on the second layer: past the surface row
     sim.refresh()
     assert sim.core.penetrating_particles == 1
     assert sim.leaked_particles == 1
+
+
+def test_contact_barrier_pushes_a_grain_out_of_a_wall() -> None:
+    """A grain centre put 0.2Δx inside the left wall's surface, within 0.75Δx of one wall particle
+    only, gets the barrier's push on top of the pair forces: K (1 − r/r0)² x_iw/r with K = c²/h,
+    r0 = 0.75Δx (docs/design_decisions.md)."""
+    def pushed(barrier: float) -> tuple[np.ndarray, np.ndarray, float]:
+        sim = Simulation(bed_scene(box_is_body=False), Material(), dataclasses.replace(NUMERICS, wall_barrier=barrier))
+        corner = int(np.argmin(np.asarray(sim.position).sum(axis=1)))
+        sim.position[corner] = [-0.2 * DX, 2.5 * DX]
+        sim.refresh()
+        params = sim.core.params
+        c = max(params.artificial_sound_speed, params.eos_sound_speed)
+        offsets = np.asarray(sim.position[corner]) - np.asarray(sim.core.wall_position)
+        return np.array(sim.core.acceleration[corner]), offsets, c * c / sim.core.smoothing_length
+
+    with_barrier, offsets, strength = pushed(1.0)
+    without, _, _ = pushed(0.0)
+    distance = np.hypot(*offsets.T)
+    assert np.sum(distance < 0.75 * DX) == 1
+    k = int(np.argmin(distance))
+    expected = strength * (1 - distance[k] / (0.75 * DX)) ** 2 * offsets[k] / distance[k]
+    assert np.allclose(with_barrier - without, expected, rtol=1e-9, atol=1e-9 * strength)
+    assert with_barrier[0] > 0  # out of the wall
 
 
 def test_motion_schedules_refuse_bad_pieces() -> None:

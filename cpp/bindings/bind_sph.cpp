@@ -162,6 +162,8 @@ void bind_sph(py::module_& m) {
       .def_readwrite("sound_speed", &NumericsParams::sound_speed)
       .def_readwrite("artificial_viscosity", &NumericsParams::artificial_viscosity)
       .def_readwrite("wall_artificial_viscosity", &NumericsParams::wall_artificial_viscosity)
+      .def_readwrite("wall_barrier", &NumericsParams::wall_barrier)
+      .def_readwrite("density_floor", &NumericsParams::density_floor)
       .def_readwrite("delta_sph", &NumericsParams::delta_sph)
       .def_readwrite("xsph", &NumericsParams::xsph)
       .def_readwrite("shepard_interval", &NumericsParams::shepard_interval)
@@ -212,9 +214,15 @@ void bind_sph(py::module_& m) {
            "reference point at the last step, and their time averages since reset_body_means().")
       .def("reset_body_means", &Sim::reset_body_impulses, "Restart the time averages of body loads.")
       .def_property_readonly("penetrating_particles", [](const Sim& s) { return s.counters().penetrating_particles; },
-           "Granular particles closer than spacing/2 to a wall particle (inside a wall) at the last step.")
+           "Granular particles past a wall's surface row (closer than spacing/2 to an interior wall "
+           "particle) at the last step.")
       .def_property_readonly("penetrated_particles", [](const Sim& s) { return s.counters().penetrated_particles; },
-           "Distinct granular particles that have been inside a wall at any step of the run (leak counter).")
+           "Distinct granular particles that have got past a wall's surface row at any step of the run "
+           "(leak counter).")
+      .def_property_readonly("wall_interior", [](const Sim& s) {
+        const auto& v = s.walls_const().interior;
+        return py::array_t<std::uint8_t>(static_cast<py::ssize_t>(v.size()), v.data());
+      }, "1 for wall particles a layer or more inside their wall, 0 on the surface row.")
       .def("stable_time_step", &Sim::stable_time_step)
       .def("apply_shepard_filter", &Sim::apply_shepard_filter)
       .def("kernel_sum", &Sim::kernel_sum)

@@ -30,6 +30,16 @@ inline double artificial_viscosity(double v_dot_x, double r2, double h, double a
 // Rogers et al. 2019): the hydrostatic difference ρ0 g·x_ji / c_eos² is subtracted, so a bed at
 // rest under gravity is not driven by the diffusion of its own lithostatic density gradient.
 //   2δhc0 (ρ_j − ρ_i − ρ0 g·x_ji/c²) (x_ji·∇_iW_ij)/|x_ij|² V_j,   x_ji·∇_iW_ij/|x_ij|² = −grad_factor
+// Contact barrier between a grain and a wall particle closer than r0 = 0.75Δx: a_i = K (1 − r/r0)²
+// x_iw/r with K = c²/h, whose largest value keeps the acceleration step bound √(h/|a|) at the
+// sound-speed bound h/c. r0 exceeds Δx/√2, so no point between two surface particles is out of its
+// reach, and stays below the contact distance Δx of a grain resting on a wall (terrasph's own
+// addition, in the spirit of Monaghan's 1994 repulsive boundary force).
+inline double barrier_factor(double r, double r0, double strength) {
+  const double gap = 1.0 - r / r0;
+  return strength * gap * gap / r;
+}
+
 inline double density_diffusion(double delta_h_c0, double rho_difference, double volume_j, double grad_factor) {
   return 2.0 * delta_h_c0 * rho_difference * (-grad_factor) * volume_j;
 }
@@ -71,7 +81,31 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
                                   " has a non-positive mass or density");
   }
   penetrated_.assign(static_cast<size_t>(n), 0);
+  mark_interior_walls();
   refresh();
+}
+
+// A wall particle is interior when another particle of its wall group sits one spacing further
+// out along its normal (within Δx/2 of x_w + Δx n_w): it is not on the surface row. Grains reach
+// such particles only by getting past the surface row, which is what the leak counter counts.
+template <int D> void Simulation<D>::mark_interior_walls() {
+  const double dx = params_.numerics.spacing;
+  const Index nw = walls_.size();
+  if (nw == 0) return;
+  VecArray<D> outward(nw, D);
+  for (Index w = 0; w < nw; ++w)
+    row_vec<D>(outward, w) = row_vec<D>(walls_.position, w) + dx * row_vec<D>(walls_.normal, w);
+  Vec<D> lower, upper;
+  bounding_box<D>(walls_.position, outward, dx, lower, upper);
+  CellGrid<D> grid;
+  grid.build(walls_.position, lower, upper, 0.5 * dx);
+  NeighbourList next_layer;
+  build_neighbour_list<D>(outward, walls_.position, grid, 0.5 * dx, false, next_layer);
+  for (Index w = 0; w < nw; ++w) {
+    walls_.interior[w] = 0;
+    for (Index s = next_layer.offsets[w]; s < next_layer.offsets[w + 1]; ++s)
+      if (walls_.group[next_layer.indices[s]] == walls_.group[w]) walls_.interior[w] = 1;
+  }
 }
 
 template <int D> void Simulation<D>::refresh() {
@@ -293,7 +327,8 @@ template <int D> void Simulation<D>::wall_stress_pass() {
 // Continuity with δ-SPH (Eq. 2.42–2.43), momentum with artificial viscosity (Eq. 2.45–2.47) and
 // the XSPH velocity correction (Eq. 2.49), fused into one gather over each particle's pairs.
 // WithBodies: the force of each granular–body pair on the body is kept for Eq. 3.24–3.25.
-// Leak diagnostic: a granular particle closer than Δx/2 to a wall particle is inside the wall.
+// Leak diagnostic: a granular particle closer than Δx/2 to an interior wall particle has got past
+// the wall's surface row.
 template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Simulation<D>::force_pass() {
   const double h = kernel_.h;
   const double h2x4 = 4.0 * h * h;
@@ -306,6 +341,8 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
   const double eos_c = params_.eos_sound_speed();
   const Vec<D> hydrostatic_gradient = params_.material.reference_density / (eos_c * eos_c) * g;  // ∇ρ^H
   const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
+  const double barrier_radius = 0.75 * params_.numerics.spacing;
+  const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;
   double max_acc2 = 0.0;
   std::int64_t penetrating = 0, newly_penetrated = 0;
   const Index n = granular_.size();
@@ -343,14 +380,16 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
       if (on_body) row_vec<D>(pair_body_force_, s).setZero();
       const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
       const double r2 = xiw.squaredNorm();
-      nearest_wall2 = std::min(nearest_wall2, r2);
+      if (walls_.interior[w]) nearest_wall2 = std::min(nearest_wall2, r2);
       if (r2 >= h2x4) continue;
       const Vec<D> grad_w = kernel_.gradient_factor(std::sqrt(r2)) * xiw;
       const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
       const double m_w = walls_.mass[w];
       drho += m_w * viw.dot(grad_w);
       const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha_wall, c0, 2.0 / (rho_i + walls_.density[w]));
-      const Vec<D> pair_acc = m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
+      Vec<D> pair_acc = m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
+      if (r2 < barrier_radius * barrier_radius && barrier_strength > 0.0)
+        pair_acc += barrier_factor(std::sqrt(r2), barrier_radius, barrier_strength) * xiw;
       acc.noalias() += pair_acc;
       if (on_body) row_vec<D>(pair_body_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
     }
@@ -489,10 +528,13 @@ template <int D> void Simulation<D>::step(double dt) {
   const Index n = granular_.size();
   const bool xsph = params_.numerics.xsph > 0.0;
   const double half = 0.5 * dt;
+  // optional floor ρ ≥ f·ρ0: with the tension-free EOS a grain that separates from the bulk carries
+  // no pressure below ρ0 either way; the floor keeps it from re-entering the bed unresisted
+  const double density_floor = params_.numerics.density_floor * params_.material.reference_density;
   for_each_particle(n, [&](Index i) {  // kick, then drift (Eq. 2.49 for the drift velocity)
     auto v = row_vec<D>(granular_.velocity, i);
     v += half * row_vec<D>(granular_.acceleration, i);
-    granular_.density[i] += half * granular_.density_rate[i];
+    granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
     Vec<D> drift = v;
     if (xsph) drift += row_vec<D>(granular_.xsph_correction, i);
     row_vec<D>(granular_.position, i) += dt * drift;
@@ -506,7 +548,7 @@ template <int D> void Simulation<D>::step(double dt) {
   for (Index i = 0; i < n; ++i) {  // closing kick
     auto v = row_vec<D>(granular_.velocity, i);
     v += half * row_vec<D>(granular_.acceleration, i);
-    granular_.density[i] += half * granular_.density_rate[i];
+    granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
     max_v2 = std::max(max_v2, v.squaredNorm());
   }
   counters_.max_speed = std::sqrt(max_v2);
@@ -631,6 +673,7 @@ template <int D> void Simulation<D>::remove_wall_group(std::int32_t group) {
     kept.no_slip[k] = walls_.no_slip[w];
     kept.group[k] = walls_.group[w];
     kept.body[k] = walls_.body[w];
+    kept.interior[k] = walls_.interior[w];
     row_vec<D>(kept.body_offset, k) = row_vec<D>(walls_.body_offset, w);
     row_vec<D>(kept.body_normal, k) = row_vec<D>(walls_.body_normal, w);
   }

@@ -112,12 +112,18 @@ class Numerics:
     sound_speed: float = 0.0  #: c0 (m/s); 0 → Eq. 2.44
     artificial_viscosity: float = 0.1  #: α_Π (Eq. 2.46) between grains; the dissertation uses 1 (docs/design_decisions.md)
     wall_artificial_viscosity: float = 1.0  #: α_Π for granular–wall pairs, which keeps grains out of walls
+    #: strength of the contact barrier that pushes a grain centre out of a wall's solid (closer than
+    #: Δx/2 to a wall particle); 1 = K = c²/h, 0 = off (docs/design_decisions.md)
+    wall_barrier: float = 1.0
     delta_sph: float = 0.1  #: δ of the density diffusion (Eq. 2.42–2.43)
     xsph: float = 0.2  #: χ (Eq. 2.49)
     shepard_interval: int = 0  #: Shepard filter every N steps (Eq. 2.41); 0 = off
     kernel_gradient_correction: bool = False  #: renormalised ∇v (exact for linear fields)
     strain_rate_epsilon: float = -1.0  #: ε (1/s) of |D′| + ε; < 0 → 0.01·h² as in the dissertation
     neighbour_skin: float = 0.15  #: Verlet skin as a fraction of h
+    #: ρ ≥ density_floor·ρ0 after every kick, 0 = off. With the tension-free EOS a separating grain
+    #: has P = 0 below ρ0 anyway; a floor of 1 lets it push back as soon as it re-enters the bed
+    density_floor: float = 0.0
     density_ratio_min: float = 0.5  #: the run stops if ρ/ρ0 leaves [min, max]
     density_ratio_max: float = 1.5
 
@@ -130,6 +136,8 @@ class Numerics:
         _require(self.artificial_viscosity >= 0, "numerics.artificial_viscosity", self.artificial_viscosity, ">= 0")
         _require(self.wall_artificial_viscosity >= 0, "numerics.wall_artificial_viscosity",
                  self.wall_artificial_viscosity, ">= 0")
+        _require(self.wall_barrier >= 0, "numerics.wall_barrier", self.wall_barrier, ">= 0 (0 = off)")
+        _require(0 <= self.density_floor <= 1, "numerics.density_floor", self.density_floor, "[0, 1] (0 = off)")
         _require(0 <= self.delta_sph <= 1, "numerics.delta_sph", self.delta_sph, "0 <= delta <= 1")
         _require(0 <= self.xsph <= 1, "numerics.xsph", self.xsph, "0 <= chi <= 1")
         _require(isinstance(self.shepard_interval, int) and not isinstance(self.shepard_interval, bool)

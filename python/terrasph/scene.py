@@ -199,7 +199,8 @@ class Scene:
                                   "(closer than Δx/2); move the block or the wall")
         for body in self.bodies:
             try:
-                check_thickness(body.shape, self.spacing, numerics.h_factor)
+                if body.shape is not None:
+                    check_thickness(body.shape, self.spacing, numerics.h_factor)
             except ValueError as error:
                 raise ConfigError(f"body '{body.name}': {error}") from None
             others = [w.position for w in self.walls if w is not body]

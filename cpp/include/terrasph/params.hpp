@@ -38,12 +38,14 @@ struct NumericsParams {
   double sound_speed = 0.0;                 // c0; 0: Eq. 2.44 from the material
   double artificial_viscosity = 0.1;        // α_Π (Eq. 2.46) between grains; β_Π = 0; see docs/design_decisions.md
   double wall_artificial_viscosity = 1.0;   // α_Π for granular–wall pairs: keeps grains out of walls
+  double wall_barrier = 1.0;                // strength of the contact barrier inside walls (r < Δx/2); 0: off
   double delta_sph = 0.1;                   // δ of the density diffusion (Eq. 2.42–2.43)
   double xsph = 0.2;                        // χ (Eq. 2.49)
   int shepard_interval = 0;                 // Shepard filter every N steps (Eq. 2.41); 0: off
   bool kernel_gradient_correction = false;  // renormalise ∇v so linear fields are exact
   double strain_rate_epsilon = -1.0;        // ε of |D′|+ε (1/s); < 0: 0.01·h² (dissertation)
   double neighbour_skin = 0.15;             // Verlet skin as a fraction of h
+  double density_floor = 0.0;               // ρ ≥ density_floor·ρ0 after each kick; 0: no floor
   double density_ratio_min = 0.5;           // sane band for ρ/ρ0; outside it the run stops
   double density_ratio_max = 1.5;
 };
@@ -133,6 +135,9 @@ template <int D> struct ModelParams {
       throw parameter_error("numerics.artificial_viscosity", n.artificial_viscosity, ">= 0");
     if (!(n.wall_artificial_viscosity >= 0.0))
       throw parameter_error("numerics.wall_artificial_viscosity", n.wall_artificial_viscosity, ">= 0");
+    if (!(n.wall_barrier >= 0.0)) throw parameter_error("numerics.wall_barrier", n.wall_barrier, ">= 0");
+    if (!(n.density_floor >= 0.0 && n.density_floor <= 1.0))
+      throw parameter_error("numerics.density_floor", n.density_floor, "0 <= density_floor <= 1");
     if (!(n.delta_sph >= 0.0 && n.delta_sph <= 1.0))
       throw parameter_error("numerics.delta_sph", n.delta_sph, "0 <= delta <= 1");
     if (!(n.xsph >= 0.0 && n.xsph <= 1.0))

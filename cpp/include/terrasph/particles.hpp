@@ -56,6 +56,7 @@ template <int D> struct WallParticles {
   std::vector<std::uint8_t> no_slip;  // 1: rough wall (shear transmitted), 0: smooth
   std::vector<std::int32_t> group;    // wall group, e.g. floor, gate, body
   std::vector<std::int32_t> body;     // index of the rigid body it belongs to, −1 for a fixed wall
+  std::vector<std::uint8_t> interior; // 1: a layer or more inside its wall (not on the surface row)
   VecArray<D> body_offset;            // position in the body frame (relative to its reference point)
   VecArray<D> body_normal;            // normal in the body frame
 
@@ -74,6 +75,7 @@ template <int D> struct WallParticles {
     no_slip.assign(static_cast<size_t>(n), 1);
     group.assign(static_cast<size_t>(n), 0);
     body.assign(static_cast<size_t>(n), -1);
+    interior.assign(static_cast<size_t>(n), 0);
     body_offset.setZero(n, D);
     body_normal.setZero(n, D);
   }

@@ -35,7 +35,8 @@ struct RunCounters {
   std::int64_t neighbour_builds = 0;
   double max_speed = 0.0;         // max |v| over granular particles after the last step
   double max_acceleration = 0.0;  // max |a| of the last rate evaluation
-  // leak diagnostics: granular particles closer than Δx/2 to a wall particle are inside a wall
+  // leak diagnostics: a granular particle closer than Δx/2 to an interior wall particle (one that
+  // lies a layer or more inside its wall) has got past the wall's surface row
   std::int64_t penetrating_particles = 0;  // at the last rate evaluation
   std::int64_t penetrated_particles = 0;   // distinct particles that ever were, over the run
   PhaseTimes phase_seconds;
@@ -97,6 +98,7 @@ template <int D> class Simulation {
   void move_bodies(double time);
   void accumulate_body_loads(double dt);
   void check_health() const;
+  void mark_interior_walls();
 
   ModelParams<D> params_;
   WendlandC2<D> kernel_;
@@ -123,7 +125,7 @@ template <int D> class Simulation {
   // force each granular–wall pair exerts on the wall, kept for walls that belong to a body
   VecArray<D> pair_body_force_;
   std::vector<RigidBody<D>> bodies_;
-  std::vector<std::uint8_t> penetrated_;   // 1 once a granular particle has been inside a wall
+  std::vector<std::uint8_t> penetrated_;   // 1 once a granular particle has got past a wall's surface row
   VecArray<D> granular_position_at_build_;
   VecArray<D> wall_position_at_build_;
   bool neighbours_valid_ = false;

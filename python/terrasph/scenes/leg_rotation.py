@@ -25,7 +25,7 @@ from terrasph.motion import hold_then_rotate
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 
-__all__ = ["LEGS", "RESOLUTIONS", "LegResult", "LegRotation", "build_leg_rotation", "glass_beads",
+__all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "LegResult", "LegRotation", "build_leg_rotation", "glass_beads",
            "run_leg_rotation"]
 
 #: Leg shapes by name (bodies.py documents each reading of the dissertation's figures).
@@ -35,6 +35,12 @@ LEGS = ("flat", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
 #: that fills the kernel support 2h = 2.6Δx (bodies.minimum_thickness), so "coarse" is the coarsest
 #: resolution at which no grain can interact through the leg.
 RESOLUTIONS: dict[str, int] = {"coarse": 3, "fine": 4, "finer": 5}
+
+#: The scene's numerics beyond the defaults: the Shepard filter every 100 steps (Eq. 3.18, as in
+#: chapter 3) and the density floor ρ ≥ ρ0. Without them grains that separate from the bed (the
+#: free surface of the heap the leg pushes up, the cavity behind it) dilated below 0.5ρ0 and
+#: stopped 0.2 and 0.8 rad/s sweeps of the flat leg (docs/design_decisions.md).
+SCENE_NUMERICS: dict[str, Any] = {"shepard_interval": 100, "density_floor": 1.0}
 
 
 def glass_beads() -> Material:
@@ -65,7 +71,7 @@ class LegRotation:
     settle_time: float = 2.0  #: the leg is held still this long before it turns
     samples_per_radian: float = 100.0  #: load samples (each a time average, see Simulation.run)
     frame_interval: float = 0.1
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and terrasph.Numerics
 
     def __post_init__(self) -> None:
         if self.leg not in LEGS:
@@ -118,7 +124,7 @@ class LegRotation:
 def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
     """The bed in its container, the leg at its start angle, the material and the numerics."""
     dx = config.grid_spacing
-    numerics = from_mapping(Numerics, {"spacing": dx, **config.numerics})
+    numerics = from_mapping(Numerics, {"spacing": dx, **SCENE_NUMERICS, **config.numerics})
     layers = wall_layers_needed(numerics.h_factor)
     scene = Scene(spacing=dx)
     bed = scene.add_block(0.0, 0.0, config.bed_width, config.bed_depth)
@@ -133,6 +139,12 @@ def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
     except ValueError as error:
         raise ConfigError(f"leg geometry: {error}") from None
     hip = (0.5 * right, surface + config.hip_height)
+    sweep = np.linspace(config.start_angle, config.end_angle, 91)
+    lowest = min(shape.lowest_point(angle, hip) for angle in sweep)
+    if lowest < 3 * dx:
+        raise ConfigError(f"parameter 'bed_depth' = {config.bed_depth} is invalid: the leg reaches z = {lowest:.4f} m "
+                          f"during its sweep, within 3 particle spacings of the container floor; allowed a bed "
+                          f"deeper than {config.bed_depth - lowest + 3 * dx:.4f} m (or a higher hip)")
     motion = hold_then_rotate(config.settle_time, config.omega, config.end_angle - config.start_angle)
     scene.add_body("leg", shape, reference=hip, angle=config.start_angle, motion=motion, width=config.width)
     margin = (layers + 2) * dx
