@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from terrasph.geometry import polyline_wall, wall_layers_needed
 
 
