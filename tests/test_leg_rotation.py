@@ -97,7 +97,9 @@ def test_bad_input_is_refused_before_any_work() -> None:
         scene, _, numerics = build_leg_rotation(LegRotation(spacing=0.003))
         scene.validate(numerics)
     with pytest.raises(ConfigError, match="intersects"):
-        # a hip 3 cm below the surface puts the toe 10.6 cm deep, through the floor of a 4 cm bed
-        scene, _, numerics = build_leg_rotation(LegRotation(hip_height=-0.03, bed_depth=0.04,
-                                                                   start_angle=-0.1))
+        # in a 5 cm wide box the leg, 5.4 cm forward of the hip at −π/4, goes through the side wall
+        scene, _, numerics = build_leg_rotation(LegRotation(bed_width=0.05))
         scene.validate(numerics)
+    with pytest.raises(ConfigError, match="bed_depth"):
+        # a 4 cm bed: the toe would reach through the floor during the sweep
+        build_leg_rotation(LegRotation(bed_depth=0.04))
