@@ -4,8 +4,15 @@ from __future__ import annotations
 
 import argparse
 import json
+from typing import Any
 
-from terrasph.scenes.column_collapse import RESOLUTIONS, ColumnCollapse, run_column_collapse
+from terrasph.scenes import leg_rotation
+from terrasph.scenes.column_collapse import (
+    RESOLUTIONS,
+    ColumnCollapse,
+    run_column_collapse,
+)
+from terrasph.scenes.plate_intrusion import PlateIntrusion, run_plate_intrusion
 
 __all__ = ["register"]
 
@@ -27,19 +34,82 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     column.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
     column.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     column.set_defaults(handler=_run_column)
+    _register_plate(scenes)
+    _register_leg(scenes)
 
 
-def _run_column(args: argparse.Namespace) -> int:
+def _use_threads(args: argparse.Namespace) -> None:
+    """Applies ``--threads`` (process-wide OpenMP setting) when given."""
     if args.threads is not None:
         from terrasph import _core
 
         _core.set_num_threads(args.threads)
+
+
+def _print_summary(summary: dict[str, Any], output: str, plot: str | None) -> int:
+    """Prints a run's summary as JSON with the paths of its files; the command's exit code."""
+    print(json.dumps({**summary, "output": output, "plot": plot}, indent=2))
+    return 0
+
+
+def _run_column(args: argparse.Namespace) -> int:
+    _use_threads(args)
     config = ColumnCollapse(resolution=args.resolution, spacing=args.spacing,
                             friction_angles_deg=(args.mu1_deg, args.mu2_deg),
                             water_content=args.water_content, t_end=args.t_end)
     result = run_column_collapse(config, output=args.out, progress=not args.no_progress)
-    summary = result.summary()
-    summary["output"] = args.out
-    summary["plot"] = result.plot
-    print(json.dumps(summary, indent=2))
-    return 0
+    return _print_summary(result.summary(), args.out, result.plot)
+
+
+def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Adds ``run plate-intrusion``."""
+    default = PlateIntrusion()
+    plate = scenes.add_parser("plate-intrusion", help="horizontal plate pushed into a bed and pulled out",
+                              description="A horizontal plate pushed down into a settled bed of glass beads at "
+                                          "constant speed, then pulled up; vertical force against depth.")
+    plate.add_argument("--spacing", type=float, default=default.spacing,
+                       help=f"particle spacing in m (default {default.spacing:g})")
+    plate.add_argument("--speed", type=float, default=default.speed,
+                       help=f"plate speed in m/s, down then up (default {default.speed:g})")
+    plate.add_argument("--depth", type=float, default=default.max_depth,
+                       help=f"deepest depth of the plate underside below the surface in m (default {default.max_depth:g})")
+    plate.add_argument("--out", default="plate_intrusion.h5", help="HDF5 output file (a PNG is written beside it)")
+    plate.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
+    plate.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    plate.set_defaults(handler=_run_plate)
+
+
+def _run_plate(args: argparse.Namespace) -> int:
+    _use_threads(args)
+    config = PlateIntrusion(spacing=args.spacing, speed=args.speed, max_depth=args.depth)
+    result = run_plate_intrusion(config, output=args.out, progress=not args.no_progress)
+    return _print_summary(result.summary(), args.out, result.plot)
+
+
+def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Adds ``run leg-rotation``."""
+    default = leg_rotation.LegRotation()
+    leg = scenes.add_parser("leg-rotation", help="robot leg rotated through glass beads (dissertation ch. 3)",
+                            description="A leg held for a settling pause in a 24 × 15 cm bed of 3 mm glass beads, "
+                                        "then rotated clockwise about its hip from -pi/4 to pi/4; lift and thrust "
+                                        "against the leg angle.")
+    leg.add_argument("--leg", choices=leg_rotation.LEGS, default=default.leg, help="leg shape (default c-leg)")
+    leg.add_argument("--omega", type=float, default=default.omega, help="angular velocity in rad/s (default 0.2)")
+    leg.add_argument("--foot-ratio", type=float, default=default.foot_ratio,
+                     help="foot/leg length ratio fl of the L-legs (default 0.33)")
+    leg.add_argument("--resolution", choices=list(leg_rotation.RESOLUTIONS), default=default.resolution,
+                     help="3/4/5 particle rows across the 6.4 mm leg: dx = 2.13/1.60/1.28 mm (default coarse)")
+    leg.add_argument("--settle", type=float, default=default.settle_time, help="settling pause in s (default 2)")
+    leg.add_argument("--bed-depth", type=float, default=default.bed_depth, help="bed depth in m (default 0.15)")
+    leg.add_argument("--out", default="leg_rotation.h5", help="HDF5 output file (a PNG is written beside it)")
+    leg.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
+    leg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    leg.set_defaults(handler=_run_leg)
+
+
+def _run_leg(args: argparse.Namespace) -> int:
+    _use_threads(args)
+    config = leg_rotation.LegRotation(leg=args.leg, omega=args.omega, foot_ratio=args.foot_ratio,
+                                      resolution=args.resolution, settle_time=args.settle, bed_depth=args.bed_depth)
+    result = leg_rotation.run_leg_rotation(config, output=args.out, progress=not args.no_progress)
+    return _print_summary(result.summary(), args.out, result.plot)

@@ -1,0 +1,304 @@
+"""Plate intrusion: a horizontal plate pushed slowly down into a settled bed, then pulled up (issue 3).
+
+A plate 4 cm long, three particle rows thick (the thinnest a body may be, bodies.minimum_thickness)
+and 2.54 cm wide starts with its underside one spacing above the free surface of a 20 cm × 10 cm
+bed of 3 mm glass beads, at the bed's centre. After a settling pause it moves down at constant
+speed until its underside is 4 cm below the surface, then back up at the same speed to where it
+started. The vertical force of the beads on the plate, F_z (N for the real width, + up), is
+recorded against the depth of the underside below the undisturbed surface.
+
+It is the simplest check of the body coupling and a calibration point: in dry granular media the
+resisting stress on a slowly intruding flat plate grows linearly with depth, σ_z ≈ α ρ g z with α
+of order 10 (resistive force theory, Li, Zhang & Goldman 2013, Science 339:1408; impact and
+intrusion, Katsuragi & Durian 2007, Nature Phys. 3:420; in soil mechanics the bearing capacity
+q = γ D N_q + ½ γ B N_γ, with N_q = e^{π tan φ} tan²(45° + φ/2) ≈ 9–26 for φ = 23–33°,
+Terzaghi 1943). :meth:`PlateResult.fit` gives the slope k of F_z against depth and
+:meth:`PlateResult.alpha` = k / (ρ0 g L W), the α of that scaling.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from terrasph import bodies
+from terrasph.analysis import fit_line
+from terrasph.config import ConfigError, Material, Numerics, from_mapping
+from terrasph.geometry import wall_layers_needed
+from terrasph.motion import Hold, Motion, Move
+from terrasph.scene import GRAVITY, Scene
+from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.simulation import RunResult, Simulation
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["PlateIntrusion", "PlateResult", "build_plate_intrusion", "plot_intrusion", "run_plate_intrusion"]
+
+#: Wall height above the free surface (m): room for the plate above the bed and for heaped grains.
+WALL_FREEBOARD = 0.05
+
+
+@dataclass(frozen=True)
+class PlateIntrusion:
+    """Configuration of a plate intrusion. Lengths in m, times in s, speeds in m/s."""
+
+    speed: float = 0.02  #: plate speed, down then up (m/s)
+    max_depth: float = 0.04  #: depth of the plate's underside below the free surface at the turn
+    spacing: float = 0.0025  #: Δx (m)
+    plate_length: float = 0.04  #: L, along x
+    thickness: float | None = None  #: plate thickness; None → bodies.minimum_thickness (3Δx at h = 1.3Δx)
+    width: float = 0.0254  #: out-of-plane width W; forces are reported for it
+    bed_width: float = 0.20
+    bed_depth: float = 0.10
+    gap: float | None = None  #: start height of the underside above the surface; None → Δx (the least)
+    settle_time: float = 0.2  #: the plate is held still this long before it moves
+    sample_travel: float = 0.001  #: plate travel per load sample (each a time average over it)
+    frame_interval: float = 0.1
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+
+    def __post_init__(self) -> None:
+        for name in ("speed", "max_depth", "spacing", "plate_length", "width", "bed_width", "bed_depth",
+                     "sample_travel", "frame_interval"):
+            value = getattr(self, name)
+            if not (_is_number(value) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
+        if not (_is_number(self.settle_time) and math.isfinite(self.settle_time) and self.settle_time >= 0):
+            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
+        numerics = self.build_numerics()  # raises ConfigError for bad overrides
+        least = bodies.minimum_thickness(self.spacing, numerics.h_factor)
+        if self.thickness is not None and not (_is_number(self.thickness) and math.isfinite(self.thickness)
+                                               and least * (1 - 1e-9) <= self.thickness < 0.5 * self.plate_length):
+            raise ConfigError(f"parameter 'thickness' = {self.thickness!r} is invalid: allowed [{least:g}, "
+                              f"{0.5 * self.plate_length:g}) m (at least {wall_layers_needed(numerics.h_factor)} "
+                              "particle rows, so that no grain interacts through the plate; less than half its length)")
+        if self.gap is not None and not (_is_number(self.gap) and math.isfinite(self.gap)
+                                         and self.spacing * (1 - 1e-9) <= self.gap <= WALL_FREEBOARD / 2):
+            raise ConfigError(f"parameter 'gap' = {self.gap!r} is invalid: allowed [{self.spacing:g}, "
+                              f"{WALL_FREEBOARD / 2:g}] m (at least one spacing above the surface)")
+        if not 2 * self.spacing <= 0.5 * self.plate_length:
+            raise ConfigError(f"parameter 'plate_length' = {self.plate_length!r} is invalid: allowed >= "
+                              f"{4 * self.spacing:g} m (4 spacings)")
+        if not self.plate_length <= self.bed_width / 3:
+            raise ConfigError(f"parameter 'plate_length' = {self.plate_length!r} is invalid: allowed <= bed_width/3 "
+                              f"= {self.bed_width / 3:g} m (side walls at least one plate length from its ends)")
+        deepest = self.bed_depth - self.plate_thickness - 2 * wall_layers_needed(numerics.h_factor) * self.spacing
+        if not self.max_depth < deepest:
+            raise ConfigError(f"parameter 'max_depth' = {self.max_depth!r} is invalid: allowed (0, {deepest:g}) m "
+                              "(the plate must stay clear of the floor's kernel support)")
+
+    def build_numerics(self) -> Numerics:
+        """terrasph.Numerics at this spacing with the overrides applied."""
+        return from_mapping(Numerics, {"spacing": self.spacing, **self.numerics})
+
+    @property
+    def plate_thickness(self) -> float:
+        """Thickness as given, or the least allowed: ceil(2·h_factor) rows of Δx."""
+        if self.thickness is not None:
+            return self.thickness
+        return bodies.minimum_thickness(self.spacing, self.build_numerics().h_factor)
+
+    @property
+    def start_gap(self) -> float:
+        """Height of the plate's underside above the free surface at the start (m)."""
+        return self.spacing if self.gap is None else self.gap
+
+    @property
+    def stroke(self) -> float:
+        """Travel of one stroke, from the start to the deepest point (m)."""
+        return self.start_gap + self.max_depth
+
+    @property
+    def stroke_time(self) -> float:
+        """Duration of one stroke (s)."""
+        return self.stroke / self.speed
+
+    @property
+    def sample_interval(self) -> float:
+        """Time between load samples (s): `sample_travel` of travel, adjusted so a stroke holds a
+        whole number of samples."""
+        return self.stroke_time / max(1, round(self.stroke / self.sample_travel))
+
+    @property
+    def duration(self) -> float:
+        """Settling pause plus both strokes (s)."""
+        return self.settle_time + 2 * self.stroke_time
+
+    def motion(self) -> Motion:
+        """Hold, down at `speed` through the stroke, up at `speed` back to the start, then hold."""
+        pieces: list[Hold | Move] = [Hold(self.settle_time)] if self.settle_time > 0 else []
+        pieces += [Move(self.stroke_time, (0.0, -self.speed)), Move(self.stroke_time, (0.0, self.speed))]
+        return Motion(tuple(pieces))
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def build_plate_intrusion(config: PlateIntrusion) -> tuple[Scene, Material, Numerics]:
+    """The bed in its rough container, the plate above its centre, the material and the numerics."""
+    dx = config.spacing
+    numerics = config.build_numerics()
+    layers = wall_layers_needed(numerics.h_factor)
+    scene = Scene(spacing=dx)
+    bed = scene.add_block(0.0, 0.0, config.bed_width, config.bed_depth)
+    surface = float(bed[:, 1].max()) + 0.5 * dx
+    right = float(bed[:, 0].max()) + 0.5 * dx
+    wall_top = surface + WALL_FREEBOARD
+    # one polyline: a box of separate walls would leave gaps at the corners (tests/test_settling.py)
+    scene.add_wall("container", [(0.0, wall_top), (0.0, 0.0), (right, 0.0), (right, wall_top)],
+                   layers=layers, no_slip=True)
+    scene.surface_level = surface
+    try:
+        shape = bodies.plate(config.plate_length, config.plate_thickness, config.width, dx)
+    except ValueError as error:
+        raise ConfigError(f"plate geometry: {error}") from None
+    # the reference point is the plate's centre; its underside is half the realised rows below it
+    half = 0.5 * dx * round(config.plate_thickness / dx)
+    centre = (0.5 * right, surface + config.start_gap + half)
+    scene.add_body("plate", shape, reference=centre, motion=config.motion(), width=config.width)
+    margin = (layers + 2) * dx
+    scene.domain_lower = (-margin, -margin)
+    scene.domain_upper = (right + margin, wall_top + 0.1)
+    return scene, glass_beads(), numerics
+
+
+@dataclass
+class PlateResult:
+    """Vertical load on the plate against the depth of its underside, per load sample.
+
+    Each sample is a time average over `sample_travel` of travel; samples whose averaging window
+    straddles the turn (or the start) are dropped, so every one belongs wholly to a stroke.
+    """
+
+    depth: np.ndarray  #: underside below the undisturbed surface at the window's middle (m, + down)
+    force: np.ndarray  #: F_z of the beads on the plate (N for the real width, + up), window mean
+    phase: np.ndarray  #: "down" or "up" per sample
+    time: np.ndarray  #: end of each averaging window (s)
+    config: PlateIntrusion
+    granular_particles: int
+    leaked_particles: int
+    bulk_density: float  #: ρ0 of the material (kg/m³), for alpha
+    run: RunResult
+    plot: str | None = None
+
+    def stroke(self, phase: str) -> tuple[np.ndarray, np.ndarray]:
+        """(depth, F_z) of the "down" or "up" stroke, ordered by increasing depth."""
+        if phase not in ("down", "up"):
+            raise ValueError(f"phase = {phase!r} must be 'down' or 'up'")
+        mask = self.phase == phase
+        order = np.argsort(self.depth[mask])
+        return self.depth[mask][order], self.force[mask][order]
+
+    def fit(self, min_depth: float = 0.0, max_depth: float | None = None) -> tuple[float, float, float]:
+        """Line F_z = k·depth + b over the down stroke for min_depth < depth ≤ max_depth (default:
+        the deepest); returns (k in N/m, b in N, R²)."""
+        depth, force = self.stroke("down")
+        upper = depth.max() if max_depth is None else max_depth
+        mask = (depth > min_depth) & (depth <= upper + 1e-12)
+        return fit_line(depth[mask], force[mask])
+
+    @property
+    def reference_slope(self) -> float:
+        """ρ0 g L W (N/m): the slope of F_z against depth for α = 1 in σ_z = α ρ g z."""
+        return self.bulk_density * GRAVITY * self.config.plate_length * self.config.width
+
+    def alpha(self, min_depth: float = 0.0) -> float:
+        """α = k / (ρ0 g L W), the slope of the down-stroke fit in units of the hydrostatic one."""
+        return self.fit(min_depth)[0] / self.reference_slope
+
+    def hysteresis(self, depths: np.ndarray) -> np.ndarray:
+        """F_z(down) − F_z(up) at the given depths (N), by linear interpolation along each stroke."""
+        down_d, down_f = self.stroke("down")
+        up_d, up_f = self.stroke("up")
+        return np.interp(depths, down_d, down_f) - np.interp(depths, up_d, up_f)
+
+    def summary(self) -> dict[str, Any]:
+        """Flat dict for tables and HDF5 attributes."""
+        slope, intercept, r_squared = self.fit()
+        _, down_force = self.stroke("down")
+        return {"speed": self.config.speed, "max_depth": self.config.max_depth, "spacing": self.config.spacing,
+                "plate_thickness": self.config.plate_thickness, "slope": slope, "intercept": intercept,
+                "r_squared": r_squared, "alpha": slope / self.reference_slope,
+                "peak_force": float(down_force.max()), "samples": len(self.depth),
+                "granular_particles": self.granular_particles, "leaked_particles": self.leaked_particles,
+                "steps": self.run.steps, "time": self.run.time, "wall_time": self.run.wall_time,
+                "status": self.run.status}
+
+
+def _strokes(series: dict[str, np.ndarray], config: PlateIntrusion) -> tuple[np.ndarray, ...]:
+    """Depth at the window middle, F_z, phase and window end of the samples inside one stroke."""
+    time = series["time"]
+    depth = series["sinkage"]
+    start, turn, end = config.settle_time, config.settle_time + config.stroke_time, config.duration
+    tol = 1e-6 * config.sample_interval
+    begin = time[:-1]  # window k runs from sample k-1 to sample k; the plate moves linearly, so
+    stop = time[1:]  # the mean depth over it is the mean of its end depths
+    middle = 0.5 * (depth[:-1] + depth[1:])
+    down = (begin >= start - tol) & (stop <= turn + tol)
+    up = (begin >= turn - tol) & (stop <= end + tol)
+    keep = down | up
+    phase = np.where(down, "down", "up")[keep]
+    return middle[keep], series["force"][1:, 1][keep], phase, stop[keep]
+
+
+def run_plate_intrusion(config: PlateIntrusion = PlateIntrusion(), *, output: str | os.PathLike | None = None,
+                        progress: bool = True, plot: bool = True) -> PlateResult:
+    """Builds and runs a plate intrusion; writes HDF5 (body series under /series/bodies/plate,
+    summary under /results) and a PNG of F_z against depth beside it."""
+    scene, material, numerics = build_plate_intrusion(config)
+    sim = Simulation(scene, material, numerics, width=config.width)
+    run = sim.run(config.duration, output=output, frame_interval=config.frame_interval, progress=progress,
+                  body_interval=config.sample_interval,
+                  config={"scene": "plate-intrusion", "plate_intrusion": dataclasses.asdict(config), **sim.describe()})
+    depth, force, phase, time = _strokes(run.bodies["plate"], config)
+    result = PlateResult(depth, force, phase, time, config, len(sim.mass), sim.leaked_particles,
+                         material.reference_density, run)
+    if output is not None:
+        import h5py
+
+        with h5py.File(output, "a") as f:
+            group = f.require_group("results")
+            for key, value in result.summary().items():
+                group.attrs[key] = value
+            for key, value in (("depth", depth), ("force_z", force), ("phase", phase.astype("S4")), ("time", time)):
+                if key in group:
+                    del group[key]
+                group.create_dataset(key, data=value)
+        if plot:
+            png = Path(output).with_suffix(".png")
+            plot_intrusion(result, path=png)
+            result.plot = os.fspath(png)
+    return result
+
+
+def plot_intrusion(result: PlateResult, *, path: str | os.PathLike[str] | None = None) -> Figure:
+    """F_z against depth for the down and up strokes with the down-stroke line fit (matplotlib
+    Figure, no pyplot); saved to `path` when given."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(6.4, 4.0), layout="constrained")
+    axes = figure.add_subplot()
+    for phase, style in (("down", "o-"), ("up", "s-")):
+        depth, force = result.stroke(phase)
+        axes.plot(1e3 * depth, force, style, ms=3, label=f"{phase} stroke")
+    slope, intercept, r_squared = result.fit()
+    line = np.array([0.0, result.config.max_depth])
+    axes.plot(1e3 * line, slope * line + intercept, "k--",
+              label=f"fit: k = {slope:.3g} N/m, R² = {r_squared:.3f}, α = {slope / result.reference_slope:.2g}")
+    axes.axhline(0.0, color="0.6", lw=0.8)
+    axes.axvline(0.0, color="0.6", lw=0.8)
+    axes.set_xlabel("depth of the plate underside (mm)")
+    axes.set_ylabel("vertical force $F_z$ (N)")
+    axes.set_title(f"plate {1e3 * result.config.plate_length:g} mm, v = {1e3 * result.config.speed:g} mm/s, "
+                   f"Δx = {1e3 * result.config.spacing:g} mm")
+    axes.legend()
+    if path is not None:
+        figure.savefig(path, dpi=150)
+    return figure
