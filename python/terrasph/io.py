@@ -31,7 +31,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "read_run", "write_xdmf"]
+__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "read_run", "write_results", "write_xdmf"]
 
 SCHEMA_VERSION = 1
 UNITS = "SI; 2D plane strain, forces in N for the body's real width"
@@ -397,6 +397,20 @@ def _read_series(series: h5py.Group) -> dict[str, dict[str, np.ndarray]]:
         rows = min(values.shape[0] for values in columns.values())
         grouped[group] = {name: values[:rows] for name, values in columns.items()}
     return grouped
+
+
+def write_results(path: str | os.PathLike[str], summary: Mapping[str, Any],
+                  arrays: Mapping[str, np.ndarray] | None = None) -> None:
+    """Stores a finished run's results in its file: `summary` as attributes of ``/results`` and
+    `arrays` as datasets under it (replacing any of the same name)."""
+    with h5py.File(path, "a") as file:
+        group = file.require_group("results")
+        for key, value in summary.items():
+            group.attrs[key] = value
+        for key, value in (arrays or {}).items():
+            if key in group:
+                del group[key]
+            group.create_dataset(key, data=value)
 
 
 def read_run(path: str | os.PathLike[str]) -> RunData:

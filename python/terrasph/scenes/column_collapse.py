@@ -14,6 +14,7 @@ import numpy as np
 
 from terrasph.config import ConfigError, Material, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
+from terrasph.io import write_results
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 
@@ -151,12 +152,7 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
                           analysis.final_height(final, dx) / height0, length0, height0, len(final), dx, run,
                           toe_front=toe, final_position=final)
     if output is not None:
-        import h5py
-
-        with h5py.File(output, "a") as f:
-            group = f.require_group("results")
-            for key, value in result.summary().items():
-                group.attrs[key] = value
+        write_results(output, result.summary())
         if plot:
             from terrasph import plotting
 

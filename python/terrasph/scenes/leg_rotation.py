@@ -21,6 +21,7 @@ import numpy as np
 from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
+from terrasph.io import write_results
 from terrasph.motion import hold_then_rotate
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
@@ -210,12 +211,7 @@ def run_leg_rotation(config: LegRotation = LegRotation(), *, output: str | os.Pa
     result = LegResult(series["angle"][turning], series["force"][turning, 1], series["force"][turning, 0],
                        series["torque"][turning], config, len(sim.mass), sim.leaked_particles, run)
     if output is not None:
-        import h5py
-
-        with h5py.File(output, "a") as f:
-            group = f.require_group("results")
-            for key, value in result.summary().items():
-                group.attrs[key] = value
+        write_results(output, result.summary())
         if plot:
             from terrasph import plotting
 

@@ -31,6 +31,7 @@ from terrasph import bodies
 from terrasph.analysis import fit_line
 from terrasph.config import ConfigError, Material, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
+from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
 from terrasph.scene import GRAVITY, Scene
 from terrasph.scenes.leg_rotation import glass_beads
@@ -261,16 +262,8 @@ def run_plate_intrusion(config: PlateIntrusion = PlateIntrusion(), *, output: st
     result = PlateResult(depth, force, phase, time, config, len(sim.mass), sim.leaked_particles,
                          material.reference_density, run)
     if output is not None:
-        import h5py
-
-        with h5py.File(output, "a") as f:
-            group = f.require_group("results")
-            for key, value in result.summary().items():
-                group.attrs[key] = value
-            for key, value in (("depth", depth), ("force_z", force), ("phase", phase.astype("S4")), ("time", time)):
-                if key in group:
-                    del group[key]
-                group.create_dataset(key, data=value)
+        write_results(output, result.summary(),
+                      {"depth": depth, "force_z": force, "phase": phase.astype("S4"), "time": time})
         if plot:
             png = Path(output).with_suffix(".png")
             plot_intrusion(result, path=png)
