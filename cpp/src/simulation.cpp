@@ -46,6 +46,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
       sound_speed_(params.artificial_sound_speed()),
       signal_speed_(params.signal_speed()),
       shear_modulus_(params.shear_modulus()),
+      wall_volume_(std::pow(params.numerics.spacing, D)),
       granular_(std::move(granular)),
       walls_(std::move(walls)) {
   params_.validate();
@@ -189,47 +190,66 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
   });
 }
 
+// The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. Also caches W_ij and
+// (dW/dr)/r of every listed pair for the force pass; a pair beyond the support gets 0 for both
+// and adds exact zeros here, which is cheaper than a branch on it.
+template <int D>
+void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) {
+  const WendlandC2<D> kernel = kernel_;
+  const Vec<D> xi = row_vec<D>(granular_.position, i);
+  const Vec<D> vi = row_vec<D>(granular_.velocity, i);
+  const double* volume = granular_.volume.data();
+  double* kernel_value = pair_kernel_value_.data();
+  double* gradient_factor = pair_gradient_factor_.data();
+  Mat<D> g = grad, m = moment;  // local accumulators: the cache stores cannot alias them
+  for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
+    const std::int32_t j = granular_granular_.indices[s];
+    const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
+    double w = 0.0, f = 0.0;
+    kernel.pair_value_and_gradient_factor(xij.squaredNorm(), w, f);
+    kernel_value[s] = w;
+    gradient_factor[s] = f;
+    const double vf = volume[j] * f;
+    g.noalias() += (vf * (row_vec<D>(granular_.velocity, j) - vi)) * xij.transpose();
+    if (correct) m.noalias() -= (vf * xij) * xij.transpose();
+  }
+  grad = g;
+  moment = m;
+}
+
+// The wall terms of ∇v_i and M_i (Eq. 2.48) with the ghost velocities and V_w = Δx^D.
+template <int D>
+void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const {
+  const WendlandC2<D> kernel = kernel_;
+  const double wall_volume = wall_volume_;
+  const Vec<D> xi = row_vec<D>(granular_.position, i);
+  const Vec<D> vi = row_vec<D>(granular_.velocity, i);
+  Mat<D> g = grad, m = moment;
+  for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
+    const std::int32_t w = granular_wall_.indices[s];
+    const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
+    const double vf = wall_volume * kernel.pair_gradient_factor(xiw.squaredNorm());
+    g.noalias() += (vf * (row_vec<D>(walls_.ghost_velocity, w) - vi)) * xiw.transpose();
+    if (correct) m.noalias() -= (vf * xiw) * xiw.transpose();
+  }
+  grad = g;
+  moment = m;
+}
+
 // ∇v_i = Σ_j V_j (v_j − v_i) ⊗ ∇_iW_ij (Eq. 2.48), optionally renormalised by
 // M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_iW_ij so that linear fields are exact; then P (Eq. 2.30) and
 // σ from the μ(I) rheology (Eq. 2.29), in rate form or with the elastic quasi-static branch.
 template <int D>
 template <bool ElasticQuasiStatic>
 void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
-  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const bool correct = params_.numerics.kernel_gradient_correction;
   pair_kernel_value_.resize(granular_granular_.indices.size());
   pair_gradient_factor_.resize(granular_granular_.indices.size());
-  const double wall_volume = std::pow(params_.numerics.spacing, D);
   for_each_particle(granular_.size(), [&](Index i) {
-    const Vec<D> xi = row_vec<D>(granular_.position, i);
-    const Vec<D> vi = row_vec<D>(granular_.velocity, i);
     Mat<D> grad = Mat<D>::Zero();
     Mat<D> moment = Mat<D>::Zero();
-    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
-      const std::int32_t j = granular_granular_.indices[s];
-      const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
-      const double r2 = xij.squaredNorm();
-      if (r2 >= h2x4) {  // in the Verlet skin, outside the support
-        pair_kernel_value_[s] = 0.0;
-        pair_gradient_factor_[s] = 0.0;
-        continue;
-      }
-      double grad_factor = 0.0;
-      kernel_.value_and_gradient_factor(std::sqrt(r2), pair_kernel_value_[s], grad_factor);
-      pair_gradient_factor_[s] = grad_factor;
-      const double vf = granular_.volume[j] * grad_factor;
-      grad.noalias() += (vf * (row_vec<D>(granular_.velocity, j) - vi)) * xij.transpose();
-      if (correct) moment.noalias() -= (vf * xij) * xij.transpose();
-    }
-    for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
-      const std::int32_t w = granular_wall_.indices[s];
-      const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
-      const double r2 = xiw.squaredNorm();
-      if (r2 >= h2x4) continue;
-      const double vf = wall_volume * kernel_.gradient_factor(std::sqrt(r2));
-      grad.noalias() += (vf * (row_vec<D>(walls_.ghost_velocity, w) - vi)) * xiw.transpose();
-      if (correct) moment.noalias() -= (vf * xiw) * xiw.transpose();
-    }
+    add_granular_velocity_gradient(i, correct, grad, moment);
+    add_wall_velocity_gradient(i, correct, grad, moment);
     if (correct && std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
     row_mat<D>(granular_.velocity_gradient, i) = grad;
     const double rho = granular_.density[i];

@@ -1,6 +1,7 @@
 // Wendland C2 smoothing kernel with support 2h (dissertation Eq. 2.36; Wendland 1995).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 
 namespace terrasph {
@@ -10,10 +11,12 @@ template <int D> struct WendlandC2 {
   double alpha;  // α_d = 7/(4πh²) in 2D, 21/(16πh³) in 3D
   double inv_h;
   double gradient_coefficient;  // −5α/h²
+  double support2;              // (2h)²
 
   explicit WendlandC2(double smoothing_length)
       : h(smoothing_length), alpha(normalisation(smoothing_length)), inv_h(1.0 / smoothing_length),
-        gradient_coefficient(-5.0 * alpha / (smoothing_length * smoothing_length)) {}
+        gradient_coefficient(-5.0 * alpha / (smoothing_length * smoothing_length)),
+        support2(4.0 * smoothing_length * smoothing_length) {}
 
   static double normalisation(double hh) {
     static_assert(D == 2 || D == 3, "Wendland C2 is defined here for 2D and 3D");
@@ -53,6 +56,23 @@ template <int D> struct WendlandC2 {
     const double s3 = s * s * s;
     w = alpha * s3 * s * (2.0 * q + 1.0);
     gradient = gradient_coefficient * s3;
+  }
+
+  // The same pair from r² = |x_ij|², without a branch: W and (dW/dr)/r are 0 for r² ≥ (2h)²
+  // (the selects compile to blends, so pairs in a neighbour-list skin cost no mispredicted jump).
+  void pair_value_and_gradient_factor(double r2, double& w, double& gradient) const {
+    const double q = std::sqrt(r2) * inv_h;
+    const double s = r2 < support2 ? std::max(1.0 - 0.5 * q, 0.0) : 0.0;
+    const double s3 = s * s * s;
+    w = alpha * s3 * s * (2.0 * q + 1.0);
+    gradient = gradient_coefficient * s3;
+  }
+
+  // (dW/dr)/r alone from r², without a branch; rounds exactly as gradient_factor(√r²).
+  double pair_gradient_factor(double r2) const {
+    const double q = std::sqrt(r2) * inv_h;
+    const double s = r2 < support2 ? std::max(1.0 - 0.5 * q, 0.0) : 0.0;
+    return gradient_coefficient * s * s * s;
   }
 
   double self_value() const { return alpha; }
