@@ -5,6 +5,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -32,6 +33,46 @@ inline double artificial_viscosity(double v_dot_x, double r2, double h, double a
 //   2δhc0 (ρ_j − ρ_i − ρ0 g·x_ji/c²) (x_ji·∇_iW_ij)/|x_ij|² V_j,   x_ji·∇_iW_ij/|x_ij|² = −grad_factor
 inline double density_diffusion(double delta_h_c0, double rho_difference, double volume_j, double grad_factor) {
   return 2.0 * delta_h_c0 * rho_difference * (-grad_factor) * volume_j;
+}
+
+// Neighbours are processed in batches of at most kPairBatch: their data is copied into
+// contiguous arrays so that the pair arithmetic runs in SIMD lanes; the pair terms are then
+// summed one by one in list order, so every sum is the plain loop's (thread-count independent).
+constexpr int kPairBatch = 32;
+
+template <int D> struct PairBatch {
+  std::array<std::array<double, kPairBatch>, D> dx;  // x_ij = x_i − x_j
+  std::array<std::array<double, kPairBatch>, D> dv;  // v_ij = v_i − v_j
+  std::array<double, kPairBatch> r2;                 // |x_ij|²
+  std::array<double, kPairBatch> volume;             // V_j
+  std::array<double, kPairBatch> kernel_value;       // W_ij
+  std::array<double, kPairBatch> gradient_factor;    // (dW/dr)/r, ∇_iW_ij = x_ij · gradient_factor
+};
+
+// x_ij, v_ij and |x_ij|² of the neighbours `j[0..count)` of a particle at xi moving at vi.
+template <int D>
+void gather_pair_geometry(const std::int32_t* j, int count, const Vec<D>& xi, const Vec<D>& vi,
+                          const VecArray<D>& position, const VecArray<D>& velocity, PairBatch<D>& b) {
+  const double* x = position.data();
+  const double* v = velocity.data();
+  for (int k = 0; k < count; ++k) {
+    const Index base = D * static_cast<Index>(j[k]);
+    for (int d = 0; d < D; ++d) {
+      b.dx[d][k] = xi[d] - x[base + d];
+      b.dv[d][k] = vi[d] - v[base + d];
+    }
+  }
+  for (int k = 0; k < count; ++k) {
+    double r2 = b.dx[0][k] * b.dx[0][k];
+    for (int d = 1; d < D; ++d) r2 += b.dx[d][k] * b.dx[d][k];
+    b.r2[k] = r2;
+  }
+}
+
+template <int D>
+void kernel_values_and_gradient_factors(const WendlandC2<D>& kernel, int count, PairBatch<D>& b) {
+  for (int k = 0; k < count; ++k)
+    kernel.pair_value_and_gradient_factor(b.r2[k], b.kernel_value[k], b.gradient_factor[k]);
 }
 
 }  // namespace
@@ -192,26 +233,31 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
 
 // The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. Also caches W_ij and
 // (dW/dr)/r of every listed pair for the force pass; a pair beyond the support gets 0 for both
-// and adds exact zeros here, which is cheaper than a branch on it.
+// and adds exact zeros here, which is cheaper than a branch on it. Neighbours go in batches:
+// gathered into contiguous arrays, kernel evaluated in SIMD lanes, then summed in list order.
 template <int D>
 void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) {
-  const WendlandC2<D> kernel = kernel_;
   const Vec<D> xi = row_vec<D>(granular_.position, i);
   const Vec<D> vi = row_vec<D>(granular_.velocity, i);
-  const double* volume = granular_.volume.data();
-  double* kernel_value = pair_kernel_value_.data();
-  double* gradient_factor = pair_gradient_factor_.data();
   Mat<D> g = grad, m = moment;  // local accumulators: the cache stores cannot alias them
-  for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
-    const std::int32_t j = granular_granular_.indices[s];
-    const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
-    double w = 0.0, f = 0.0;
-    kernel.pair_value_and_gradient_factor(xij.squaredNorm(), w, f);
-    kernel_value[s] = w;
-    gradient_factor[s] = f;
-    const double vf = volume[j] * f;
-    g.noalias() += (vf * (row_vec<D>(granular_.velocity, j) - vi)) * xij.transpose();
-    if (correct) m.noalias() -= (vf * xij) * xij.transpose();
+  const Index end = granular_granular_.offsets[i + 1];
+  for (Index first = granular_granular_.offsets[i]; first < end; first += kPairBatch) {
+    const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
+    PairBatch<D> b;
+    gather_pair_geometry<D>(granular_granular_.indices.data() + first, count, xi, vi, granular_.position,
+                            granular_.velocity, b);
+    for (int k = 0; k < count; ++k) b.volume[k] = granular_.volume[granular_granular_.indices[first + k]];
+    kernel_values_and_gradient_factors<D>(kernel_, count, b);
+    std::copy_n(b.kernel_value.data(), count, pair_kernel_value_.data() + first);
+    std::copy_n(b.gradient_factor.data(), count, pair_gradient_factor_.data() + first);
+    for (int k = 0; k < count; ++k) {
+      const double vf = b.volume[k] * b.gradient_factor[k];
+      for (int r = 0; r < D; ++r)
+        for (int c = 0; c < D; ++c) g(r, c) += (vf * -b.dv[r][k]) * b.dx[c][k];
+      if (correct)
+        for (int r = 0; r < D; ++r)
+          for (int c = 0; c < D; ++c) m(r, c) -= (vf * b.dx[r][k]) * b.dx[c][k];
+    }
   }
   grad = g;
   moment = m;

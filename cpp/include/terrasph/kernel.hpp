@@ -1,7 +1,6 @@
 // Wendland C2 smoothing kernel with support 2h (dissertation Eq. 2.36; Wendland 1995).
 #pragma once
 
-#include <algorithm>
 #include <cmath>
 
 namespace terrasph {
@@ -62,7 +61,7 @@ template <int D> struct WendlandC2 {
   // (the selects compile to blends, so pairs in a neighbour-list skin cost no mispredicted jump).
   void pair_value_and_gradient_factor(double r2, double& w, double& gradient) const {
     const double q = std::sqrt(r2) * inv_h;
-    const double s = r2 < support2 ? std::max(1.0 - 0.5 * q, 0.0) : 0.0;
+    const double s = cut_off(r2, 1.0 - 0.5 * q);
     const double s3 = s * s * s;
     w = alpha * s3 * s * (2.0 * q + 1.0);
     gradient = gradient_coefficient * s3;
@@ -71,11 +70,19 @@ template <int D> struct WendlandC2 {
   // (dW/dr)/r alone from r², without a branch; rounds exactly as gradient_factor(√r²).
   double pair_gradient_factor(double r2) const {
     const double q = std::sqrt(r2) * inv_h;
-    const double s = r2 < support2 ? std::max(1.0 - 0.5 * q, 0.0) : 0.0;
+    const double s = cut_off(r2, 1.0 - 0.5 * q);
     return gradient_coefficient * s * s * s;
   }
 
   double self_value() const { return alpha; }
+
+ private:
+  // s = 1 − q/2 inside the support, else 0 (also where rounding makes q ≥ 2 for r² < (2h)²);
+  // plain selects on values, which the vectoriser turns into masks.
+  double cut_off(double r2, double s) const {
+    const double positive = s > 0.0 ? s : 0.0;
+    return r2 < support2 ? positive : 0.0;
+  }
 };
 
 }  // namespace terrasph
