@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <vector>
 #include <string>
 
 #include "terrasph/errors.hpp"
@@ -73,6 +74,48 @@ template <int D>
 void kernel_values_and_gradient_factors(const WendlandC2<D>& kernel, int count, PairBatch<D>& b) {
   for (int k = 0; k < count; ++k)
     kernel.pair_value_and_gradient_factor(b.r2[k], b.kernel_value[k], b.gradient_factor[k]);
+}
+
+// Constants of the pair terms of the continuity and momentum equations.
+template <int D> struct ForceConstants {
+  double h, alpha, c0, delta_h_c0, chi;
+  Vec<D> hydrostatic_gradient;  // ∇ρ^H = ρ0 g / c², c of the EOS
+};
+
+// The granular pairs' share of Dρ_i/Dt, Dv_i/Dt and the XSPH sum of particle i, in list order,
+// with W and (dW/dr)/r as cached by the ∇v pass. A pair beyond the support has both 0, so all
+// its terms are exact zeros: adding them is cheaper than a mispredicted branch.
+template <int D, bool UseDelta, bool UseXsph>
+void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
+                         const std::vector<double>& kernel_value, const std::vector<double>& gradient_factor,
+                         const ForceConstants<D>& constants, Vec<D>& acc, Vec<D>& xsph, double& drho) {
+  const ForceConstants<D> c = constants;
+  const Vec<D> xi = row_vec<D>(p.position, i);
+  const Vec<D> vi = row_vec<D>(p.velocity, i);
+  const double rho_i = p.density[i];
+  const Mat<D> si = row_mat<D>(p.stress_over_rho2, i);
+  Vec<D> a = acc, x = xsph;  // local accumulators
+  double r = drho;
+  for (Index s = list.offsets[i]; s < list.offsets[i + 1]; ++s) {
+    const double grad_factor = gradient_factor[s];
+    const std::int32_t j = list.indices[s];
+    const Vec<D> xij = xi - row_vec<D>(p.position, j);
+    const double r2 = xij.squaredNorm();
+    const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
+    const Vec<D> vij = vi - row_vec<D>(p.velocity, j);
+    const double m_j = p.mass[j];
+    const double rho_j = p.density[j];
+    const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
+    r += m_j * vij.dot(grad_w);  // Eq. 2.42, first term
+    if constexpr (UseDelta)  // x_ji = −x_ij
+      r += density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
+    const double pi_ij = artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
+    a.noalias() += m_j * ((si + row_mat<D>(p.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
+    if constexpr (UseXsph) x -= (c.chi * m_j * inv_rho_mean * kernel_value[s]) * vij;
+  }
+  acc = a;
+  xsph = x;
+  drho = r;
 }
 
 }  // namespace
@@ -372,6 +415,7 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
   const double eos_c = params_.eos_sound_speed();
   const Vec<D> hydrostatic_gradient = params_.material.reference_density / (eos_c * eos_c) * g;  // ∇ρ^H
   const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
+  const ForceConstants<D> constants{h, alpha, c0, delta_h_c0, chi, hydrostatic_gradient};
   double max_acc2 = 0.0;
   std::int64_t penetrating = 0, newly_penetrated = 0;
   const Index n = granular_.size();
@@ -384,24 +428,8 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
     Vec<D> acc = Vec<D>::Zero();
     Vec<D> xsph = Vec<D>::Zero();
     double drho = 0.0;
-    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
-      const double grad_factor = pair_gradient_factor_[s];  // cached by the ∇v pass
-      if (grad_factor == 0.0) continue;                    // outside the support
-      const std::int32_t j = granular_granular_.indices[s];
-      const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
-      const double r2 = xij.squaredNorm();
-      const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
-      const Vec<D> vij = vi - row_vec<D>(granular_.velocity, j);
-      const double m_j = granular_.mass[j];
-      const double rho_j = granular_.density[j];
-      const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
-      drho += m_j * vij.dot(grad_w);  // Eq. 2.42, first term
-      if constexpr (UseDelta)  // x_ji = −x_ij
-        drho += density_diffusion(delta_h_c0, rho_j - rho_i + hydrostatic_gradient.dot(xij), granular_.volume[j], grad_factor);
-      const double pi_ij = artificial_viscosity(vij.dot(xij), r2, h, alpha, c0, inv_rho_mean);
-      acc.noalias() += m_j * ((si + row_mat<D>(granular_.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
-      if constexpr (UseXsph) xsph -= (chi * m_j * inv_rho_mean * pair_kernel_value_[s]) * vij;
-    }
+    add_granular_forces<D, UseDelta, UseXsph>(i, granular_, granular_granular_, pair_kernel_value_,
+                                              pair_gradient_factor_, constants, acc, xsph, drho);
     double nearest_wall2 = std::numeric_limits<double>::infinity();
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];
