@@ -36,44 +36,29 @@ inline double density_diffusion(double delta_h_c0, double rho_difference, double
   return 2.0 * delta_h_c0 * rho_difference * (-grad_factor) * volume_j;
 }
 
-// Neighbours are processed in batches of at most kPairBatch: their data is copied into
-// contiguous arrays so that the pair arithmetic runs in SIMD lanes; the pair terms are then
-// summed one by one in list order, so every sum is the plain loop's (thread-count independent).
+// The ∇v pass takes neighbours in batches of at most kPairBatch: their |x_ij|² are gathered into
+// an array so that the kernel is evaluated in SIMD lanes; the pair terms are then summed one by
+// one in list order, so every sum is the plain loop's (thread-count independent).
 constexpr int kPairBatch = 32;
 
-template <int D> struct PairBatch {
-  std::array<std::array<double, kPairBatch>, D> dx;  // x_ij = x_i − x_j
-  std::array<std::array<double, kPairBatch>, D> dv;  // v_ij = v_i − v_j
-  std::array<double, kPairBatch> r2;                 // |x_ij|²
-  std::array<double, kPairBatch> volume;             // V_j
-  std::array<double, kPairBatch> kernel_value;       // W_ij
-  std::array<double, kPairBatch> gradient_factor;    // (dW/dr)/r, ∇_iW_ij = x_ij · gradient_factor
-};
-
-// x_ij, v_ij and |x_ij|² of the neighbours `j[0..count)` of a particle at xi moving at vi.
+// |x_i − x_j|² of the neighbours j[0..count) of a particle at xi.
 template <int D>
-void gather_pair_geometry(const std::int32_t* j, int count, const Vec<D>& xi, const Vec<D>& vi,
-                          const VecArray<D>& position, const VecArray<D>& velocity, PairBatch<D>& b) {
-  const double* x = position.data();
-  const double* v = velocity.data();
-  for (int k = 0; k < count; ++k) {
-    const Index base = D * static_cast<Index>(j[k]);
-    for (int d = 0; d < D; ++d) {
-      b.dx[d][k] = xi[d] - x[base + d];
-      b.dv[d][k] = vi[d] - v[base + d];
-    }
-  }
-  for (int k = 0; k < count; ++k) {
-    double r2 = b.dx[0][k] * b.dx[0][k];
-    for (int d = 1; d < D; ++d) r2 += b.dx[d][k] * b.dx[d][k];
-    b.r2[k] = r2;
-  }
+void squared_distances(const std::int32_t* j, int count, const Vec<D>& xi, const VecArray<D>& position,
+                       std::array<double, kPairBatch>& r2) {
+  for (int k = 0; k < count; ++k) r2[k] = (xi - row_vec<D>(position, j[k])).squaredNorm();
 }
 
+// (σ_i/ρ_i² + σ_j/ρ_j²)·∇_iW_ij of Eq. 2.45, row by row in registers: Eigen's product of the
+// summed matrices goes through a stack temporary whose reload stalls store forwarding.
 template <int D>
-void kernel_values_and_gradient_factors(const WendlandC2<D>& kernel, int count, PairBatch<D>& b) {
-  for (int k = 0; k < count; ++k)
-    kernel.pair_value_and_gradient_factor(b.r2[k], b.kernel_value[k], b.gradient_factor[k]);
+Vec<D> stress_divergence_term(const Mat<D>& si, const Eigen::Map<const Mat<D>>& sj, const Vec<D>& grad_w) {
+  Vec<D> term;
+  for (int r = 0; r < D; ++r) {
+    double sum = (si(r, 0) + sj(r, 0)) * grad_w[0];
+    for (int c = 1; c < D; ++c) sum += (si(r, c) + sj(r, c)) * grad_w[c];
+    term[r] = sum;
+  }
+  return term;
 }
 
 // Constants of the pair terms of the continuity and momentum equations.
@@ -110,7 +95,7 @@ void add_granular_forces(Index i, const GranularParticles<D>& p, const Neighbour
     if constexpr (UseDelta)  // x_ji = −x_ij
       r += density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
     const double pi_ij = artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
-    a.noalias() += m_j * ((si + row_mat<D>(p.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
+    a.noalias() += m_j * (stress_divergence_term<D>(si, row_mat<D>(p.stress_over_rho2, j), grad_w) - pi_ij * grad_w);
     if constexpr (UseXsph) x -= (c.chi * m_j * inv_rho_mean * kernel_value[s]) * vij;
   }
   acc = a;
@@ -277,7 +262,7 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
 // The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. Also caches W_ij and
 // (dW/dr)/r of every listed pair for the force pass; a pair beyond the support gets 0 for both
 // and adds exact zeros here, which is cheaper than a branch on it. Neighbours go in batches:
-// gathered into contiguous arrays, kernel evaluated in SIMD lanes, then summed in list order.
+// |x_ij|² gathered, the kernel evaluated in SIMD lanes, then the terms summed in list order.
 template <int D>
 void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) {
   const Vec<D> xi = row_vec<D>(granular_.position, i);
@@ -286,20 +271,17 @@ void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>
   const Index end = granular_granular_.offsets[i + 1];
   for (Index first = granular_granular_.offsets[i]; first < end; first += kPairBatch) {
     const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
-    PairBatch<D> b;
-    gather_pair_geometry<D>(granular_granular_.indices.data() + first, count, xi, vi, granular_.position,
-                            granular_.velocity, b);
-    for (int k = 0; k < count; ++k) b.volume[k] = granular_.volume[granular_granular_.indices[first + k]];
-    kernel_values_and_gradient_factors<D>(kernel_, count, b);
-    std::copy_n(b.kernel_value.data(), count, pair_kernel_value_.data() + first);
-    std::copy_n(b.gradient_factor.data(), count, pair_gradient_factor_.data() + first);
+    const std::int32_t* j = granular_granular_.indices.data() + first;
+    std::array<double, kPairBatch> r2;
+    squared_distances<D>(j, count, xi, granular_.position, r2);
+    double* kernel_value = pair_kernel_value_.data() + first;
+    double* gradient_factor = pair_gradient_factor_.data() + first;
+    for (int k = 0; k < count; ++k) kernel_.pair_value_and_gradient_factor(r2[k], kernel_value[k], gradient_factor[k]);
     for (int k = 0; k < count; ++k) {
-      const double vf = b.volume[k] * b.gradient_factor[k];
-      for (int r = 0; r < D; ++r)
-        for (int c = 0; c < D; ++c) g(r, c) += (vf * -b.dv[r][k]) * b.dx[c][k];
-      if (correct)
-        for (int r = 0; r < D; ++r)
-          for (int c = 0; c < D; ++c) m(r, c) -= (vf * b.dx[r][k]) * b.dx[c][k];
+      const Vec<D> xij = xi - row_vec<D>(granular_.position, j[k]);
+      const double vf = granular_.volume[j[k]] * gradient_factor[k];
+      g.noalias() += (vf * (row_vec<D>(granular_.velocity, j[k]) - vi)) * xij.transpose();
+      if (correct) m.noalias() -= (vf * xij) * xij.transpose();
     }
   }
   grad = g;
