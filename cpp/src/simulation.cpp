@@ -5,8 +5,10 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <vector>
 #include <string>
 
 #include "terrasph/errors.hpp"
@@ -44,6 +46,73 @@ inline double density_diffusion(double delta_h_c0, double rho_difference, double
   return 2.0 * delta_h_c0 * rho_difference * (-grad_factor) * volume_j;
 }
 
+// The ∇v pass takes neighbours in batches of at most kPairBatch: their |x_ij|² are gathered into
+// an array so that the kernel is evaluated in SIMD lanes; the pair terms are then summed one by
+// one in list order, so every sum is the plain loop's (thread-count independent).
+constexpr int kPairBatch = 32;
+
+// |x_i − x_j|² of the neighbours j[0..count) of a particle at xi.
+template <int D>
+void squared_distances(const std::int32_t* j, int count, const Vec<D>& xi, const VecArray<D>& position,
+                       std::array<double, kPairBatch>& r2) {
+  for (int k = 0; k < count; ++k) r2[k] = (xi - row_vec<D>(position, j[k])).squaredNorm();
+}
+
+// (σ_i/ρ_i² + σ_j/ρ_j²)·∇_iW_ij of Eq. 2.45, row by row in registers: Eigen's product of the
+// summed matrices goes through a stack temporary whose reload stalls store forwarding.
+template <int D>
+Vec<D> stress_divergence_term(const Mat<D>& si, const Eigen::Map<const Mat<D>>& sj, const Vec<D>& grad_w) {
+  Vec<D> term;
+  for (int r = 0; r < D; ++r) {
+    double sum = (si(r, 0) + sj(r, 0)) * grad_w[0];
+    for (int c = 1; c < D; ++c) sum += (si(r, c) + sj(r, c)) * grad_w[c];
+    term[r] = sum;
+  }
+  return term;
+}
+
+// Constants of the pair terms of the continuity and momentum equations.
+template <int D> struct ForceConstants {
+  double h, alpha, c0, delta_h_c0, chi;
+  Vec<D> hydrostatic_gradient;  // ∇ρ^H = ρ0 g / c², c of the EOS
+};
+
+// The granular pairs' share of Dρ_i/Dt, Dv_i/Dt and the XSPH sum of particle i, in list order,
+// with W and (dW/dr)/r as cached by the ∇v pass. A pair beyond the support has both 0, so all
+// its terms are exact zeros: adding them is cheaper than a mispredicted branch.
+template <int D, bool UseDelta, bool UseXsph>
+void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
+                         const std::vector<double>& kernel_value, const std::vector<double>& gradient_factor,
+                         const ForceConstants<D>& constants, Vec<D>& acc, Vec<D>& xsph, double& drho) {
+  const ForceConstants<D> c = constants;
+  const Vec<D> xi = row_vec<D>(p.position, i);
+  const Vec<D> vi = row_vec<D>(p.velocity, i);
+  const double rho_i = p.density[i];
+  const Mat<D> si = row_mat<D>(p.stress_over_rho2, i);
+  Vec<D> a = acc, x = xsph;  // local accumulators
+  double r = drho;
+  for (Index s = list.offsets[i]; s < list.offsets[i + 1]; ++s) {
+    const double grad_factor = gradient_factor[s];
+    const std::int32_t j = list.indices[s];
+    const Vec<D> xij = xi - row_vec<D>(p.position, j);
+    const double r2 = xij.squaredNorm();
+    const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
+    const Vec<D> vij = vi - row_vec<D>(p.velocity, j);
+    const double m_j = p.mass[j];
+    const double rho_j = p.density[j];
+    const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
+    r += m_j * vij.dot(grad_w);  // Eq. 2.42, first term
+    if constexpr (UseDelta)  // x_ji = −x_ij
+      r += density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
+    const double pi_ij = artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
+    a.noalias() += m_j * (stress_divergence_term<D>(si, row_mat<D>(p.stress_over_rho2, j), grad_w) - pi_ij * grad_w);
+    if constexpr (UseXsph) x -= (c.chi * m_j * inv_rho_mean * kernel_value[s]) * vij;
+  }
+  acc = a;
+  xsph = x;
+  drho = r;
+}
+
 }  // namespace
 
 template <int D>
@@ -56,6 +125,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
       sound_speed_(params.artificial_sound_speed()),
       signal_speed_(params.signal_speed()),
       shear_modulus_(params.shear_modulus()),
+      wall_volume_(std::pow(params.numerics.spacing, D)),
       granular_(std::move(granular)),
       walls_(std::move(walls)) {
   params_.validate();
@@ -223,47 +293,68 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
   });
 }
 
+// The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. Also caches W_ij and
+// (dW/dr)/r of every listed pair for the force pass; a pair beyond the support gets 0 for both
+// and adds exact zeros here, which is cheaper than a branch on it. Neighbours go in batches:
+// |x_ij|² gathered, the kernel evaluated in SIMD lanes, then the terms summed in list order.
+template <int D>
+void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) {
+  const Vec<D> xi = row_vec<D>(granular_.position, i);
+  const Vec<D> vi = row_vec<D>(granular_.velocity, i);
+  Mat<D> g = grad, m = moment;  // local accumulators: the cache stores cannot alias them
+  const Index end = granular_granular_.offsets[i + 1];
+  for (Index first = granular_granular_.offsets[i]; first < end; first += kPairBatch) {
+    const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
+    const std::int32_t* j = granular_granular_.indices.data() + first;
+    std::array<double, kPairBatch> r2;
+    squared_distances<D>(j, count, xi, granular_.position, r2);
+    double* kernel_value = pair_kernel_value_.data() + first;
+    double* gradient_factor = pair_gradient_factor_.data() + first;
+    for (int k = 0; k < count; ++k) kernel_.pair_value_and_gradient_factor(r2[k], kernel_value[k], gradient_factor[k]);
+    for (int k = 0; k < count; ++k) {
+      const Vec<D> xij = xi - row_vec<D>(granular_.position, j[k]);
+      const double vf = granular_.volume[j[k]] * gradient_factor[k];
+      g.noalias() += (vf * (row_vec<D>(granular_.velocity, j[k]) - vi)) * xij.transpose();
+      if (correct) m.noalias() -= (vf * xij) * xij.transpose();
+    }
+  }
+  grad = g;
+  moment = m;
+}
+
+// The wall terms of ∇v_i and M_i (Eq. 2.48) with the ghost velocities and V_w = Δx^D.
+template <int D>
+void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const {
+  const WendlandC2<D> kernel = kernel_;
+  const double wall_volume = wall_volume_;
+  const Vec<D> xi = row_vec<D>(granular_.position, i);
+  const Vec<D> vi = row_vec<D>(granular_.velocity, i);
+  Mat<D> g = grad, m = moment;
+  for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
+    const std::int32_t w = granular_wall_.indices[s];
+    const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
+    const double vf = wall_volume * kernel.pair_gradient_factor(xiw.squaredNorm());
+    g.noalias() += (vf * (row_vec<D>(walls_.ghost_velocity, w) - vi)) * xiw.transpose();
+    if (correct) m.noalias() -= (vf * xiw) * xiw.transpose();
+  }
+  grad = g;
+  moment = m;
+}
+
 // ∇v_i = Σ_j V_j (v_j − v_i) ⊗ ∇_iW_ij (Eq. 2.48), optionally renormalised by
 // M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_iW_ij so that linear fields are exact; then P (Eq. 2.30) and
 // σ from the μ(I) rheology (Eq. 2.29), in rate form or with the elastic quasi-static branch.
 template <int D>
 template <bool ElasticQuasiStatic>
 void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
-  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const bool correct = params_.numerics.kernel_gradient_correction;
   pair_kernel_value_.resize(granular_granular_.indices.size());
   pair_gradient_factor_.resize(granular_granular_.indices.size());
-  const double wall_volume = std::pow(params_.numerics.spacing, D);
   for_each_particle(granular_.size(), [&](Index i) {
-    const Vec<D> xi = row_vec<D>(granular_.position, i);
-    const Vec<D> vi = row_vec<D>(granular_.velocity, i);
     Mat<D> grad = Mat<D>::Zero();
     Mat<D> moment = Mat<D>::Zero();
-    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
-      const std::int32_t j = granular_granular_.indices[s];
-      const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
-      const double r2 = xij.squaredNorm();
-      if (r2 >= h2x4) {  // in the Verlet skin, outside the support
-        pair_kernel_value_[s] = 0.0;
-        pair_gradient_factor_[s] = 0.0;
-        continue;
-      }
-      double grad_factor = 0.0;
-      kernel_.value_and_gradient_factor(std::sqrt(r2), pair_kernel_value_[s], grad_factor);
-      pair_gradient_factor_[s] = grad_factor;
-      const double vf = granular_.volume[j] * grad_factor;
-      grad.noalias() += (vf * (row_vec<D>(granular_.velocity, j) - vi)) * xij.transpose();
-      if (correct) moment.noalias() -= (vf * xij) * xij.transpose();
-    }
-    for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
-      const std::int32_t w = granular_wall_.indices[s];
-      const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
-      const double r2 = xiw.squaredNorm();
-      if (r2 >= h2x4) continue;
-      const double vf = wall_volume * kernel_.gradient_factor(std::sqrt(r2));
-      grad.noalias() += (vf * (row_vec<D>(walls_.ghost_velocity, w) - vi)) * xiw.transpose();
-      if (correct) moment.noalias() -= (vf * xiw) * xiw.transpose();
-    }
+    add_granular_velocity_gradient(i, correct, grad, moment);
+    add_wall_velocity_gradient(i, correct, grad, moment);
     if (correct && std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
     row_mat<D>(granular_.velocity_gradient, i) = grad;
     const double rho = granular_.density[i];
@@ -343,6 +434,7 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
   const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
   const double barrier_radius = 0.75 * params_.numerics.spacing;
   const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;
+  const ForceConstants<D> constants{h, alpha, c0, delta_h_c0, chi, hydrostatic_gradient};
   double max_acc2 = 0.0;
   std::int64_t penetrating = 0, newly_penetrated = 0;
   const Index n = granular_.size();
@@ -355,24 +447,8 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
     Vec<D> acc = Vec<D>::Zero();
     Vec<D> xsph = Vec<D>::Zero();
     double drho = 0.0;
-    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
-      const double grad_factor = pair_gradient_factor_[s];  // cached by the ∇v pass
-      if (grad_factor == 0.0) continue;                    // outside the support
-      const std::int32_t j = granular_granular_.indices[s];
-      const Vec<D> xij = xi - row_vec<D>(granular_.position, j);
-      const double r2 = xij.squaredNorm();
-      const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
-      const Vec<D> vij = vi - row_vec<D>(granular_.velocity, j);
-      const double m_j = granular_.mass[j];
-      const double rho_j = granular_.density[j];
-      const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
-      drho += m_j * vij.dot(grad_w);  // Eq. 2.42, first term
-      if constexpr (UseDelta)  // x_ji = −x_ij
-        drho += density_diffusion(delta_h_c0, rho_j - rho_i + hydrostatic_gradient.dot(xij), granular_.volume[j], grad_factor);
-      const double pi_ij = artificial_viscosity(vij.dot(xij), r2, h, alpha, c0, inv_rho_mean);
-      acc.noalias() += m_j * ((si + row_mat<D>(granular_.stress_over_rho2, j)) * grad_w - pi_ij * grad_w);
-      if constexpr (UseXsph) xsph -= (chi * m_j * inv_rho_mean * pair_kernel_value_[s]) * vij;
-    }
+    add_granular_forces<D, UseDelta, UseXsph>(i, granular_, granular_granular_, pair_kernel_value_,
+                                              pair_gradient_factor_, constants, acc, xsph, drho);
     double nearest_wall2 = std::numeric_limits<double>::infinity();
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];

@@ -10,10 +10,12 @@ template <int D> struct WendlandC2 {
   double alpha;  // α_d = 7/(4πh²) in 2D, 21/(16πh³) in 3D
   double inv_h;
   double gradient_coefficient;  // −5α/h²
+  double support2;              // (2h)²
 
   explicit WendlandC2(double smoothing_length)
       : h(smoothing_length), alpha(normalisation(smoothing_length)), inv_h(1.0 / smoothing_length),
-        gradient_coefficient(-5.0 * alpha / (smoothing_length * smoothing_length)) {}
+        gradient_coefficient(-5.0 * alpha / (smoothing_length * smoothing_length)),
+        support2(4.0 * smoothing_length * smoothing_length) {}
 
   static double normalisation(double hh) {
     static_assert(D == 2 || D == 3, "Wendland C2 is defined here for 2D and 3D");
@@ -55,7 +57,32 @@ template <int D> struct WendlandC2 {
     gradient = gradient_coefficient * s3;
   }
 
+  // The same pair from r² = |x_ij|², without a branch: W and (dW/dr)/r are 0 for r² ≥ (2h)²
+  // (the selects compile to blends, so pairs in a neighbour-list skin cost no mispredicted jump).
+  void pair_value_and_gradient_factor(double r2, double& w, double& gradient) const {
+    const double q = std::sqrt(r2) * inv_h;
+    const double s = cut_off(r2, 1.0 - 0.5 * q);
+    const double s3 = s * s * s;
+    w = alpha * s3 * s * (2.0 * q + 1.0);
+    gradient = gradient_coefficient * s3;
+  }
+
+  // (dW/dr)/r alone from r², without a branch; rounds exactly as gradient_factor(√r²).
+  double pair_gradient_factor(double r2) const {
+    const double q = std::sqrt(r2) * inv_h;
+    const double s = cut_off(r2, 1.0 - 0.5 * q);
+    return gradient_coefficient * s * s * s;
+  }
+
   double self_value() const { return alpha; }
+
+ private:
+  // s = 1 − q/2 inside the support, else 0 (also where rounding makes q ≥ 2 for r² < (2h)²);
+  // plain selects on values, which the vectoriser turns into masks.
+  double cut_off(double r2, double s) const {
+    const double positive = s > 0.0 ? s : 0.0;
+    return r2 < support2 ? positive : 0.0;
+  }
 };
 
 }  // namespace terrasph

@@ -93,6 +93,8 @@ template <int D> class Simulation {
   void compute_rates(double dt);
   void wall_velocity_pass();
   template <bool ElasticQuasiStatic> void velocity_gradient_and_stress_pass(double dt);
+  void add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment);
+  void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const;
   void wall_stress_pass();
   template <bool UseDelta, bool UseXsph, bool WithBodies> void force_pass();
   void move_bodies(double time);
@@ -107,6 +109,7 @@ template <int D> class Simulation {
   double sound_speed_;
   double signal_speed_;
   double shear_modulus_;
+  double wall_volume_;  // V_w = Δx^D
 
   GranularParticles<D> granular_;
   WallParticles<D> walls_;
