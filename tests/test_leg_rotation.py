@@ -84,7 +84,7 @@ def test_faster_rotation_lifts_more_and_thrust_is_rate_independent(runs, leg: st
     I = γ̇ d/√(P/ρ_s) ~ 0.007–0.03 ≪ I0 = 0.279, where μ(I) rises by only ~4 % from one speed to the
     other: the frictional resistance is nearly rate-independent, as measured for slow intruders in
     granular media (Li, Zhang & Goldman 2013). Chapter 3 reports larger thrust at 0.8 rad/s as
-    well; this model does not reproduce that (measured: flat +3 %, C-leg −2 %)."""
+    well; this model does not reproduce that (measured: flat +3 %, C-leg −2 %, reversed C-leg +2 %)."""
     slow, fast = runs[(leg, 0.2)], runs[(leg, 0.8)]
     assert fast.leaked_particles == 0
     assert fast.peak_lift > slow.peak_lift
