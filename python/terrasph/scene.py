@@ -103,6 +103,24 @@ class Scene:
         self.walls.append(group)
         return group
 
+    def add_bed_in_container(self, width: float, depth: float, freeboard: float, *, layers: int,
+                             no_slip: bool = True) -> tuple[float, float]:
+        """A `width` × `depth` bed at the origin in a container drawn as one polyline (a box of
+        separate walls would leave gaps at its corners) reaching `freeboard` above the bed's
+        surface, with the domain box around it and room above for lifted grains. Sets
+        `surface_level`; returns (surface z, inner width) as realised on the lattice."""
+        bed = self.add_block(0.0, 0.0, width, depth)
+        surface = float(bed[:, 1].max()) + 0.5 * self.spacing
+        right = float(bed[:, 0].max()) + 0.5 * self.spacing
+        top = surface + freeboard
+        self.add_wall("container", [(0.0, top), (0.0, 0.0), (right, 0.0), (right, top)], layers=layers,
+                      no_slip=no_slip)
+        self.surface_level = surface
+        margin = (layers + 2) * self.spacing
+        self.domain_lower = (-margin, -margin)
+        self.domain_upper = (right + margin, top + 0.1)
+        return surface, right
+
     def add_body(self, name: str, shape: BodyShape, *, reference: tuple[float, float], angle: float = 0.0,
                  motion: Motion | None = None, width: float | None = None, no_slip: bool = True,
                  clear_granular: bool = True) -> BodyGroup:

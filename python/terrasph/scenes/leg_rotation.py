@@ -128,13 +128,8 @@ def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
     numerics = from_mapping(Numerics, {"spacing": dx, **SCENE_NUMERICS, **config.numerics})
     layers = wall_layers_needed(numerics.h_factor)
     scene = Scene(spacing=dx)
-    bed = scene.add_block(0.0, 0.0, config.bed_width, config.bed_depth)
-    surface = float(bed[:, 1].max()) + 0.5 * dx
-    right = float(bed[:, 0].max()) + 0.5 * dx
-    wall_top = surface + max(config.hip_height, 0.0) + config.leg_length  # sand heaped by the leg stays in
-    scene.add_wall("container", [(0.0, wall_top), (0.0, 0.0), (right, 0.0), (right, wall_top)],
-                   layers=layers, no_slip=True)
-    scene.surface_level = surface
+    freeboard = max(config.hip_height, 0.0) + config.leg_length  # sand heaped by the leg stays in
+    surface, right = scene.add_bed_in_container(config.bed_width, config.bed_depth, freeboard, layers=layers)
     try:
         shape = config.shape()
     except ValueError as error:
@@ -148,9 +143,6 @@ def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
                           f"deeper than {config.bed_depth - lowest + 3 * dx:.4f} m (or a higher hip)")
     motion = hold_then_rotate(config.settle_time, config.omega, config.end_angle - config.start_angle)
     scene.add_body("leg", shape, reference=hip, angle=config.start_angle, motion=motion, width=config.width)
-    margin = (layers + 2) * dx
-    scene.domain_lower = (-margin, -margin)
-    scene.domain_upper = (right + margin, wall_top + 0.1)
     return scene, glass_beads(), numerics
 
 

@@ -148,14 +148,7 @@ def build_plate_intrusion(config: PlateIntrusion) -> tuple[Scene, Material, Nume
     numerics = config.build_numerics()
     layers = wall_layers_needed(numerics.h_factor)
     scene = Scene(spacing=dx)
-    bed = scene.add_block(0.0, 0.0, config.bed_width, config.bed_depth)
-    surface = float(bed[:, 1].max()) + 0.5 * dx
-    right = float(bed[:, 0].max()) + 0.5 * dx
-    wall_top = surface + WALL_FREEBOARD
-    # one polyline: a box of separate walls would leave gaps at the corners (tests/test_settling.py)
-    scene.add_wall("container", [(0.0, wall_top), (0.0, 0.0), (right, 0.0), (right, wall_top)],
-                   layers=layers, no_slip=True)
-    scene.surface_level = surface
+    surface, right = scene.add_bed_in_container(config.bed_width, config.bed_depth, WALL_FREEBOARD, layers=layers)
     try:
         shape = bodies.plate(config.plate_length, config.plate_thickness, config.width, dx)
     except ValueError as error:
@@ -164,9 +157,6 @@ def build_plate_intrusion(config: PlateIntrusion) -> tuple[Scene, Material, Nume
     half = 0.5 * dx * round(config.plate_thickness / dx)
     centre = (0.5 * right, surface + config.start_gap + half)
     scene.add_body("plate", shape, reference=centre, motion=config.motion(), width=config.width)
-    margin = (layers + 2) * dx
-    scene.domain_lower = (-margin, -margin)
-    scene.domain_upper = (right + margin, wall_top + 0.1)
     return scene, glass_beads(), numerics
 
 
