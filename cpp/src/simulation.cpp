@@ -434,6 +434,7 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
   const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
   const double barrier_radius = 0.75 * params_.numerics.spacing;
   const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;
+  const double barrier_reach2 = barrier_strength > 0.0 ? barrier_radius * barrier_radius : 0.0;  // 0: off
   const ForceConstants<D> constants{h, alpha, c0, delta_h_c0, chi, hydrostatic_gradient};
   double max_acc2 = 0.0;
   std::int64_t penetrating = 0, newly_penetrated = 0;
@@ -464,7 +465,7 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
       drho += m_w * viw.dot(grad_w);
       const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha_wall, c0, 2.0 / (rho_i + walls_.density[w]));
       Vec<D> pair_acc = m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
-      if (r2 < barrier_radius * barrier_radius && barrier_strength > 0.0)
+      if (r2 < barrier_reach2)
         pair_acc += barrier_factor(std::sqrt(r2), barrier_radius, barrier_strength) * xiw;
       acc.noalias() += pair_acc;
       if (on_body) row_vec<D>(pair_body_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
@@ -511,7 +512,6 @@ int Simulation<D>::add_body(std::int32_t wall_group, const Vec<D>& reference, do
   start.reference = reference;
   start.angle = angle;
   RigidBody<D> body;
-  body.wall_group = wall_group;
   body.motion = PrescribedMotion<D>(start, std::move(motion));
   body.motion_start = counters_.time;
   bodies_.push_back(std::move(body));

@@ -96,7 +96,6 @@ template <int D> class PrescribedMotion {
 // Force and torque are per metre of depth in 2D (N/m, N·m/m); the Python layer multiplies by the
 // body's real width. The torque is about the reference point, clockwise-positive.
 template <int D> struct RigidBody {
-  std::int32_t wall_group = -1;
   PrescribedMotion<D> motion;
   double motion_start = 0.0;         // simulation time at which the schedule's t = 0 falls
   BodyKinematics<D> kinematics;
