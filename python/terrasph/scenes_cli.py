@@ -30,12 +30,17 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     column.add_argument("--mu2-deg", type=float, default=33.0, help="dynamic friction angle (deg)")
     column.add_argument("--water-content", type=float, default=0.0, help="gravimetric water content w")
     column.add_argument("--t-end", type=float, default=1.0, help="simulated time limit (s)")
-    column.add_argument("--out", default="column_collapse.h5", help="HDF5 output file (a PNG is written beside it)")
-    column.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
-    column.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    _add_run_options(column, default_output="column_collapse.h5")
     column.set_defaults(handler=_run_column)
     _register_plate(scenes)
     _register_leg(scenes)
+
+
+def _add_run_options(parser: argparse.ArgumentParser, default_output: str) -> None:
+    """Adds the options every scene shares: ``--out``, ``--threads``, ``--no-progress``."""
+    parser.add_argument("--out", default=default_output, help="HDF5 output file (a PNG is written beside it)")
+    parser.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
 def _use_threads(args: argparse.Namespace) -> None:
@@ -73,9 +78,7 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
                        help=f"plate speed in m/s, down then up (default {default.speed:g})")
     plate.add_argument("--depth", type=float, default=default.max_depth,
                        help=f"deepest depth of the plate underside below the surface in m (default {default.max_depth:g})")
-    plate.add_argument("--out", default="plate_intrusion.h5", help="HDF5 output file (a PNG is written beside it)")
-    plate.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
-    plate.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    _add_run_options(plate, default_output="plate_intrusion.h5")
     plate.set_defaults(handler=_run_plate)
 
 
@@ -101,9 +104,7 @@ def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
                      help="3/4/5 particle rows across the 6.4 mm leg: dx = 2.13/1.60/1.28 mm (default coarse)")
     leg.add_argument("--settle", type=float, default=default.settle_time, help="settling pause in s (default 2)")
     leg.add_argument("--bed-depth", type=float, default=default.bed_depth, help="bed depth in m (default 0.15)")
-    leg.add_argument("--out", default="leg_rotation.h5", help="HDF5 output file (a PNG is written beside it)")
-    leg.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
-    leg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    _add_run_options(leg, default_output="leg_rotation.h5")
     leg.set_defaults(handler=_run_leg)
 
 
