@@ -14,7 +14,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-
 from terrasph import _core
 from terrasph.plotting import plot_convergence
 from terrasph.scenes import ColumnCollapse, run_column_collapse

@@ -16,7 +16,6 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-
 from terrasph.io import read_run
 from terrasph.plotting import plot_leg_loads
 

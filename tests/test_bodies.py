@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from terrasph import bodies
 
 # chapter 3 legs at a coarse spacing: 2R = 7.62 cm hip to toe, thickness 0.64 cm, width 2.54 cm

@@ -23,7 +23,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from terrasph.io import read_run
-from terrasph.scenes.column_collapse import ColumnCollapse, build_column_collapse, run_column_collapse
+from terrasph.scenes.column_collapse import (
+    ColumnCollapse,
+    build_column_collapse,
+    run_column_collapse,
+)
 from terrasph.simulation import Simulation
 
 pytestmark = pytest.mark.slow

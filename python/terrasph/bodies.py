@@ -49,16 +49,27 @@ takes a leg pointing down (tip at (0, −R)) to point backward (tip at (−R, 0)
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from .geometry import wall_layers_needed
 
 __all__ = [
-    "BodyShape", "flat_leg", "c_leg", "reversed_c_leg", "l_leg", "reversed_l_leg", "wheel",
-    "leg_wheel", "plate", "minimum_thickness", "check_thickness", "rotation_matrix", "SPOKES",
+    "SPOKES",
+    "BodyShape",
+    "c_leg",
+    "check_thickness",
+    "flat_leg",
+    "l_leg",
+    "leg_wheel",
+    "minimum_thickness",
+    "plate",
+    "reversed_c_leg",
+    "reversed_l_leg",
+    "rotation_matrix",
+    "wheel",
 ]
 
 
@@ -157,7 +168,7 @@ def minimum_thickness(spacing: float, h_factor: float) -> float:
     return wall_layers_needed(h_factor) * dx
 
 
-def check_thickness(part: "BodyShape | float", spacing: float | None = None, h_factor: float = 1.3) -> None:
+def check_thickness(part: BodyShape | float, spacing: float | None = None, h_factor: float = 1.3) -> None:
     """Raise ValueError if a part (a :class:`BodyShape` or a thickness in m) is thinner than
     :func:`minimum_thickness` for this spacing and h_factor; for a BodyShape the spacing defaults
     to its own."""
@@ -413,7 +424,7 @@ SPOKES: dict[str, Callable[..., BodyShape]] = {
 }
 
 
-def leg_wheel(spoke: "Callable[..., BodyShape] | str", n_spokes: int, radius: float, thickness: float,
+def leg_wheel(spoke: Callable[..., BodyShape] | str, n_spokes: int, radius: float, thickness: float,
               width: float, spacing: float, **kw: float) -> BodyShape:
     """Hybrid leg-wheel (Fig. 1.2, 4.2): `n_spokes` copies of a leg rotated by 2π/n about the axle.
 
