@@ -43,22 +43,9 @@ template <int D> struct WendlandC2 {
     return gradient_coefficient * s * s * s;
   }
 
-  // W(r) and (dW/dr)/r together, sharing (1 − q/2); both 0 for q ≥ 2.
-  void value_and_gradient_factor(double r, double& w, double& gradient) const {
-    const double q = r * inv_h;
-    if (q >= 2.0) {
-      w = 0.0;
-      gradient = 0.0;
-      return;
-    }
-    const double s = 1.0 - 0.5 * q;
-    const double s3 = s * s * s;
-    w = alpha * s3 * s * (2.0 * q + 1.0);
-    gradient = gradient_coefficient * s3;
-  }
-
-  // The same pair from r² = |x_ij|², without a branch: W and (dW/dr)/r are 0 for r² ≥ (2h)²
-  // (the selects compile to blends, so pairs in a neighbour-list skin cost no mispredicted jump).
+  // W(r) and (dW/dr)/r of a pair from r² = |x_ij|², sharing (1 − q/2), without a branch: both are
+  // 0 for r² ≥ (2h)² (selects compile to blends: pairs in a neighbour-list skin cost no mispredicted
+  // jump).
   void pair_value_and_gradient_factor(double r2, double& w, double& gradient) const {
     const double q = std::sqrt(r2) * inv_h;
     const double s = cut_off(r2, 1.0 - 0.5 * q);
