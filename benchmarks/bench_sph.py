@@ -2,6 +2,7 @@
 
     python benchmarks/bench_sph.py throughput [--sizes 20000 80000 320000] [--threads 1 2] [--steps 200]
     python benchmarks/bench_sph.py features [--size 20000]
+    python benchmarks/bench_sph.py phases [--size 80000] [--threads 1]
 
 A scene is a bed of the dry glass beads at rest in a rough box (Δx = 2 mm, gravity on); it is
 stepped a fixed number of steps after a short warm-up. "particle-steps" count granular
@@ -94,6 +95,21 @@ def features(size: int, steps: int, repeats: int) -> None:
         print(f"| {name} | {1e3 * best:.2f} | {best / plain:.2f} |", flush=True)
 
 
+def phases(size: int, threads: int, steps: int) -> None:
+    """Wall time of each phase of a step (the core's phase timers), per particle-step."""
+    _core.set_num_threads(threads)
+    sim = bed(size, Material(), Numerics(spacing=SPACING))
+    sim.advance(1e9, max_steps=10)
+    before = dict(sim.core.phase_seconds)
+    sim.advance(1e9, max_steps=steps)
+    after = sim.core.phase_seconds
+    per_step = {name: (after[name] - before[name]) / steps / len(sim.mass) * 1e9 for name in after}
+    print(f"{len(sim.mass)} granular particles, {threads} thread(s), {steps} steps; ns per particle-step:")
+    for name, ns in per_step.items():
+        print(f"  {name:32s} {ns:7.1f}")
+    print(f"  {'total':32s} {sum(per_step.values()):7.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="what", required=True)
@@ -105,11 +121,17 @@ def main() -> None:
     f.add_argument("--size", type=int, default=20000)
     f.add_argument("--steps", type=int, default=200)
     f.add_argument("--repeats", type=int, default=3)
+    ph = sub.add_parser("phases")
+    ph.add_argument("--size", type=int, default=80000)
+    ph.add_argument("--threads", type=int, default=1)
+    ph.add_argument("--steps", type=int, default=100)
     args = parser.parse_args()
     if args.what == "throughput":
         throughput(args.sizes, args.threads, args.steps)
-    else:
+    elif args.what == "features":
         features(args.size, args.steps, args.repeats)
+    else:
+        phases(args.size, args.threads, args.steps)
 
 
 if __name__ == "__main__":
