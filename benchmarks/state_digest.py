@@ -15,7 +15,7 @@ import argparse
 import hashlib
 
 import numpy as np
-from bench_sph import bed
+from bench_sph import SPACING, bed
 from terrasph import _core
 from terrasph.config import Material, Numerics
 from terrasph.scenes.leg_rotation import LegRotation, build_leg_rotation
@@ -36,14 +36,13 @@ def digest(sim: Simulation) -> str:
 
 def bed_variants() -> dict[str, tuple[Material, Numerics]]:
     """Material and numerics of each bed variant, spanning the optional terms."""
-    spacing = 0.002
     return {
-        "default": (Material(), Numerics(spacing=spacing)),
-        "rate": (Material(quasi_static="rate"), Numerics(spacing=spacing)),
-        "no-delta": (Material(), Numerics(spacing=spacing, delta_sph=0.0)),
-        "no-xsph": (Material(), Numerics(spacing=spacing, xsph=0.0)),
-        "plain": (Material(quasi_static="rate"), Numerics(spacing=spacing, xsph=0.0, delta_sph=0.0)),
-        "correction+shepard": (Material(), Numerics(spacing=spacing, kernel_gradient_correction=True,
+        "default": (Material(), Numerics(spacing=SPACING)),
+        "rate": (Material(quasi_static="rate"), Numerics(spacing=SPACING)),
+        "no-delta": (Material(), Numerics(spacing=SPACING, delta_sph=0.0)),
+        "no-xsph": (Material(), Numerics(spacing=SPACING, xsph=0.0)),
+        "plain": (Material(quasi_static="rate"), Numerics(spacing=SPACING, xsph=0.0, delta_sph=0.0)),
+        "correction+shepard": (Material(), Numerics(spacing=SPACING, kernel_gradient_correction=True,
                                                     shepard_interval=7)),
     }
 
