@@ -3,11 +3,13 @@
 
 namespace py = pybind11;
 
-void bind_sph(py::module_& m);   // bind_sph.cpp: SPH simulation
-void bind_lstm(py::module_& m);  // bind_lstm.cpp: LSTM inference
+void bind_params(py::module_& m);  // bind_params.cpp: model constants
+void bind_sph(py::module_& m);     // bind_sph.cpp: SPH simulation
+void bind_lstm(py::module_& m);    // bind_lstm.cpp: LSTM inference
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "terrasph C++ core: SPH for granular media and LSTM inference";
+  bind_params(m);
   bind_sph(m);
   bind_lstm(m);
 }
