@@ -180,6 +180,9 @@ template <int D> py::dict body_to_dict(const RigidBody<D>& b) {
   d["angle"] = k.angle;
   d["velocity"] = Vec<D>(k.velocity);
   d["spin"] = k.spin;
+  d["acceleration"] = Vec<D>(k.acceleration);
+  d["angular_acceleration"] = k.angular_acceleration;
+  d["driven"] = b.driven;
   d["force"] = Vec<D>(b.force);
   d["torque"] = b.torque;
   d["impulse"] = Vec<D>(b.impulse);
@@ -218,6 +221,9 @@ template <int D> RigidBody<D> body_from_dict(const py::dict& d) {
   b.kinematics.angle = d["angle"].cast<double>();
   b.kinematics.velocity = d["velocity"].cast<Vec<D>>();
   b.kinematics.spin = d["spin"].cast<double>();
+  b.kinematics.acceleration = d["acceleration"].cast<Vec<D>>();
+  b.kinematics.angular_acceleration = d["angular_acceleration"].cast<double>();
+  b.driven = d["driven"].cast<bool>();
   b.force = d["force"].cast<Vec<D>>();
   b.torque = d["torque"].cast<double>();
   b.impulse = d["impulse"].cast<Vec<D>>();
@@ -233,6 +239,9 @@ template <int D> py::dict body_summary(const RigidBody<D>& b) {
   d["angle"] = b.kinematics.angle;
   d["velocity"] = Vec<D>(b.kinematics.velocity);
   d["spin"] = b.kinematics.spin;
+  d["acceleration"] = Vec<D>(b.kinematics.acceleration);
+  d["angular_acceleration"] = b.kinematics.angular_acceleration;
+  d["driven"] = b.driven;
   d["force"] = Vec<D>(b.force);
   d["torque"] = b.torque;
   const double t = b.impulse_time;
@@ -351,6 +360,24 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
            "Make a wall group a rigid body with reference point `reference` (m) and current clockwise "
            "angle `angle` (rad), following `motion`: rows (duration s, velocity m/s, spin rad/s clockwise) "
            "from now on, holding still after the last. Returns the body index.")
+      .def("add_driven_body", &Sim::add_driven_body, py::arg("group"), py::arg("reference"), py::arg("angle"),
+           "Make a wall group a rigid body driven from outside (a multibody engine): set its kinematics with "
+           "set_body_kinematics before each step. `reference` (m) and clockwise `angle` (rad) describe the "
+           "present layout. Returns the body index.")
+      .def("set_body_kinematics", [](Sim& s, int body, const Vec<D>& reference, double angle, const Vec<D>& velocity,
+                                     double spin, const Vec<D>& acceleration, double angular_acceleration) {
+             BodyKinematics<D> k;
+             k.reference = reference;
+             k.angle = angle;
+             k.velocity = velocity;
+             k.spin = spin;
+             k.acceleration = acceleration;
+             k.angular_acceleration = angular_acceleration;
+             s.set_body_kinematics(body, k);
+           }, py::arg("body"), py::arg("reference"), py::arg("angle"), py::arg("velocity"), py::arg("spin"),
+           py::arg("acceleration"), py::arg("angular_acceleration"),
+           "Pose (m, rad clockwise), velocity (m/s, rad/s) and acceleration (m/s², rad/s²) of a driven body at "
+           "the end of the next step; its particles follow at that step.")
       .def_property_readonly("body_count", [](const Sim& s) { return s.bodies().size(); })
       .def("body_state", [](const Sim& s, std::size_t b) {
              if (b >= s.bodies().size()) throw py::index_error("no body " + std::to_string(b));

@@ -518,7 +518,41 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
 template <int D>
 int Simulation<D>::add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
                             std::vector<MotionSegment<D>> motion) {
-  if (!reference.allFinite() || !std::isfinite(angle))
+  BodyKinematics<D> start;
+  start.reference = reference;
+  start.angle = angle;
+  RigidBody<D> body;
+  body.motion = PrescribedMotion<D>(start, std::move(motion));
+  body.motion_start = counters_.time;
+  return attach_body(wall_group, std::move(body));
+}
+
+template <int D> int Simulation<D>::add_driven_body(std::int32_t wall_group, const Vec<D>& reference, double angle) {
+  RigidBody<D> body;
+  body.driven = true;
+  body.kinematics.reference = reference;
+  body.kinematics.angle = angle;
+  return attach_body(wall_group, std::move(body));
+}
+
+template <int D> void Simulation<D>::set_body_kinematics(int index, const BodyKinematics<D>& kinematics) {
+  if (index < 0 || index >= static_cast<int>(bodies_.size()))
+    throw std::out_of_range("no body " + std::to_string(index));
+  if (!bodies_[static_cast<size_t>(index)].driven)
+    throw std::invalid_argument("body " + std::to_string(index) + " follows a prescribed motion; only a driven "
+                                "body takes its kinematics from outside");
+  if (!kinematics.reference.allFinite() || !std::isfinite(kinematics.angle) || !kinematics.velocity.allFinite() ||
+      !std::isfinite(kinematics.spin) || !kinematics.acceleration.allFinite() ||
+      !std::isfinite(kinematics.angular_acceleration))
+    throw std::invalid_argument("body " + std::to_string(index) + " kinematics must be finite numbers");
+  bodies_[static_cast<size_t>(index)].kinematics = kinematics;
+}
+
+// Makes the particles of `wall_group` the rigid body `body`, its frame given by the body's
+// kinematics at the current time (reference point and clockwise angle of the present layout).
+template <int D> int Simulation<D>::attach_body(std::int32_t wall_group, RigidBody<D> body) {
+  const BodyKinematics<D> now = body.driven ? body.kinematics : body.motion.at(0.0);
+  if (!now.reference.allFinite() || !std::isfinite(now.angle))
     throw std::invalid_argument("body reference point and angle must be finite");
   const int index = static_cast<int>(bodies_.size());
   body_offset_ = &walls_.fields.template add<double, D>("body_offset", "m", "position in the body frame");
@@ -529,18 +563,12 @@ int Simulation<D>::add_body(std::int32_t wall_group, const Vec<D>& reference, do
     if (walls_.body[w] >= 0)
       throw std::invalid_argument("wall group " + std::to_string(wall_group) + " is already a body");
     walls_.body[w] = index;
-    row_vec<D>(*body_offset_, w) = rotate_clockwise<D>(row_vec<D>(walls_.position, w) - reference, -angle);
-    row_vec<D>(*body_normal_, w) = rotate_clockwise<D>(row_vec<D>(walls_.normal, w), -angle);
+    row_vec<D>(*body_offset_, w) = rotate_clockwise<D>(row_vec<D>(walls_.position, w) - now.reference, -now.angle);
+    row_vec<D>(*body_normal_, w) = rotate_clockwise<D>(row_vec<D>(walls_.normal, w), -now.angle);
     ++members;
   }
   if (members == 0)
     throw std::invalid_argument("wall group " + std::to_string(wall_group) + " has no particles to make a body of");
-  BodyKinematics<D> start;
-  start.reference = reference;
-  start.angle = angle;
-  RigidBody<D> body;
-  body.motion = PrescribedMotion<D>(start, std::move(motion));
-  body.motion_start = counters_.time;
   bodies_.push_back(std::move(body));
   compose_passes();
   move_bodies(counters_.time);
@@ -557,18 +585,23 @@ template <int D> void Simulation<D>::reset_body_impulses() {
   }
 }
 
-// Places every body particle at its prescribed pose: x = c + R(θ) r, v = v_c + ω J R r, and the
-// acceleration a = −ω² R r of a steady spin, which enters the wall pressure as (g − a_w) (Eq. 3.31).
+// Places every body particle at its body's pose at `time` (the schedule's for a prescribed body,
+// the last one set for a driven body), with the rigid-body velocity and acceleration
+//   x = c + R(θ) r,  v = v_c + ω J R r,  a = a_c + α J R r − ω² R r  (J: quarter turn clockwise),
+// the acceleration entering the wall pressure as (g − a_w) (Eq. 3.31). A prescribed schedule has
+// piecewise-constant velocities, so a_c = α = 0 there and a = −ω² R r, the steady-spin term.
 template <int D> void Simulation<D>::move_bodies(double time) {
-  for (RigidBody<D>& body : bodies_) body.kinematics = body.motion.at(time - body.motion_start);
+  for (RigidBody<D>& body : bodies_)
+    if (!body.driven) body.kinematics = body.motion.at(time - body.motion_start);
   for_each_particle(walls_.size(), [&](Index w) {
     const std::int32_t b = walls_.body[w];
     if (b < 0) return;
     const BodyKinematics<D>& k = bodies_[static_cast<size_t>(b)].kinematics;
     const Vec<D> arm = rotate_clockwise<D>(row_vec<D>(*body_offset_, w), k.angle);
+    const Vec<D> turned = quarter_turn_clockwise<D>(arm);
     row_vec<D>(walls_.position, w) = k.reference + arm;
-    row_vec<D>(walls_.velocity, w) = k.velocity + k.spin * quarter_turn_clockwise<D>(arm);
-    row_vec<D>(walls_.acceleration, w) = -(k.spin * k.spin) * arm;
+    row_vec<D>(walls_.velocity, w) = k.velocity + k.spin * turned;
+    row_vec<D>(walls_.acceleration, w) = k.acceleration + k.angular_acceleration * turned - (k.spin * k.spin) * arm;
     row_vec<D>(walls_.normal, w) = rotate_clockwise<D>(row_vec<D>(*body_normal_, w), k.angle);
   });
 }

@@ -134,7 +134,10 @@ class Simulation:
                 self.core.schedule_wall_removal(wall.group_id, wall.remove_at)
         self.bodies = scene.bodies
         for body in self.bodies:
-            self.core.add_body(body.group_id, np.asarray(body.reference), body.angle, body.motion.rows())
+            if body.driven:
+                self.core.add_driven_body(body.group_id, np.asarray(body.reference), body.angle)
+            else:
+                self.core.add_body(body.group_id, np.asarray(body.reference), body.angle, body.motion.rows())
 
     def _core_params(self) -> _core.ModelParams2D:
         params = _core.ModelParams2D()
@@ -228,7 +231,8 @@ class Simulation:
         """Pose and load of a body, loads in N and N·m for its real width (DESIGN §2).
 
         Keys: ``reference`` (x, z) m, ``angle`` rad and ``omega`` rad/s (clockwise-positive),
-        ``velocity`` (vx, vz) m/s, ``force`` (F_x, F_z) N of the terrain on the body and ``torque``
+        ``velocity`` (vx, vz) m/s, ``acceleration`` (ax, az) m/s² and ``angular_acceleration`` rad/s²
+        (zero for a prescribed schedule), ``force`` (F_x, F_z) N of the terrain on the body and ``torque``
         N·m (clockwise-positive, about the reference point), both averaged over the time since the
         last :meth:`reset_body_means` (a box filter over ``averaged_over`` s; the instant values are
         ``force_now`` and ``torque_now``), ``lowest_z`` m and, when the scene has a ``surface_level``, ``sinkage`` m.
@@ -241,11 +245,24 @@ class Simulation:
         state = {"reference": np.asarray(raw["reference"]), "angle": raw["angle"],
                  "velocity": np.asarray(raw["velocity"]), "omega": raw["spin"],
                  "force": np.asarray(raw["mean_force"]) * body.width, "torque": raw["mean_torque"] * body.width,
+                 "acceleration": np.asarray(raw["acceleration"]), "angular_acceleration": raw["angular_acceleration"],
                  "force_now": np.asarray(raw["force"]) * body.width, "torque_now": raw["torque"] * body.width,
                  "averaged_over": raw["averaged_over"], "lowest_z": lowest}
         if self.scene.surface_level is not None:
             state["sinkage"] = self.scene.surface_level - lowest
         return state
+
+    def set_body_kinematics(self, name: str, reference: tuple[float, float], angle: float,
+                            velocity: tuple[float, float], omega: float,
+                            acceleration: tuple[float, float] = (0.0, 0.0), angular_acceleration: float = 0.0) -> None:
+        """Pose (m; rad, clockwise), velocity (m/s; rad/s) and acceleration (m/s²; rad/s²) of a
+        driven body at the end of the next step (DESIGN §3.6): its particles follow at that step,
+        and the acceleration enters its walls' pressure, a_w = a_c + α J r − ω² r (Eq. 3.31)."""
+        index = self._body_index(name)
+        if not self.bodies[index].driven:
+            raise ConfigError(f"body '{name}' follows a prescribed motion; add it with driven=True to drive it")
+        self.core.set_body_kinematics(index, np.asarray(reference, float), float(angle), np.asarray(velocity, float),
+                                      float(omega), np.asarray(acceleration, float), float(angular_acceleration))
 
     def reset_body_means(self) -> None:
         """Restarts the time averages of body forces and torques."""
@@ -477,7 +494,7 @@ class Simulation:
                 "walls": [{"name": w.name, "no_slip": w.no_slip, "remove_at": w.remove_at,
                            "particles": len(w.position)} for w in self.scene.walls],
                 "bodies": [{"name": b.name, "shape": b.shape.name if b.shape else None, "reference": list(b.reference),
-                            "angle": b.angle, "width": b.width, "motion": b.motion.rows(),
+                            "angle": b.angle, "width": b.width, "motion": b.motion.rows(), "driven": b.driven,
                             "units": "force N and torque N*m for the body's width; angles clockwise"}
                            for b in self.bodies],
                 "granular_particles": len(self.mass)}

@@ -101,6 +101,11 @@ template <int D> class Simulation {
   // Returns the body's index.
   int add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
                std::vector<MotionSegment<D>> motion);
+  // Makes the particles of `wall_group` a body driven from outside (a multibody engine, DESIGN
+  // §3.6): its kinematics are set with set_body_kinematics before each step, and they are taken
+  // as the body's state at the end of that step. `reference` and `angle` describe the layout now.
+  int add_driven_body(std::int32_t wall_group, const Vec<D>& reference, double angle);
+  void set_body_kinematics(int index, const BodyKinematics<D>& kinematics);
   const std::vector<RigidBody<D>>& bodies() const { return bodies_; }
   // Restarts the time averages of force and torque (impulse / elapsed time) of every body.
   void reset_body_impulses();
@@ -133,6 +138,7 @@ template <int D> class Simulation {
   void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const;
   template <class Model> void wall_stress_pass();
   template <bool UseDelta, bool UseXsph, bool WithBodies> void force_pass();
+  int attach_body(std::int32_t wall_group, RigidBody<D> body);
   void move_bodies(double time);
   void accumulate_body_loads(double dt);
   void check_health() const;
