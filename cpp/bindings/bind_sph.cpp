@@ -65,7 +65,7 @@ std::unique_ptr<Sim> make_simulation(
   GranularParticles<Dim> granular;
   const VecArray<Dim> x = to_vectors(position, "position");
   const Index n = x.rows();
-  granular.resize(n, params.numerics.xsph > 0.0, params.material.elastic_quasi_static);
+  granular.resize(n, params.numerics.xsph > 0.0, params.material.model == ConstitutiveModel::mu_i_hypoelastic);
   granular.position = x;
   granular.velocity = to_vectors(velocity, "velocity");
   if (granular.velocity.rows() != n) throw std::invalid_argument("velocity must have shape (N, 2) like position");

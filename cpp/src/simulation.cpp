@@ -137,7 +137,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
   const bool with_xsph = params_.numerics.xsph > 0.0;
   if (with_xsph && granular_.xsph_correction.rows() != n) granular_.xsph_correction.setZero(n, D);
   granular_.volume.resize(n);
-  if (params_.material.elastic_quasi_static && granular_.deviatoric_stress.rows() != n)
+  if (params_.material.model == ConstitutiveModel::mu_i_hypoelastic && granular_.deviatoric_stress.rows() != n)
     granular_.deviatoric_stress.setZero(n, D * D);
   for (Index i = 0; i < n; ++i) {
     const Vec<D> x = row_vec<D>(granular_.position, i);
@@ -244,7 +244,7 @@ template <int D> void Simulation<D>::compute_rates(double dt) {
   for_each_particle(granular_.size(), [&](Index i) { granular_.volume[i] = granular_.mass[i] / granular_.density[i]; });
   wall_velocity_pass();
   lap(t.wall_velocity);
-  if (params_.material.elastic_quasi_static) velocity_gradient_and_stress_pass<true>(dt);
+  if (params_.material.model == ConstitutiveModel::mu_i_hypoelastic) velocity_gradient_and_stress_pass<true>(dt);
   else velocity_gradient_and_stress_pass<false>(dt);
   lap(t.velocity_gradient_and_stress);
   wall_stress_pass();

@@ -3,7 +3,6 @@ run loop with progress, HDF5 output, scheduled wall removal and safe interruptio
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import platform
@@ -94,17 +93,8 @@ class Simulation:
 
     def _core_params(self) -> _core.ModelParams2D:
         params = _core.ModelParams2D()
-        material = params.material
-        for key in ("grain_density", "reference_density", "grain_diameter", "mu1", "mu2", "inertial_number_i0",
-                    "bulk_stiffness", "eos_exponent", "water_content", "shear_modulus"):
-            setattr(material, key, float(getattr(self.material, key)))
-        material.cohesion = self.material.cohesion
-        material.elastic_quasi_static = self.material.quasi_static == "elastic"
-        params.material = material
-        numerics = params.numerics
-        for f in dataclasses.fields(Numerics):
-            setattr(numerics, f.name, getattr(self.numerics, f.name))
-        params.numerics = numerics
+        params.material = self.material.to_core()
+        params.numerics = self.numerics.to_core()
         lower, upper = self.scene.domain()
         domain = params.domain
         domain.lower, domain.upper = lower, upper
