@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 from terrasph import _core
 from terrasph.config import PARAMETERS, ConfigError, Material, Numerics, Parameter, from_mapping, parameter
+from terrasph.scene import Scene
+from terrasph.simulation import Simulation
 
 PYTHON_CLASS = {"material": Material, "numerics": Numerics}
 CORE_CLASS = {"material": _core.MaterialParams, "numerics": _core.NumericsParams}
@@ -215,3 +217,25 @@ def test_cohesion_laws() -> None:
     assert flat / wet.cohesion == pytest.approx(1 + math.tan(math.radians(7.5)), rel=1e-12)
     # the core computes the same number from the same struct
     assert wet.to_core().cohesion() == wet.cohesion
+
+
+# -- derived uses: run-file units and CLI help ------------------------------------------------------
+def test_run_file_configuration_carries_each_parameter_unit() -> None:
+    scene = Scene(spacing=0.005)
+    scene.add_block(0.0, 0.0, 0.02, 0.02)
+    described = Simulation(scene, Material(), Numerics(spacing=0.005)).describe()
+    units = described["parameter_units"]
+    for entry in PARAMETERS:
+        assert units[entry.group][entry.name] == entry.unit
+    assert units["material"]["grain_density"] == "kg/m^3" and units["numerics"]["fixed_dt"] == "s"
+    assert set(described["material"]) == set(units["material"])  # a value for each unit, a unit for each value
+
+
+def test_cli_help_of_water_content_comes_from_the_table(capsys) -> None:
+    from terrasph.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["run", "column-collapse", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "0 <= water_content < 1" in text
+    assert " ".join(parameter("material.water_content").doc.split()) in text

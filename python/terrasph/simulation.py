@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from terrasph import _core
-from terrasph.config import ConfigError, Material, Numerics, as_dict
+from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_units
 from terrasph.scene import Scene, hydrostatic_density
 
 __all__ = ["RunResult", "Simulation", "versions"]
@@ -335,6 +335,7 @@ class Simulation:
     def describe(self) -> dict[str, Any]:
         """Configuration of this simulation as plain data (saved with the output)."""
         return {"material": as_dict(self.material), "numerics": as_dict(self.numerics),
+                "parameter_units": parameter_units(),
                 "spacing": self.scene.spacing, "width": self.width, "gravity": self.scene.gravity,
                 "walls": [{"name": w.name, "no_slip": w.no_slip, "remove_at": w.remove_at,
                            "particles": len(w.position)} for w in self.scene.walls],
