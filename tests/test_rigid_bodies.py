@@ -76,6 +76,13 @@ def momentum_balance_error(sim: Simulation) -> float:
     return float(np.linalg.norm(rate - weight + loads) / (mass.sum() * G))
 
 
+
+def _moved(position: np.ndarray, particle: int, to: list[float]) -> np.ndarray:
+    """A copy of `position` with one particle moved to `to`."""
+    moved = position.copy()
+    moved[particle] = to
+    return moved
+
 def test_newton_third_law_pair_by_pair_at_rest_and_while_driven() -> None:
     motion = Motion((Move(math.inf, (0.0, -0.05)),))
     sim = Simulation(bed_scene(box_is_body=True, plate_motion=motion), Material(), NUMERICS)
@@ -153,10 +160,10 @@ def test_leak_counter_counts_a_grain_inside_a_wall() -> None:
     assert side.sum() > 0
     assert np.array_equal(interior[side], x[side] < -DX)
     corner = int(np.argmin(np.asarray(sim.position).sum(axis=1)))  # the grain in the bottom-left corner
-    sim.position[corner] = [-0.5 * DX, 0.5 * DX]  # pressed onto the surface row: not yet a leak
+    sim.set_field("position", _moved(sim.position, corner, [-0.5 * DX, 0.5 * DX]))  # onto the surface row: no leak
     sim.refresh()
     assert sim.core.penetrating_particles == 0
-    sim.position[corner] = [-1.5 * DX, 0.5 * DX]  # on the second layer: past the surface row
+    sim.set_field("position", _moved(sim.position, corner, [-1.5 * DX, 0.5 * DX]))  # second layer: past it
     sim.refresh()
     assert sim.core.penetrating_particles == 1
     assert sim.leaked_particles == 1
@@ -169,7 +176,7 @@ def test_contact_barrier_pushes_a_grain_out_of_a_wall() -> None:
     def pushed(barrier: float) -> tuple[np.ndarray, np.ndarray, float]:
         sim = Simulation(bed_scene(box_is_body=False), Material(), dataclasses.replace(NUMERICS, wall_barrier=barrier))
         corner = int(np.argmin(np.asarray(sim.position).sum(axis=1)))
-        sim.position[corner] = [-0.2 * DX, 2.5 * DX]
+        sim.position = _moved(sim.position, corner, [-0.2 * DX, 2.5 * DX])
         sim.refresh()
         params = sim.core.params
         c = max(params.artificial_sound_speed, params.eos_sound_speed)

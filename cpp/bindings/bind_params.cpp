@@ -18,7 +18,7 @@ constexpr int Dim = 2;
 
 // A number or bool is a plain attribute; a choice is a str attribute that refuses unknown names.
 template <class Group, class T>
-void bind_field(py::class_<Group>& cls, const Field<Group, T>& field) {
+void bind_field(py::class_<Group>& cls, const ParameterField<Group, T>& field) {
   if constexpr (std::is_enum_v<T>) {
     const auto member = field.member;
     const std::string parameter = field.qualified_name();

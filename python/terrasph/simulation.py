@@ -3,11 +3,15 @@ run loop with progress, HDF5 output, scheduled wall removal and safe interruptio
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
+import pathlib
 import platform
+import signal
+import threading
 import time as wallclock
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -17,9 +21,42 @@ from terrasph import _core
 from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_units
 from terrasph.scene import Scene, hydrostatic_density
 
-__all__ = ["RunResult", "Simulation", "versions"]
+__all__ = ["RunResult", "Simulation", "checkpoint_path", "versions"]
 
 STEPS_PER_CHUNK = 500
+
+
+def checkpoint_path(output: str | os.PathLike[str]) -> pathlib.Path:
+    """Where a run writing `output` keeps its checkpoint: ``run.h5`` → ``run.checkpoint.h5``."""
+    path = pathlib.Path(output)
+    return path.with_name(path.stem + ".checkpoint.h5")
+
+
+class _StopRequest:
+    """Turns SIGINT and SIGTERM into a request that the run loop honours at the next step
+    boundary, so a stop never lands in the middle of writing a frame or a checkpoint. Outside the
+    main thread (where Python cannot install handlers) signals keep their default behaviour."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+    @contextlib.contextmanager
+    def catching_signals(self) -> Iterator[None]:
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def request(signum: int, frame: object) -> None:
+            if self.requested:  # a second Ctrl-C: stop now
+                raise KeyboardInterrupt
+            self.requested = True
+
+        previous = {sig: signal.signal(sig, request) for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
 
 
 def versions() -> dict[str, str]:
@@ -50,10 +87,11 @@ class RunResult:
 class Simulation:
     """A granular SPH simulation in plane strain, built from a validated scene.
 
-    Particle arrays (``position``, ``velocity``, ``density``, ``pressure``, ``stress``, …) are zero-copy
-    views into the C++ state: read them freely; after writing to them call :meth:`refresh`. Granular
-    views stay valid for the simulation's lifetime; views of wall arrays (``core.wall_position``, …)
-    are invalidated when a wall group is removed, so take them afresh after a removal.
+    Particle arrays (``position``, ``velocity``, ``density``, ``pressure``, ``stress``, any registered
+    field through :meth:`field`) are read-only copies in particle-id order: the core may store
+    particles in any order, and nothing handed out can dangle. To edit the state, assign
+    (``sim.velocity = v``) or call :meth:`set_field`, then :meth:`refresh`. Wall arrays
+    (``core.wall_position``, ``core.wall_group``, …) are id-ordered copies too.
     Granular masses are per metre of depth (m = ρ·Δx²); multiply by ``width`` for the real sample.
     """
 
@@ -83,10 +121,16 @@ class Simulation:
             if scene.walls else np.zeros(0, np.int32)
         wall_no_slip = np.concatenate([np.full(len(w.position), w.no_slip, np.uint8) for w in scene.walls]) \
             if scene.walls else np.zeros(0, np.uint8)
-        self._removals = sorted((w.remove_at, w.group_id) for w in scene.walls if w.remove_at is not None)
         self.core = _core.Simulation2D(
-            self._core_params(), position, np.zeros_like(position), density, density * dx2,
-            walls, scene.wall_normal, np.full(len(walls), material.reference_density * dx2), wall_no_slip, wall_group)
+            self._core_params(),
+            granular={"position": position, "velocity": np.zeros_like(position), "density": density,
+                      "mass": density * dx2},
+            walls={"position": walls, "normal": scene.wall_normal,
+                   "mass": np.full(len(walls), material.reference_density * dx2),
+                   "no_slip": wall_no_slip, "group": wall_group})
+        for wall in scene.walls:
+            if wall.remove_at is not None:
+                self.core.schedule_wall_removal(wall.group_id, wall.remove_at)
         self.bodies = scene.bodies
         for body in self.bodies:
             self.core.add_body(body.group_id, np.asarray(body.reference), body.angle, body.motion.rows())
@@ -116,33 +160,54 @@ class Simulation:
 
     @property
     def position(self) -> np.ndarray:
-        """Granular positions (N, 2), m (view)."""
+        """Granular positions (N, 2), m, in id order (a read-only copy; assign to change them)."""
         return self.core.position
+
+    @position.setter
+    def position(self, values: np.ndarray) -> None:
+        self.set_field("position", values)
 
     @property
     def velocity(self) -> np.ndarray:
-        """Granular velocities (N, 2), m/s (view)."""
+        """Granular velocities (N, 2), m/s, in id order (a read-only copy; assign to change them)."""
         return self.core.velocity
+
+    @velocity.setter
+    def velocity(self, values: np.ndarray) -> None:
+        self.set_field("velocity", values)
 
     @property
     def density(self) -> np.ndarray:
-        """Granular densities (N,), kg/m³ (view)."""
+        """Granular densities (N,), kg/m³, in id order (a read-only copy; assign to change them)."""
         return self.core.density
+
+    @density.setter
+    def density(self, values: np.ndarray) -> None:
+        self.set_field("density", values)
 
     @property
     def pressure(self) -> np.ndarray:
-        """Granular pressures from the EOS (N,), Pa (view)."""
+        """Granular pressures from the EOS (N,), Pa, in id order (a read-only copy)."""
         return self.core.pressure
 
     @property
     def stress(self) -> np.ndarray:
-        """Granular Cauchy stress (N, 2, 2), Pa (view)."""
+        """Granular Cauchy stress (N, 2, 2), Pa, in id order (a read-only copy)."""
         return self.core.stress
 
     @property
     def mass(self) -> np.ndarray:
-        """Granular masses per metre of depth (N,), kg/m (view)."""
+        """Granular masses per metre of depth (N,), kg/m, in id order (a read-only copy)."""
         return self.core.mass
+
+    def field(self, name: str, particles: str = "granular") -> np.ndarray:
+        """A registered per-particle field of ``particles`` ("granular" or "walls") in id order: a
+        read-only copy. ``core.field_names(particles)`` lists the names, ``core.field_units`` their units."""
+        return self.core.field(name, particles)
+
+    def set_field(self, name: str, values: np.ndarray, particles: str = "granular") -> None:
+        """Overwrites a per-particle field, rows in id order; call :meth:`refresh` before stepping on."""
+        self.core.set_field(name, np.asarray(values), particles)
 
     def kinetic_energy(self) -> float:
         """½ Σ m|v|² for the real width (J)."""
@@ -194,25 +259,41 @@ class Simulation:
 
     def advance(self, t_end: float, max_steps: int = 2**62) -> int:
         """Steps to `t_end` (s), applying scheduled wall removals; returns the steps taken."""
-        taken = 0
-        self._remove_due_walls()
-        while self.core.time < t_end * (1 - 1e-14) and taken < max_steps:
-            target = min(t_end, self._removals[0][0]) if self._removals else t_end
-            taken += self.core.advance(target, max_steps - taken)
-            self._remove_due_walls()
-        return taken
+        return int(self.core.advance(t_end, max_steps))
 
-    def _remove_due_walls(self) -> None:
-        """Removes the wall groups whose removal time has come."""
-        while self._removals and self._removals[0][0] <= self.core.time:
-            self.core.remove_wall_group(self._removals.pop(0)[1])
+    # -- checkpoints ----------------------------------------------------------------------
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
+        """Writes the whole State to `path` (HDF5, atomically); :meth:`restore` continues from it
+        bit for bit. `progress` is the run loop's own state (plain data), kept with it."""
+        from terrasph.checkpoint import write_checkpoint
+
+        return write_checkpoint(path, self.core.state(), self.describe(), progress)
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        """Replaces the State by the one saved in `path` and returns the run loop's progress saved
+        with it. The checkpoint must belong to this simulation's configuration (scene, material,
+        numerics, width, bodies): anything else is refused with :class:`CheckpointError` naming
+        the entries that differ, as is a corrupted, truncated or other-version file."""
+        from terrasph.checkpoint import CheckpointError, configuration_differences, read_checkpoint
+
+        state, config, progress = read_checkpoint(path)
+        differences = configuration_differences(config, self.describe())
+        if differences:
+            raise CheckpointError(f"checkpoint {path} belongs to another configuration; it differs in: "
+                                  f"{', '.join(differences)}")
+        try:
+            self.core.restore(state)
+        except (ValueError, TypeError, KeyError) as error:
+            raise CheckpointError(f"checkpoint {path} does not fit this simulation: {error}") from error
+        return progress
 
     # -- run loop -------------------------------------------------------------------------
     def run(self, t_end: float, *, output: str | os.PathLike | None = None, frame_interval: float = 0.05,
             progress: bool = True, config: dict[str, Any] | None = None,
             stop_when_at_rest: float | None = None, min_time: float = 0.0,
             on_frame: Callable[[Simulation], None] | None = None,
-            body_interval: float = 0.01) -> RunResult:
+            body_interval: float = 0.01, checkpoint_every: float | None = 600.0,
+            resume: bool = False) -> RunResult:
         """Runs to `t_end` (s), writing a frame every `frame_interval` (s) to `output` (HDF5).
 
         Every `body_interval` (s) each body's pose and load, averaged over the interval, is
@@ -220,33 +301,56 @@ class Simulation:
 
         With ``stop_when_at_rest = r`` the run ends once t ≥ `min_time` and the kinetic energy per
         unit mass ½|v|² (mean) drops below r·g·Δx — a bed whose grains move less than about
-        √(2r g Δx). Ctrl-C ends the run cleanly: the last frame is written and the file closed.
-        An :class:`terrasph.InstabilityError` is recorded in the file before it propagates.
+        √(2r g Δx).
+
+        With an `output`, the State is checkpointed to :func:`checkpoint_path` (`output` with
+        ``.checkpoint.h5``) every `checkpoint_every` seconds of wall time (None: never) and when
+        the run is stopped by Ctrl-C (SIGINT) or SIGTERM: the run then ends at the next step
+        boundary, the last frame is written, the file closed, and ``KeyboardInterrupt`` raised.
+        ``resume=True`` continues such a run from its checkpoint into the same file (frames and
+        series written after the checkpoint are dropped first, so each appears once); the
+        continued run is bitwise identical to one that never stopped. `t_end` may then exceed
+        the original one. An :class:`terrasph.InstabilityError` is recorded in the file before
+        it propagates.
         """
-        if not (t_end > self.time):
-            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")
         if not frame_interval > 0:
             raise ConfigError(f"parameter 'frame_interval' = {frame_interval} is invalid: allowed > 0")
         if not body_interval > 0:
             raise ConfigError(f"parameter 'body_interval' = {body_interval} is invalid: allowed > 0")
+        if checkpoint_every is not None and not checkpoint_every > 0:
+            raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
+        if resume and output is None:
+            raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
         from tqdm.auto import tqdm
 
-        from terrasph.io import RunWriter, write_xdmf
+        from terrasph.io import RunWriter, read_run, write_xdmf
 
-        writer = RunWriter(output, config or self.describe(), versions=versions()) if output else None
-        if writer:
-            writer.write_static("granular/mass", np.array(self.mass))
-            writer.write_static("walls/position", np.array(self.core.wall_position))
-            writer.write_static("walls/group", np.array(self.core.wall_group))
+        saved = self.restore(checkpoint_path(output)) if resume else {}
+        if not (t_end > self.time):
+            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")
+        if resume:
+            writer = RunWriter.reopen(output, frames=saved["frames"], series_rows=saved["series_rows"])
+        else:
+            writer = RunWriter(output, config or self.describe(), versions=versions()) if output else None
+            if writer:
+                writer.write_static("granular/mass", np.array(self.mass))
+                writer.write_static("walls/position", np.array(self.core.wall_position))
+                writer.write_static("walls/group", np.array(self.core.wall_group))
         diagnostics: dict[str, list[float]] = {k: [] for k in ("time", "step", "dt", "kinetic_energy",
                                                                  "max_speed", "neighbour_builds", "wall_time",
                                                                  "leaked_particles")}
         body_series: dict[str, dict[str, list[Any]]] = {b.name: {} for b in self.bodies}
-        start = wallclock.perf_counter()
-        frames = 0
+        start = wallclock.perf_counter() - saved.get("wall_time", 0.0)
+        frames = saved.get("frames", 0)
+        series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
         status = "completed"
         total_mass = float(self.mass.sum())
         rest_threshold = None if stop_when_at_rest is None else stop_when_at_rest * self.scene.gravity * self.scene.spacing
+
+        def append_series(group: str, row: dict[str, Any]) -> None:
+            if writer:
+                writer.append_series(group, row)
+                series_rows[group] = series_rows.get(group, 0) + 1
 
         def record() -> None:
             nonlocal frames
@@ -258,7 +362,7 @@ class Simulation:
                 diagnostics[key].append(float(value))
             if writer:
                 writer.write_frame(self.time, self.step_count, self.frame_fields())
-                writer.append_series("diagnostics", row)
+            append_series("diagnostics", row)
             frames += 1
             if on_frame:
                 on_frame(self)
@@ -268,39 +372,58 @@ class Simulation:
                 row = {"time": self.time, **self.body_state(body.name)}
                 for key, value in row.items():
                     body_series[body.name].setdefault(key, []).append(value)
-                if writer:
-                    writer.append_series(f"bodies/{body.name}", row)
+                append_series(f"bodies/{body.name}", row)
             self.reset_body_means()
+
+        def save_checkpoint() -> None:
+            if writer:
+                self.checkpoint(checkpoint_path(output), {
+                    "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
+                    "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start})
 
         bar = tqdm(total=round(t_end - self.time, 9), unit="s", disable=not progress, mininterval=0.5,
                    bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
-        try:
-            record()
-            if self.bodies:
-                record_bodies()
+        if resume:
+            next_frame, next_sample = saved["next_frame"], saved["next_sample"]
+        else:
             next_frame = self.time + frame_interval
             next_sample = self.time + body_interval if self.bodies else math.inf
-            while self.time < t_end * (1 - 1e-14):
-                before = self.time
-                # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
-                self.advance(min(next_frame, next_sample, t_end), max_steps=STEPS_PER_CHUNK)
-                if self.time >= next_sample * (1 - 1e-12) or (self.bodies and self.time >= t_end * (1 - 1e-14)):
-                    record_bodies()
-                    next_sample += body_interval
-                bar.update(self.time - before)
-                bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
-                if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
+        stop = _StopRequest()
+        try:
+            with stop.catching_signals():
+                if not resume:
                     record()
-                    next_frame += frame_interval
-                    specific_energy = diagnostics["kinetic_energy"][-1] / (total_mass * self.width)
-                    if rest_threshold is not None and self.time >= min_time and specific_energy < rest_threshold:
-                        status = "at_rest"
-                        break
+                    if self.bodies:
+                        record_bodies()
+                last_checkpoint = wallclock.perf_counter()
+                while self.time < t_end * (1 - 1e-14):
+                    before = self.time
+                    # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
+                    self.advance(min(next_frame, next_sample, t_end), max_steps=STEPS_PER_CHUNK)
+                    if self.time >= next_sample * (1 - 1e-12) or (self.bodies and self.time >= t_end * (1 - 1e-14)):
+                        record_bodies()
+                        next_sample += body_interval
+                    bar.update(self.time - before)
+                    bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
+                    if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
+                        record()
+                        next_frame += frame_interval
+                        specific_energy = diagnostics["kinetic_energy"][-1] / (total_mass * self.width)
+                        if rest_threshold is not None and self.time >= min_time and specific_energy < rest_threshold:
+                            status = "at_rest"
+                            break
+                    if stop.requested:
+                        raise KeyboardInterrupt
+                    if checkpoint_every is not None and wallclock.perf_counter() - last_checkpoint >= checkpoint_every:
+                        save_checkpoint()
+                        last_checkpoint = wallclock.perf_counter()
         except KeyboardInterrupt:
             status = "interrupted"
             if writer:
+                save_checkpoint()  # before the extra frame below, which a resumed run drops
                 writer.write_frame(self.time, self.step_count, self.frame_fields())
-                writer.set_attrs("/run", {"status": status})
+                writer.set_attrs("/run", {"status": status, "time": self.time, "steps": self.step_count,
+                                          "checkpoint": checkpoint_path(output).name})
                 writer.close()
             bar.close()
             raise
@@ -314,6 +437,8 @@ class Simulation:
             raise
         bar.close()
         wall_time = wallclock.perf_counter() - start
+        bodies = {name: {key: np.asarray(values) for key, values in series.items()}
+                  for name, series in body_series.items()}
         if writer:
             writer.set_attrs("/run", {"status": status, "wall_time": wall_time, "steps": self.step_count,
                                       "time": self.time, "granular_particles": len(self.mass),
@@ -321,8 +446,11 @@ class Simulation:
                                       "leaked_particles": self.leaked_particles})
             writer.close()
             write_xdmf(output)
-        bodies = {name: {key: np.asarray(values) for key, values in series.items()}
-                  for name, series in body_series.items()}
+            if resume:  # the whole run's series, not only the resumed part
+                series = read_run(output).series
+                diagnostics = {key: list(values) for key, values in series.get("diagnostics", {}).items()}
+                bodies = {b.name: dict(series.get(f"bodies/{b.name}", {})) for b in self.bodies}
+                frames = read_run(output).n_frames
         return RunResult(self.time, self.step_count, wall_time, frames, os.fspath(output) if output else None,
                          status, diagnostics, bodies)
 

@@ -87,6 +87,9 @@ template <int D> class PrescribedMotion {
     return k;
   }
 
+  const BodyKinematics<D>& start() const { return start_; }
+  const std::vector<MotionSegment<D>>& segments() const { return segments_; }
+
  private:
   BodyKinematics<D> start_;
   std::vector<MotionSegment<D>> segments_;

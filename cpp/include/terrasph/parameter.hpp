@@ -1,6 +1,6 @@
 // The machinery that turns one parameter list (params.hpp) into struct fields, range checks and a
 // descriptor table. A parameter group is a struct with a `group` name and a static
-// `for_each_field(visit)` that calls visit(Field<Group, T>) once per parameter, in list order.
+// `for_each_field(visit)` that calls visit(ParameterField<Group, T>) once per parameter, in list order.
 #pragma once
 
 #include <array>
@@ -51,7 +51,7 @@ template <class Enum> Enum parse_choice(const std::string& parameter, const std:
 }
 
 // One parameter: its member, default, unit, allowed interval (numbers only) and a one-line doc.
-template <class Group, class T> struct Field {
+template <class Group, class T> struct ParameterField {
   const char* name;
   T Group::*member;
   T default_value;
@@ -120,7 +120,7 @@ struct ParameterInfo {
   std::string doc;
 };
 
-template <class Group, class T> ParameterInfo describe(const Field<Group, T>& field) {
+template <class Group, class T> ParameterInfo describe(const ParameterField<Group, T>& field) {
   ParameterInfo info{Group::group, field.name, "", {}, field.unit, field.lower.value,
                      field.lower.inclusive, field.upper.value, field.upper.inclusive, {},
                      field.allowed(), field.doc};
@@ -154,7 +154,7 @@ template <class Group> std::vector<ParameterInfo> parameter_table() {
 // list macro LIST(X) whose entries are X(type, name, default, unit, lower, upper, doc).
 #define TERRASPH_PARAMETER_MEMBER(type, name, value, unit, lower, upper, doc) type name = value;
 #define TERRASPH_PARAMETER_VISIT(type, name, value, unit, lower, upper, doc) \
-  visit(::terrasph::Field<Self, type>{#name, &Self::name, value, unit, lower, upper, doc});
+  visit(::terrasph::ParameterField<Self, type>{#name, &Self::name, value, unit, lower, upper, doc});
 #define TERRASPH_PARAMETER_GROUP(Struct, group_name, LIST)          \
   using Self = Struct;                                               \
   static constexpr const char* group = group_name;                   \
