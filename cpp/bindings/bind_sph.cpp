@@ -453,6 +453,32 @@ void bind_sph(py::module_& m) {
 
   bind_simulation<2>(m, "Simulation2D");
 
+  m.def("constitutive_update", [](const ModelParams<2>& params, const Mat<2>& velocity_gradient, double density,
+                                  double dt, const Mat<2>& deviatoric_stress) {
+        params.validate();
+        FieldRegistry state;
+        state.resize(1);
+        ConstitutiveModelVariant<2> model = make_constitutive_model(params);
+        return std::visit([&](auto& chosen) {
+          chosen.register_fields(state);
+          if (state.contains("deviatoric_stress"))
+            row_mat<2>(state.get<double, 4>("deviatoric_stress"), 0) = deviatoric_stress;
+          double pressure = 0.0;
+          const Mat<2> sigma = chosen.update(0, velocity_gradient, density, dt, pressure);
+          py::dict out;
+          out["stress"] = sigma;
+          out["pressure"] = pressure;
+          out["deviatoric_stress"] = state.contains("deviatoric_stress")
+              ? Mat<2>(row_mat<2>(state.get<double, 4>("deviatoric_stress"), 0)) : Mat<2>(Mat<2>::Zero());
+          out["wave_speed"] = chosen.wave_speed();
+          return out;
+        }, model);
+      }, py::arg("params"), py::arg("velocity_gradient"), py::arg("density"), py::arg("dt"),
+      py::arg("deviatoric_stress") = Mat<2>(Mat<2>::Zero()),
+      "One stress update of the configured constitutive model for one particle (for tests and studies): "
+      "returns stress, pressure, the model's new deviatoric-stress state (zero for stateless models) and its "
+      "wave speed.");
+
   m.def("set_num_threads", [](int n) {
         if (n < 1) throw std::invalid_argument("threads must be >= 1");
         omp_set_num_threads(n);

@@ -87,10 +87,7 @@ void add_granular_forces(Index i, const GranularParticles<D>& p, const Neighbour
 // The constitutive model a scene asks for, with its fields registered in the granular set.
 template <int D>
 ConstitutiveModelVariant<D> make_model(const ModelParams<D>& params, FieldRegistry& granular_fields) {
-  const double epsilon = params.strain_rate_epsilon();
-  ConstitutiveModelVariant<D> model = params.material.model == ConstitutiveModel::mu_i_hypoelastic
-      ? ConstitutiveModelVariant<D>(MuIHypoelasticModel<D>(params.material, epsilon))
-      : ConstitutiveModelVariant<D>(MuIRateModel<D>(params.material, epsilon));
+  ConstitutiveModelVariant<D> model = make_constitutive_model(params);
   std::visit([&](auto& m) { m.register_fields(granular_fields); }, model);
   return model;
 }

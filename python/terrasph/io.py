@@ -141,6 +141,8 @@ class RunWriter:
         writer.path = pathlib.Path(path)
         writer._filters = {} if compression == "none" else {"compression": compression, "shuffle": True}
         writer._file = h5py.File(writer.path, "r+")
+        if "run" in writer._file:  # the interrupted run's status and checkpoint name no longer hold
+            writer._file["run"].attrs.clear()
         frame_group = writer._file["frames"]
         for dataset in frame_group.values():
             dataset.resize(frames, axis=0)

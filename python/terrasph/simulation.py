@@ -220,8 +220,8 @@ class Simulation:
         Keys: ``reference`` (x, z) m, ``angle`` rad and ``omega`` rad/s (clockwise-positive),
         ``velocity`` (vx, vz) m/s, ``force`` (F_x, F_z) N of the terrain on the body and ``torque``
         N·m (clockwise-positive, about the reference point), both averaged over the time since the
-        last :meth:`reset_body_means` (a box filter; the instant values are ``force_now`` and
-        ``torque_now``), ``lowest_z`` m and, when the scene has a ``surface_level``, ``sinkage`` m.
+        last :meth:`reset_body_means` (a box filter over ``averaged_over`` s; the instant values are
+        ``force_now`` and ``torque_now``), ``lowest_z`` m and, when the scene has a ``surface_level``, ``sinkage`` m.
         """
         index = self._body_index(name)
         body = self.bodies[index]
@@ -232,7 +232,7 @@ class Simulation:
                  "velocity": np.asarray(raw["velocity"]), "omega": raw["spin"],
                  "force": np.asarray(raw["mean_force"]) * body.width, "torque": raw["mean_torque"] * body.width,
                  "force_now": np.asarray(raw["force"]) * body.width, "torque_now": raw["torque"] * body.width,
-                 "lowest_z": lowest}
+                 "averaged_over": raw["averaged_over"], "lowest_z": lowest}
         if self.scene.surface_level is not None:
             state["sinkage"] = self.scene.surface_level - lowest
         return state
