@@ -481,8 +481,11 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
       const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
       const double m_w = walls_.mass[w];
       drho += term::continuity<D>(m_w, viw, grad_w);
-      const double pi_iw = term::artificial_viscosity(viw.dot(xiw), r2, h, alpha_wall, c0,
-                                                      2.0 / (rho_i + walls_.density[w]));
+      // a smooth wall resists only the approach along its normal: the tangential part of v_iw would
+      // make the viscosity a wall friction (a sliding block stopped as on a rough wall)
+      const double approach = walls_.no_slip[w] ? viw.dot(xiw) : viw.dot(row_vec<D>(walls_.normal, w)) *
+                                                                     row_vec<D>(walls_.normal, w).dot(xiw);
+      const double pi_iw = term::artificial_viscosity(approach, r2, h, alpha_wall, c0, 2.0 / (rho_i + walls_.density[w]));
       Vec<D> pair_acc = term::momentum<D>(m_w, si, row_mat<D>(walls_.stress_over_rho2, w), pi_iw, grad_w);
       if (r2 < barrier_reach2) pair_acc += term::wall_barrier(std::sqrt(r2), barrier_radius, barrier_strength) * xiw;
       acc.noalias() += pair_acc;
