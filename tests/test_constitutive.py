@@ -53,8 +53,10 @@ def friction(shear_rate: float, pressure: float) -> float:
 
 def update(p: _core.ModelParams2D, grad: np.ndarray, rho: float, dt: float = 0.0,
            deviatoric: np.ndarray | None = None) -> dict:
-    return _core.constitutive_update(p, np.asarray(grad, float), rho, dt,
-                                     np.zeros((2, 2)) if deviatoric is None else deviatoric)
+    out = _core.constitutive_update(p, np.asarray(grad, float), rho, dt,
+                                    {} if deviatoric is None else {"deviatoric_stress": deviatoric})
+    out["deviatoric_stress"] = out["state"].get("deviatoric_stress", np.zeros((2, 2)))
+    return out
 
 
 @pytest.mark.parametrize("rate", [0.01, 1.0, 100.0])

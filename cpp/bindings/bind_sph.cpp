@@ -482,30 +482,38 @@ void bind_sph(py::module_& m) {
   bind_simulation<3>(m, "Simulation3D");
 
   m.def("constitutive_update", [](const ModelParams<2>& params, const Mat<2>& velocity_gradient, double density,
-                                  double dt, const Mat<2>& deviatoric_stress) {
+                                  double dt, const py::dict& state) {
         params.validate();
-        FieldRegistry state;
-        state.resize(1);
+        FieldRegistry fields;
+        fields.resize(1);
         ConstitutiveModelVariant<2> model = make_constitutive_model(params);
         return std::visit([&](auto& chosen) {
-          chosen.register_fields(state);
-          if (state.contains("deviatoric_stress"))
-            row_mat<2>(state.get<double, 4>("deviatoric_stress"), 0) = deviatoric_stress;
+          chosen.register_fields(fields);
+          const std::vector<Index> particle{0};
+          for (auto item : state) {
+            const std::string name = py::cast<std::string>(item.first);
+            if (!fields.contains(name)) throw std::invalid_argument("this model keeps no state named '" + name + "'");
+            py::array values = py::array::ensure(item.second);
+            write_rows(fields.at(name), values.reshape({py::ssize_t(1), values.size()}), particle, "state['" + name + "']");
+          }
           double pressure = 0.0;
           const Mat<2> sigma = chosen.update(0, velocity_gradient, density, dt, pressure);
+          py::dict new_state;
+          for (const auto& f : fields.all()) new_state[py::str(f->name())] = copy_rows(*f, particle)[py::int_(0)];
           py::dict out;
           out["stress"] = sigma;
           out["pressure"] = pressure;
-          out["deviatoric_stress"] = state.contains("deviatoric_stress")
-              ? Mat<2>(row_mat<2>(state.get<double, 4>("deviatoric_stress"), 0)) : Mat<2>(Mat<2>::Zero());
+          out["state"] = new_state;
           out["wave_speed"] = chosen.wave_speed();
+          out["wall_pressure_floor"] = chosen.wall_pressure_floor();
           return out;
         }, model);
       }, py::arg("params"), py::arg("velocity_gradient"), py::arg("density"), py::arg("dt"),
-      py::arg("deviatoric_stress") = Mat<2>(Mat<2>::Zero()),
-      "One stress update of the configured constitutive model for one particle (for tests and studies): "
-      "returns stress, pressure, the model's new deviatoric-stress state (zero for stateless models) and its "
-      "wave speed.");
+      py::arg("state") = py::dict(),
+      "One stress update of the configured constitutive model for one particle (for tests and studies). "
+      "`state` holds the model's per-particle state by field name (e.g. deviatoric_stress (2, 2) of "
+      "mu_i_hypoelastic, stress_state (3, 3) of drucker_prager; zero when not given). Returns the in-plane "
+      "stress, the pressure, the new state, the model's wave speed and its wall tension cut-off.");
 
   m.def("set_num_threads", [](int n) {
         if (n < 1) throw std::invalid_argument("threads must be >= 1");

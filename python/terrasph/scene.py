@@ -65,6 +65,18 @@ def hydrostatic_density(depth: np.ndarray, material: Material, gravity: float = 
     return material.reference_density * (pressure / stiffness + 1.0) ** (1.0 / material.eos_exponent)
 
 
+def geostatic_stress(depth: np.ndarray, material: Material, gravity: float = GRAVITY) -> np.ndarray:
+    """Geostatic stress (N, 3, 3) for a model that keeps the full stress as state (Drucker–Prager):
+    σ_zz = −ρ0 g depth and σ_xx = σ_yy = K0 σ_zz with Jaky's K0 = 1 − sin φ, φ = atan μ1; rows and
+    columns x, z, then the out-of-plane y (compression negative)."""
+    vertical = -material.reference_density * gravity * np.clip(depth, 0.0, None)
+    k0 = 1.0 - np.sin(np.arctan(material.mu1))
+    stress = np.zeros((len(depth), 3, 3))
+    stress[:, 0, 0] = stress[:, 2, 2] = k0 * vertical
+    stress[:, 1, 1] = vertical
+    return stress
+
+
 @dataclass
 class Scene:
     """Geometry of a run: granular particles on a lattice of spacing Δx and wall groups.

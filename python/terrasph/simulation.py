@@ -19,7 +19,7 @@ import numpy as np
 
 from terrasph import _core
 from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_units
-from terrasph.scene import Scene, hydrostatic_density
+from terrasph.scene import Scene, geostatic_stress, hydrostatic_density
 
 __all__ = ["RunResult", "Simulation", "checkpoint_path", "versions"]
 
@@ -109,9 +109,9 @@ class Simulation:
         self.numerics = numerics
         self.width = width
         position = scene.granular_position
+        depth = position[:, 1].max() + 0.5 * scene.spacing - position[:, 1]
         if initial_density is None:
-            initial_density = hydrostatic_density(position[:, 1].max() + 0.5 * scene.spacing - position[:, 1],
-                                                  material, scene.gravity)
+            initial_density = hydrostatic_density(depth, material, scene.gravity)
         density = np.asarray(initial_density, dtype=float)
         if density.shape != (len(position),):
             raise ConfigError(f"parameter 'initial_density' must have shape ({len(position)},)")
@@ -137,6 +137,9 @@ class Simulation:
                 self.core.add_driven_body(body.group_id, np.asarray(body.reference), body.angle)
             else:
                 self.core.add_body(body.group_id, np.asarray(body.reference), body.angle, body.motion.rows())
+        if material.model == "drucker_prager":  # its stress is state: start from the geostatic one
+            self.core.set_field("stress_state", geostatic_stress(depth, material, scene.gravity))
+            self.core.refresh()
 
     def _core_params(self) -> _core.ModelParams2D:
         params = _core.ModelParams2D()

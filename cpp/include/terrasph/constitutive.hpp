@@ -51,22 +51,23 @@ template <int D> class MuIRateModel {
   double wave_speed_;
 };
 
+// Shear modulus of the models with an elastic part: G given, or from K and ν = 0.3:
+// G = 3K(1 − 2ν)/(2(1 + ν)).
+inline double elastic_shear_modulus(const MaterialParams& m) {
+  if (m.shear_modulus > 0.0) return m.shear_modulus;
+  constexpr double poisson = 0.3;
+  return 3.0 * eos_bulk_modulus(m) * (1.0 - 2.0 * poisson) / (2.0 * (1.0 + poisson));
+}
+
 // Hypoelastic–plastic μ(I): the deviatoric stress s is state, loaded elastically with the Jaumann
 // rate (shear modulus G) and returned radially onto |s| ≤ μ(I)P + c, so a bed at rest holds shear
 // stress below yield (the aim of the dissertation's Eq. 3.6, reached differently). σ = −P I + s.
 template <int D> class MuIHypoelasticModel {
  public:
   MuIHypoelasticModel(const MaterialParams& m, double epsilon)
-      : eos_(m), rheology_(m, epsilon), shear_modulus_(shear_modulus(m)),
+      : eos_(m), rheology_(m, epsilon), shear_modulus_(elastic_shear_modulus(m)),
         // P-wave speed √((K + 4G/3)/ρ0), which exceeds the EOS sound speed
         wave_speed_(std::sqrt((eos_bulk_modulus(m) + 4.0 / 3.0 * shear_modulus_) / m.reference_density)) {}
-
-  // G given, or from K and ν = 0.3: G = 3K(1 − 2ν)/(2(1 + ν)).
-  static double shear_modulus(const MaterialParams& m) {
-    if (m.shear_modulus > 0.0) return m.shear_modulus;
-    constexpr double poisson = 0.3;
-    return 3.0 * eos_bulk_modulus(m) * (1.0 - 2.0 * poisson) / (2.0 * (1.0 + poisson));
-  }
 
   void register_fields(FieldRegistry& fields) {
     deviatoric_ = &fields.add<double, D * D>("deviatoric_stress", "Pa",
@@ -92,11 +93,97 @@ template <int D> class MuIHypoelasticModel {
   MatArray<D>* deviatoric_ = nullptr;  // registered in the granular fields
 };
 
-template <int D> using ConstitutiveModelVariant = std::variant<MuIRateModel<D>, MuIHypoelasticModel<D>>;
+// Elasto-plastic Drucker–Prager with the Jaumann stress rate (Eq. 2.17–2.28, Appendix A; Bui,
+// Fukagawa, Sako & Ohno 2008). The full stress σ is state, 3×3 even in 2D, where plane strain
+// keeps σ_yy (stored after the in-plane components: rows x, z, y in 2D; x, y, z in 3D). Per step:
+//   elastic predictor with the Jaumann rate (Eq. 2.27/2.28):
+//     σ* = σ + dt (Wσ − σW + 2G D′ + K tr(D) I),  W = ½(L − Lᵀ), D′ the 3D deviator of D;
+//   plastic corrector where f(σ*) = √J2 + α I1 − k_c > 0 (Eq. 2.17), the closed-form return of
+//   the same flow rule, which integrates Eq. 2.22–2.25 over the step:
+//     Δλ = f / (G + 9Kαβ),  s ← s (√J2 − GΔλ)/√J2,  I1 ← I1 − 9KβΔλ,
+//   with β = α (associated, Eq. 2.18) or β = tan ψ/√(9 + 12 tan²ψ) (non-associated); a return
+//   past the cone's apex lands on the apex; then the tension cut-off I1 ≤ k_c/α.
+// α = tan φ/√(9 + 12 tan²φ), k_c = 3c/√(9 + 12 tan²φ) (plane strain, Eq. 2.21), φ = atan μ1 and
+// c the capillary cohesion. K = κγ(1 + w), G as for the hypoelastic μ(I).
+template <int D> class DruckerPragerModel {
+ public:
+  using Mat3 = Mat<3>;
+
+  explicit DruckerPragerModel(const MaterialParams& m)
+      : bulk_(eos_bulk_modulus(m)), shear_(elastic_shear_modulus(m)), rho0_(m.reference_density),
+        alpha_(plane_strain_coefficient(m.mu1)),
+        k_c_(3.0 * m.cohesion() / std::sqrt(9.0 + 12.0 * m.mu1 * m.mu1)),
+        beta_(m.plastic_flow == PlasticFlow::associated ? alpha_
+                                                        : plane_strain_coefficient(std::tan(m.dilatancy_angle))),
+        wave_speed_(std::sqrt((bulk_ + 4.0 / 3.0 * shear_) / rho0_)) {}
+
+  // tan φ/√(9 + 12 tan²φ) of Eq. 2.21 (and of the plastic potential with ψ for φ).
+  static double plane_strain_coefficient(double tan_angle) {
+    return tan_angle / std::sqrt(9.0 + 12.0 * tan_angle * tan_angle);
+  }
+
+  void register_fields(FieldRegistry& fields) {
+    stress_ = &fields.add<double, 9>("stress_state", "Pa",
+                                     "full stress of drucker_prager, 3x3: in-plane rows first, then the out-of-plane one");
+  }
+
+  Mat<D> update(Index i, const Mat<D>& velocity_gradient, double, double dt, double& pressure) const {
+    Eigen::Map<Mat3> sigma(stress_->data() + 9 * i);
+    const Mat3 l = embed(velocity_gradient);
+    const Mat3 strain_rate = 0.5 * (l + l.transpose());
+    const Mat3 spin = 0.5 * (l - l.transpose());
+    const double volumetric = strain_rate.trace();
+    const Mat3 deviator = strain_rate - (volumetric / 3.0) * Mat3::Identity();
+    const Mat3 trial = sigma + dt * (spin * sigma - sigma * spin + 2.0 * shear_ * deviator +
+                                     bulk_ * volumetric * Mat3::Identity());
+    sigma = return_to_yield(trial);
+    pressure = -sigma.trace() / 3.0;
+    return sigma.template topLeftCorner<D, D>();
+  }
+
+  // The stress on or inside the yield cone closest along the flow rule (see above).
+  Mat3 return_to_yield(const Mat3& trial) const {
+    double i1 = trial.trace();
+    Mat3 s = trial - (i1 / 3.0) * Mat3::Identity();
+    const double root_j2 = std::sqrt(0.5 * s.cwiseProduct(s).sum());
+    const double f = root_j2 + alpha_ * i1 - k_c_;
+    if (f > 0.0) {
+      const double multiplier = f / (shear_ + 9.0 * bulk_ * alpha_ * beta_);
+      const double remaining = root_j2 - shear_ * multiplier;
+      if (remaining <= 0.0 && alpha_ > 0.0) return (k_c_ / alpha_ / 3.0) * Mat3::Identity();  // the apex
+      s *= std::max(remaining, 0.0) / root_j2;
+      i1 -= 9.0 * bulk_ * beta_ * multiplier;
+    }
+    if (alpha_ > 0.0) i1 = std::min(i1, k_c_ / alpha_);  // tension cut-off at the apex
+    return s + (i1 / 3.0) * Mat3::Identity();
+  }
+
+  double wave_speed() const { return wave_speed_; }
+  // the apex's mean stress: tension up to the cohesion's share, none when dry
+  double wall_pressure_floor() const { return alpha_ > 0.0 ? -k_c_ / (3.0 * alpha_) : 0.0; }
+  // the linear bulk law of the elastic part: ρ = ρ0 (1 + P/K)
+  double density_for_pressure(double p) const { return rho0_ * (1.0 + p / bulk_); }
+  double reference_density() const { return rho0_; }
+
+ private:
+  // L in 3D: the in-plane D×D block, zeros out of plane (plane strain).
+  static Mat3 embed(const Mat<D>& l) {
+    Mat3 out = Mat3::Zero();
+    out.template topLeftCorner<D, D>() = l;
+    return out;
+  }
+
+  double bulk_, shear_, rho0_, alpha_, k_c_, beta_, wave_speed_;
+  FieldArray<double, 9>* stress_ = nullptr;  // registered in the granular fields
+};
+
+template <int D>
+using ConstitutiveModelVariant = std::variant<MuIRateModel<D>, MuIHypoelasticModel<D>, DruckerPragerModel<D>>;
 
 // The model a configuration asks for (its fields not yet registered).
 template <int D> ConstitutiveModelVariant<D> make_constitutive_model(const ModelParams<D>& params) {
   const double epsilon = params.strain_rate_epsilon();
+  if (params.material.model == ConstitutiveModel::drucker_prager) return DruckerPragerModel<D>(params.material);
   if (params.material.model == ConstitutiveModel::mu_i_hypoelastic)
     return MuIHypoelasticModel<D>(params.material, epsilon);
   return MuIRateModel<D>(params.material, epsilon);

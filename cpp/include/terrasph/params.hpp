@@ -18,10 +18,19 @@ enum class ConstitutiveModel {
   mu_i_rate,         // Eq. 2.29 everywhere: τ = (μ(I)P + c) D′/(|D′| + ε), no stress state
   mu_i_hypoelastic,  // hypoelastic–plastic μ(I): deviatoric stress s as state (Jaumann rate),
                      // capped at |s| ≤ μ(I)P + c
+  drucker_prager,    // elasto-plastic Drucker–Prager with the Jaumann rate (Eq. 2.17–2.28,
+                     // Appendix A): the full stress (σ_yy included) as state
 };
 // The names in the order of the enum's values (the Python side sees a str).
 template <> struct ChoiceNames<ConstitutiveModel> {
-  static constexpr std::array<const char*, 2> names = {"mu_i_rate", "mu_i_hypoelastic"};
+  static constexpr std::array<const char*, 3> names = {"mu_i_rate", "mu_i_hypoelastic", "drucker_prager"};
+};
+
+// Plastic flow of the Drucker–Prager model: along the yield surface's normal (Eq. 2.18) or along
+// the plastic potential with the dilatancy angle ψ (Eq. 2.19).
+enum class PlasticFlow { associated, non_associated };
+template <> struct ChoiceNames<PlasticFlow> {
+  static constexpr std::array<const char*, 2> names = {"associated", "non_associated"};
 };
 
 // THE definition of every material and numerics parameter: everything else (struct fields and
@@ -57,9 +66,13 @@ template <> struct ChoiceNames<ConstitutiveModel> {
     "phi, filling angle of a liquid bridge in Eq. 2.34 (15 deg)")                                        \
   X(ConstitutiveModel, model, ConstitutiveModel::mu_i_hypoelastic, "1", exclusive(-inf),                 \
     exclusive(inf), "mu_i_rate: Eq. 2.29 everywhere; mu_i_hypoelastic: deviatoric stress as state, "     \
-    "Jaumann rate, capped at mu(I)P + c")                                                                \
+    "Jaumann rate, capped at mu(I)P + c; drucker_prager: Eq. 2.17-2.28 with phi = atan(mu1), c")         \
   X(double, shear_modulus, 0.0, "Pa", inclusive(0.0), exclusive(inf),                                    \
-    "G of mu_i_hypoelastic; 0 = 3K(1-2nu)/(2(1+nu)) with K = kappa*gamma*(1+w), nu = 0.3")
+    "G of mu_i_hypoelastic and drucker_prager; 0 = 3K(1-2nu)/(2(1+nu)), K = kappa*gamma*(1+w), nu = 0.3") \
+  X(PlasticFlow, plastic_flow, PlasticFlow::non_associated, "1", exclusive(-inf), exclusive(inf),        \
+    "drucker_prager flow rule: associated (Eq. 2.18) or non_associated with dilatancy_angle (Eq. 2.19)") \
+  X(double, dilatancy_angle, 0.0, "rad", inclusive(0.0), exclusive(1.5707963267948966),                  \
+    "psi of the non-associated drucker_prager flow (Eq. 2.19); <= the friction angle atan(mu1)")
 
 #define TERRASPH_NUMERICS_PARAMETERS(X)                                                                  \
   X(double, spacing, 0.0026, "m", exclusive(0.0), exclusive(inf),                                        \
@@ -120,6 +133,10 @@ struct MaterialParams {
     if (!(grain_density > reference_density))
       throw parameter_error("material.grain_density", grain_density,
                             "grain_density > reference_density = " + format_number(reference_density));
+    // a granular material cannot dilate faster than its friction allows (ψ ≤ φ)
+    if (!(dilatancy_angle <= std::atan(mu1)))
+      throw parameter_error("material.dilatancy_angle", dilatancy_angle,
+                            "dilatancy_angle <= friction angle atan(mu1) = " + format_number(std::atan(mu1)) + " rad");
   }
 };
 
