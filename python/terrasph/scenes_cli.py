@@ -6,7 +6,8 @@ import argparse
 import json
 from typing import Any
 
-from terrasph.scenes import leg_rotation
+from terrasph.cli_common import add_force_option, add_threads_option, check_output_file
+from terrasph.scenes import leg_rotation, plate_intrusion
 from terrasph.scenes.column_collapse import (
     RESOLUTIONS,
     ColumnCollapse,
@@ -26,10 +27,14 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     column.add_argument("--resolution", choices=list(RESOLUTIONS), default="coarse",
                         help="about 475/1036/2310/4620/9240 interior particles (default coarse)")
     column.add_argument("--spacing", type=float, default=None, help="particle spacing in m (overrides --resolution)")
-    column.add_argument("--mu1-deg", type=float, default=21.0, help="quasi-static friction angle (deg)")
-    column.add_argument("--mu2-deg", type=float, default=33.0, help="dynamic friction angle (deg)")
-    column.add_argument("--water-content", type=float, default=0.0, help="gravimetric water content w")
-    column.add_argument("--t-end", type=float, default=1.0, help="simulated time limit (s)")
+    column.add_argument("--mu1-deg", type=float, default=21.0,
+                        help="quasi-static friction angle (deg) (default %(default)s)")
+    column.add_argument("--mu2-deg", type=float, default=33.0,
+                        help="dynamic friction angle (deg) (default %(default)s)")
+    column.add_argument("--water-content", type=float, default=0.0,
+                        help="gravimetric water content w (default %(default)s)")
+    column.add_argument("--t-end", type=float, default=1.0,
+                        help="simulated time limit in s; the run stops earlier once at rest (default %(default)s)")
     _add_run_options(column, default_output="column_collapse.h5")
     column.set_defaults(handler=_run_column)
     _register_plate(scenes)
@@ -37,14 +42,17 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def _add_run_options(parser: argparse.ArgumentParser, default_output: str) -> None:
-    """Adds the options every scene shares: ``--out``, ``--threads``, ``--no-progress``."""
-    parser.add_argument("--out", default=default_output, help="HDF5 output file (a PNG is written beside it)")
-    parser.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
+    """Adds the options every scene shares: ``--out``, ``--force``, ``--threads``, ``--no-progress``."""
+    parser.add_argument("--out", default=default_output,
+                        help="HDF5 output file; an XDMF sidecar and a PNG are written beside it (default %(default)s)")
+    add_force_option(parser)
+    add_threads_option(parser)
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
-def _use_threads(args: argparse.Namespace) -> None:
-    """Applies ``--threads`` (process-wide OpenMP setting) when given."""
+def _prepare(args: argparse.Namespace) -> None:
+    """Checks ``--out`` and applies ``--threads`` (process-wide OpenMP setting) before any work."""
+    check_output_file(args.out, args.force)
     if args.threads is not None:
         from terrasph import _core
 
@@ -58,10 +66,10 @@ def _print_summary(summary: dict[str, Any], output: str, plot: str | None) -> in
 
 
 def _run_column(args: argparse.Namespace) -> int:
-    _use_threads(args)
     config = ColumnCollapse(resolution=args.resolution, spacing=args.spacing,
                             friction_angles_deg=(args.mu1_deg, args.mu2_deg),
                             water_content=args.water_content, t_end=args.t_end)
+    _prepare(args)
     result = run_column_collapse(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
 
@@ -72,8 +80,11 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
     plate = scenes.add_parser("plate-intrusion", help="horizontal plate pushed into a bed and pulled out",
                               description="A horizontal plate pushed down into a settled bed of glass beads at "
                                           "constant speed, then pulled up; vertical force against depth.")
-    plate.add_argument("--spacing", type=float, default=default.spacing,
-                       help=f"particle spacing in m (default {default.spacing:g})")
+    plate.add_argument("--resolution", choices=list(plate_intrusion.RESOLUTIONS), default="coarse",
+                       help="dx = " + "/".join(f"{dx * 1e3:g}" for dx in plate_intrusion.RESOLUTIONS.values())
+                            + " mm (default coarse)")
+    plate.add_argument("--spacing", type=float, default=None,
+                       help=f"particle spacing in m (overrides --resolution; default {default.spacing:g})")
     plate.add_argument("--speed", type=float, default=default.speed,
                        help=f"plate speed in m/s, down then up (default {default.speed:g})")
     plate.add_argument("--depth", type=float, default=default.max_depth,
@@ -83,8 +94,9 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
 
 
 def _run_plate(args: argparse.Namespace) -> int:
-    _use_threads(args)
-    config = PlateIntrusion(spacing=args.spacing, speed=args.speed, max_depth=args.depth)
+    spacing = args.spacing if args.spacing is not None else plate_intrusion.RESOLUTIONS[args.resolution]
+    config = PlateIntrusion(spacing=spacing, speed=args.speed, max_depth=args.depth)
+    _prepare(args)
     result = run_plate_intrusion(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
 
@@ -109,8 +121,8 @@ def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
 
 
 def _run_leg(args: argparse.Namespace) -> int:
-    _use_threads(args)
     config = leg_rotation.LegRotation(leg=args.leg, omega=args.omega, foot_ratio=args.foot_ratio,
                                       resolution=args.resolution, settle_time=args.settle, bed_depth=args.bed_depth)
+    _prepare(args)
     result = leg_rotation.run_leg_rotation(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)

@@ -40,10 +40,13 @@ from terrasph.simulation import RunResult, Simulation
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["PlateIntrusion", "PlateResult", "build_plate_intrusion", "plot_intrusion", "run_plate_intrusion"]
+__all__ = ["RESOLUTIONS", "PlateIntrusion", "PlateResult", "build_plate_intrusion", "plot_intrusion", "run_plate_intrusion"]
 
 #: Wall height above the free surface (m): room for the plate above the bed and for heaped grains.
 WALL_FREEBOARD = 0.05
+
+#: Particle spacing Δx (m) per named resolution; "coarse" is the default PlateIntrusion.spacing.
+RESOLUTIONS: dict[str, float] = {"coarse": 0.0025, "fine": 0.002, "finer": 0.0016}
 
 
 @dataclass(frozen=True)
