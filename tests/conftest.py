@@ -19,11 +19,6 @@ import os
 import numpy as np
 import pytest
 
-# Idle OpenMP threads sleep instead of spinning. On this 2-core machine a spinning team loses
-# badly to any other busy process (a 300-step test took 27 s instead of 0.2 s while a compiler
-# ran); set before the extension (and its OpenMP runtime) is loaded by any test module.
-os.environ.setdefault("OMP_WAIT_POLICY", "passive")
-
 pytest_plugins = ("pytester",)  # test_test_tiers.py runs the tier switches on a throw-away suite
 
 
