@@ -80,12 +80,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.handler(args) or 0)
     except InstabilityError as error:
-        _exit(parser, 3, f"terrasph: the run went unstable: {error}")
+        figures = _figures_of_unfinished_run(args)
+        _exit(parser, 3, f"terrasph: the run went unstable: {error}{figures}")
     except EXPECTED_ERRORS as error:
         _exit(parser, 2, f"terrasph: error: {error_message(error)}")
     except KeyboardInterrupt:
-        _exit(parser, 130, "terrasph: interrupted; the output file is closed and readable "
-                           "(terrasph info FILE shows how far it got)")
+        figures = _figures_of_unfinished_run(args)
+        _exit(parser, 130, f"terrasph: interrupted; the output file is closed and readable{figures} "
+                           "(`terrasph info FILE` shows how far it got)")
+
+
+def _figures_of_unfinished_run(args: argparse.Namespace) -> str:
+    """Writes the PNG (and XDMF) of a scene run that stopped early; a note for the exit message."""
+    from pathlib import Path
+
+    from terrasph.run_files import plot_run
+
+    out = getattr(args, "out", None)
+    if getattr(args, "command", None) != "run" or out is None or not Path(out).is_file():
+        return ""
+    try:
+        png, _ = plot_run(out)
+    except EXPECTED_ERRORS as error:  # e.g. no frame yet: the exit message says why there is no figure
+        return f"; no figure ({error_message(error)})"
+    return f"; wrote {png}"
 
 
 def _exit(parser: argparse.ArgumentParser, status: int, message: str) -> NoReturn:

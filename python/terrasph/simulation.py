@@ -20,7 +20,10 @@ from terrasph.scene import Scene, hydrostatic_density
 
 __all__ = ["RunResult", "Simulation", "versions"]
 
-STEPS_PER_CHUNK = 500
+#: Wall time (s) one call into the core may take, so Ctrl-C and the progress bar stay responsive
+#: however slow a step is; the steps per call follow from the last call's seconds per step.
+CHUNK_SECONDS = 0.2
+MAX_STEPS_PER_CHUNK = 500
 
 
 def versions() -> dict[str, str]:
@@ -239,7 +242,10 @@ class Simulation:
             raise ConfigError(f"parameter 'frame_interval' = {frame_interval} is invalid: allowed > 0")
         if not body_interval > 0:
             raise ConfigError(f"parameter 'body_interval' = {body_interval} is invalid: allowed > 0")
-        from tqdm.auto import tqdm
+        if progress:
+            from tqdm.auto import tqdm
+        else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
+            from tqdm import tqdm
 
         from terrasph.io import RunWriter, write_xdmf
 
@@ -282,8 +288,31 @@ class Simulation:
                     writer.append_series(f"bodies/{body.name}", row)
             self.reset_body_means()
 
-        bar = tqdm(total=round(t_end - self.time, 9), unit="s", disable=not progress, mininterval=0.5,
+        t_start = self.time
+        bar = tqdm(total=round(t_end - t_start, 9), unit="s", disable=not progress, mininterval=0.5,
                    bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
+        chunk_steps = 1  # steps per call into the core, adapted to CHUNK_SECONDS of wall time
+
+        def advance_chunk(target: float) -> None:
+            nonlocal chunk_steps
+            started, steps_before = wallclock.perf_counter(), self.step_count
+            self.advance(target, max_steps=chunk_steps)
+            per_step = (wallclock.perf_counter() - started) / max(1, self.step_count - steps_before)
+            chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
+            # the bar shows simulated time, never past its total (float sums of dt overshoot)
+            bar.update(min(bar.total, round(self.time - t_start, 9)) - bar.n)
+
+        def close_bar(finished: bool) -> None:
+            if finished:  # a run that stops early (at rest) ends its bar at 100 %
+                bar.total = bar.n
+            bar.refresh()
+            bar.close()
+
+        def record_end(end_status: str, **extra: Any) -> None:
+            """The final /run attributes, for every way a run ends."""
+            writer.set_attrs("/run", {"status": end_status, "wall_time": wallclock.perf_counter() - start,
+                                      "steps": self.step_count, "time": self.time, **extra})
+
         try:
             record()
             if self.bodies:
@@ -291,13 +320,11 @@ class Simulation:
             next_frame = self.time + frame_interval
             next_sample = self.time + body_interval if self.bodies else math.inf
             while self.time < t_end * (1 - 1e-14):
-                before = self.time
                 # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
-                self.advance(min(next_frame, next_sample, t_end), max_steps=STEPS_PER_CHUNK)
+                advance_chunk(min(next_frame, next_sample, t_end))
                 if self.time >= next_sample * (1 - 1e-12) or (self.bodies and self.time >= t_end * (1 - 1e-14)):
                     record_bodies()
                     next_sample += body_interval
-                bar.update(self.time - before)
                 bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
                 if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
                     record()
@@ -307,22 +334,22 @@ class Simulation:
                         status = "at_rest"
                         break
         except KeyboardInterrupt:
-            status = "interrupted"
+            close_bar(finished=False)
             if writer:
                 writer.write_frame(self.time, self.step_count, self.frame_fields())
-                writer.set_attrs("/run", {"status": status})
+                record_end("interrupted")
                 writer.close()
-            bar.close()
+                write_xdmf(output)
             raise
         except _core.InstabilityError as error:
-            status = "unstable"
+            close_bar(finished=False)
             if writer:
-                writer.set_attrs("/run", {"status": status, "message": str(error), "step": error.step,
-                                          "time": error.time, "particle": error.particle})
+                record_end("unstable", message=str(error), step=error.step, particle=error.particle)
+                writer.set_attrs("/run", {"time": error.time})
                 writer.close()
-            bar.close()
+                write_xdmf(output)
             raise
-        bar.close()
+        close_bar(finished=True)
         wall_time = wallclock.perf_counter() - start
         if writer:
             writer.set_attrs("/run", {"status": status, "wall_time": wall_time, "steps": self.step_count,
