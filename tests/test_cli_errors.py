@@ -148,3 +148,67 @@ def test_lattice_refuses_a_block_it_cannot_resolve() -> None:
     assert len(block) == MIN_PARTICLES_ACROSS**2
     # every particle's cell lies inside the requested rectangle, up to the Δx/2 rounding
     assert np.all(block - 0.0175 >= -1e-12) and np.all(block[:, 0] + 0.0175 <= 0.07 + 1e-12)
+
+
+# -- help and options (item 9) ---------------------------------------------------------------------
+def _leaf_parsers():
+    """Every (sub-)command's parser."""
+    from terrasph.cli import build_parser
+
+    def leaves(parser):
+        for action in parser._actions:
+            if isinstance(action.choices, dict):
+                for child in action.choices.values():
+                    yield from leaves(child)
+        yield parser
+
+    return list(leaves(build_parser()))
+
+
+def test_every_option_has_help_that_states_its_default() -> None:
+    """Every option has help, and every option with a default value says it in its help text."""
+    checked = 0
+    for parser in _leaf_parsers():
+        formatter = parser._get_formatter()
+        for action in parser._actions:
+            if not action.option_strings or action.default in (None, False, "==SUPPRESS=="):
+                continue
+            assert action.help, f"{parser.prog} {action.option_strings[0]} has no help"
+            assert "default" in formatter._expand_help(action), f"{parser.prog} {action.option_strings[0]}"
+            checked += 1
+    assert checked >= 30  # the scenes' and the surrogate commands' options
+
+
+def test_unknown_option_prints_the_sub_command_usage(capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["run", "leg-rotation", "--omegaa", "1"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: terrasph run leg-rotation")
+    assert "--omegaa" in err
+
+
+def test_version(capsys) -> None:
+    from terrasph import __version__
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"terrasph {__version__}"
+
+
+def test_plate_resolution_sets_the_spacing(monkeypatch) -> None:
+    """--resolution fine runs the plate scene at RESOLUTIONS['fine'] (the run itself is replaced)."""
+    from terrasph import scenes_cli
+    from terrasph.scenes.plate_intrusion import RESOLUTIONS
+
+    seen = {}
+
+    def fake_run(config, output, progress):
+        seen["spacing"] = config.spacing
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(scenes_cli, "run_plate_intrusion", fake_run)
+    with pytest.raises(SystemExit):
+        main(["run", "plate-intrusion", "--resolution", "fine", "--out", "unused.h5"])
+    assert seen["spacing"] == RESOLUTIONS["fine"] != RESOLUTIONS["coarse"]
