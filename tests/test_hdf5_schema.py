@@ -1,0 +1,89 @@
+"""docs/hdf5_schema.md against the files the scenes write (issue 15, item 10: the page named
+/results keys the files did not have).
+
+Each table of the page lists names in its first column; for every table, the names it documents
+must be exactly the names a real file holds. The files come from tiny versions of the three scenes
+(a few seconds each): a 0.02 s column collapse, a shallow plate intrusion, and a 0.23 rad sweep of
+the C-leg in a narrow bed.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import h5py
+import pytest
+from terrasph.scenes.column_collapse import ColumnCollapse, run_column_collapse
+from terrasph.scenes.leg_rotation import LegRotation, run_leg_rotation
+from terrasph.scenes.plate_intrusion import PlateIntrusion, run_plate_intrusion
+
+DOC = Path(__file__).resolve().parent.parent / "docs" / "hdf5_schema.md"
+#: names shared by every scene's /results table ("as above" row)
+COMMON_RESULTS = {"status", "time", "steps", "wall_time", "granular_particles"}
+
+
+def documented(heading: str) -> set[str]:
+    """Backticked names in the first column of the table(s) under `heading` (up to the next heading)."""
+    text = DOC.read_text()
+    start = text.index(f"\n{heading}\n")
+    following = re.search(r"\n#+ ", text[start + len(heading) + 2:])
+    section = text[start:start + len(heading) + 2 + (following.start() if following else len(text))]
+    names: set[str] = set()
+    for row in re.findall(r"^\|([^|\n]*)\|", section, re.M):
+        names.update(re.findall(r"`([^`]+)`", row))
+    return names
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> dict[str, Path]:
+    out = tmp_path_factory.mktemp("schema")
+    paths = {name: out / f"{name}.h5" for name in ("column-collapse", "plate-intrusion", "leg-rotation")}
+    run_column_collapse(ColumnCollapse(t_end=0.02), output=paths["column-collapse"], progress=False, plot=False)
+    run_plate_intrusion(PlateIntrusion(bed_width=0.06, bed_depth=0.04, plate_length=0.02, max_depth=0.006,
+                                       speed=0.1, settle_time=0.0),
+                        output=paths["plate-intrusion"], progress=False, plot=False)
+    run_leg_rotation(LegRotation(bed_width=0.14, bed_depth=0.07, omega=6.0, settle_time=0.0,
+                                 end_angle=-0.55), output=paths["leg-rotation"], progress=False, plot=False)
+    return paths
+
+
+def test_root_attributes(files) -> None:
+    with h5py.File(files["column-collapse"], "r") as f:
+        names = {"version_<name>" if key.startswith("version_") else key for key in f.attrs}
+    assert names == documented("## Root attributes")
+
+
+def test_static_and_frame_fields(files) -> None:
+    for path in files.values():
+        with h5py.File(path, "r") as f:
+            static = set()
+            f["static"].visititems(lambda name, item: static.add(f"static/{name}")
+                                   if isinstance(item, h5py.Dataset) else None)
+            assert static == documented("### `/static`"), path.name
+            assert set(f["frames"]) - {"time", "step"} == documented("### `/frames`"), path.name
+
+
+def test_series(files) -> None:
+    for path in files.values():
+        with h5py.File(path, "r") as f:
+            assert set(f["series/diagnostics"]) == documented("#### `series/diagnostics`"), path.name
+            for body in f["series"].get("bodies", {}).values():
+                assert set(body) == documented("#### `series/bodies/<name>`"), path.name
+
+
+def test_run_attributes_of_a_finished_run(files) -> None:
+    rows = re.findall(r"^\| `(\w+)`\s*\| ([^|]+)\|", DOC.read_text().split("### `/run`")[1].split("###")[0], re.M)
+    finished = {name for name, when in rows if when.strip() in ("every run", "finished runs")}
+    assert len(rows) == 10
+    for path in files.values():
+        with h5py.File(path, "r") as f:
+            assert set(f["run"].attrs) == finished, path.name
+
+
+@pytest.mark.parametrize("scene", ["column-collapse", "leg-rotation", "plate-intrusion"])
+def test_results_of_each_scene(files, scene: str) -> None:
+    with h5py.File(files[scene], "r") as f:
+        written = set(f["results"].attrs)
+    assert written == documented(f"#### {scene}"), scene
+    assert COMMON_RESULTS <= written
