@@ -252,8 +252,14 @@ class Simulation:
         writer = RunWriter(output, config or self.describe(), versions=versions()) if output else None
         if writer:
             writer.write_static("granular/mass", np.array(self.mass))
-            writer.write_static("walls/position", np.array(self.core.wall_position))
-            writer.write_static("walls/group", np.array(self.core.wall_group))
+            on_body = self._on_body()
+            wall_group = np.asarray(self.core.wall_group)
+            writer.write_static("walls/position", np.array(np.asarray(self.core.wall_position)[~on_body]))
+            writer.write_static("walls/group", np.array(wall_group[~on_body]))
+            if self.bodies:  # which body each particle of the frames' body_* fields belongs to
+                index_of_group = {body.group_id: index for index, body in enumerate(self.bodies)}
+                writer.write_static("bodies/index", np.array([index_of_group[g] for g in wall_group[on_body]],
+                                                             dtype=np.int32))
         diagnostics: dict[str, list[float]] = {k: [] for k in ("time", "step", "dt", "kinetic_energy",
                                                                  "max_speed", "neighbour_builds", "wall_time",
                                                                  "leaked_particles")}
@@ -364,10 +370,21 @@ class Simulation:
                          status, diagnostics, bodies)
 
     def frame_fields(self) -> dict[str, np.ndarray]:
-        """Copies of the per-particle fields written to each frame."""
-        return {"position": np.array(self.position), "velocity": np.array(self.velocity),
-                "density": np.array(self.density), "pressure": np.array(self.pressure),
-                "stress": np.array(self.stress)}
+        """Copies of the per-particle fields written to each frame: the grains' fields and, in a
+        scene with bodies, ``body_position`` and ``body_velocity`` of every body particle (which
+        body each belongs to is ``/static/bodies/index``)."""
+        fields = {"position": np.array(self.position), "velocity": np.array(self.velocity),
+                  "density": np.array(self.density), "pressure": np.array(self.pressure),
+                  "stress": np.array(self.stress)}
+        if self.bodies:
+            on_body = self._on_body()
+            fields["body_position"] = np.array(np.asarray(self.core.wall_position)[on_body])
+            fields["body_velocity"] = np.array(np.asarray(self.core.wall_velocity)[on_body])
+        return fields
+
+    def _on_body(self) -> np.ndarray:
+        """Mask of the wall particles that belong to a body."""
+        return np.isin(np.asarray(self.core.wall_group), [body.group_id for body in self.bodies])
 
     def describe(self) -> dict[str, Any]:
         """Configuration of this simulation as plain data (saved with the output)."""
