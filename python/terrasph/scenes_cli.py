@@ -87,6 +87,8 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
                        help=f"particle spacing in m (overrides --resolution; default {default.spacing:g})")
     plate.add_argument("--speed", type=float, default=default.speed,
                        help=f"plate speed in m/s, down then up (default {default.speed:g})")
+    plate.add_argument("--settle", type=float, default=default.settle_time,
+                       help=f"settling pause before the plate moves, in s (default {default.settle_time:g})")
     plate.add_argument("--depth", type=float, default=default.max_depth,
                        help=f"deepest depth of the plate underside below the surface in m (default {default.max_depth:g})")
     _add_run_options(plate, default_output="plate_intrusion.h5")
@@ -95,7 +97,7 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
 
 def _run_plate(args: argparse.Namespace) -> int:
     spacing = args.spacing if args.spacing is not None else plate_intrusion.RESOLUTIONS[args.resolution]
-    config = PlateIntrusion(spacing=spacing, speed=args.speed, max_depth=args.depth)
+    config = PlateIntrusion(spacing=spacing, speed=args.speed, max_depth=args.depth, settle_time=args.settle)
     _prepare(args)
     result = run_plate_intrusion(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
