@@ -78,7 +78,7 @@ def test_momentum_conserved_without_walls_and_gravity(free_block, rng, quasi_sta
     material = Material(quasi_static=quasi_static)
     sim = Simulation(scene, material, Numerics(spacing=DX),
                      initial_density=np.full(len(block), 1.002 * material.reference_density))
-    sim.velocity[:] = rng.normal(0.0, 0.1, (len(block), 2))
+    sim.velocity = rng.normal(0.0, 0.1, (len(block), 2))
     sim.refresh()
     mass = np.array(sim.mass)
     velocity0 = np.array(sim.velocity)

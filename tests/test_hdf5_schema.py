@@ -61,7 +61,7 @@ def test_static_and_frame_fields(files) -> None:
             f["static"].visititems(lambda name, item: static.add(f"static/{name}")
                                    if isinstance(item, h5py.Dataset) else None)
             with_bodies = "bodies" in f["series"]
-            body_names = {"static/bodies/index", "body_position", "body_velocity"}
+            body_names = {"static/bodies/index", "static/bodies/id", "body_position", "body_velocity"}
             expected = documented("### `/static`") | documented("### `/frames`")
             if not with_bodies:
                 expected -= body_names
@@ -81,7 +81,7 @@ def test_series(files) -> None:
 def test_run_attributes_of_a_finished_run(files) -> None:
     rows = re.findall(r"^\| `(\w+)`\s*\| ([^|]+)\|", DOC.read_text().split("### `/run`")[1].split("###")[0], re.M)
     finished = {name for name, when in rows if when.strip() in ("every run", "finished runs")}
-    assert len(rows) == 10
+    assert len(rows) == 11
     for path in files.values():
         with h5py.File(path, "r") as f:
             assert set(f["run"].attrs) == finished, path.name

@@ -80,7 +80,7 @@ def test_info_and_plot_read_the_file(interrupted, capsys) -> None:
     out, *_ = interrupted
     assert main(["info", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "status interrupted" in text and "reached t =" in text
+    assert "status interrupted" in text and "reached t =" in text and "terrasph resume" in text
     out.with_suffix(".png").unlink()
     assert main(["plot", str(out)]) == 0
     assert out.with_suffix(".png").is_file()

@@ -92,7 +92,7 @@ def test_velocity_gradient_of_linear_field_uncorrected(free_block, bulk_mask, ji
     """Plain SPH ∇v (Eq. 2.48) of v = A x + b in the bulk: relative error below `tol`."""
     sim, block = _lattice_simulation(free_block, jitter, correction=False)
     bulk = bulk_mask(sim.position, block, 2.0 * sim.core.smoothing_length)
-    sim.velocity[:] = sim.position @ A.T + B
+    sim.velocity = sim.position @ A.T + B
     sim.refresh()
     error = np.abs(sim.core.velocity_gradient[bulk] - A).max() / np.abs(A).max()
     assert error < tol
@@ -103,7 +103,7 @@ def test_velocity_gradient_of_linear_field_corrected_is_exact(free_block, bulk_m
     """With kernel_gradient_correction the gradient of a linear field is exact to round-off (1e-10)."""
     sim, block = _lattice_simulation(free_block, jitter, correction=True)
     bulk = bulk_mask(sim.position, block, 2.0 * sim.core.smoothing_length)
-    sim.velocity[:] = sim.position @ A.T + B
+    sim.velocity = sim.position @ A.T + B
     sim.refresh()
     gradient = sim.core.velocity_gradient
     assert np.abs(gradient[bulk] - A).max() / np.abs(A).max() < 1e-10

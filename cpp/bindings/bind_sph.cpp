@@ -1,5 +1,8 @@
-// Bindings of the SPH core. Particle arrays are exposed as zero-copy numpy views whose base is
-// the Simulation object (row-major (N, D) and (N, D, D)); advance() runs with the GIL released.
+// Bindings of the SPH core, for any dimension D (Simulation2D, Simulation3D). Particle fields are
+// read and written by name and in particle-id order; every array handed out is a fresh copy (a
+// frame is small next to a step), so nothing a user holds can dangle after the core resizes or
+// reorders its storage. state()/restore() move the whole State (storage order, bit for bit).
+// advance() runs with the GIL released.
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -7,7 +10,10 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <array>
+#include <cstring>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -21,99 +27,433 @@ using namespace terrasph;
 
 namespace {
 
-constexpr int Dim = 2;
-using Sim = Simulation<Dim>;
-
-py::array_t<double> vector_view(VecArray<Dim>& a, py::handle owner) {
-  return py::array_t<double>({a.rows(), Index(Dim)}, {sizeof(double) * Dim, sizeof(double)}, a.data(), owner);
-}
-py::array_t<double> tensor_view(MatArray<Dim>& a, py::handle owner) {
-  return py::array_t<double>({a.rows(), Index(Dim), Index(Dim)},
-                             {sizeof(double) * Dim * Dim, sizeof(double) * Dim, sizeof(double)}, a.data(), owner);
-}
-py::array_t<double> scalar_view(ScalarArray& a, py::handle owner) {
-  return py::array_t<double>({a.size()}, {sizeof(double)}, a.data(), owner);
+// Calls fn(Scalar{}) with the scalar type of a field.
+template <class Fn> auto visit_scalar(const FieldBase& f, Fn&& fn) {
+  if (f.scalar_type() == typeid(double)) return fn(double{});
+  if (f.scalar_type() == typeid(std::int64_t)) return fn(std::int64_t{});
+  if (f.scalar_type() == typeid(std::int32_t)) return fn(std::int32_t{});
+  if (f.scalar_type() == typeid(std::uint8_t)) return fn(std::uint8_t{});
+  throw std::logic_error("particle field '" + f.name() + "' has a scalar type the bindings do not know");
 }
 
-VecArray<Dim> to_vectors(const py::array_t<double, py::array::c_style | py::array::forcecast>& a,
-                         const char* name) {
-  if (a.ndim() != 2 || a.shape(1) != Dim)
-    throw std::invalid_argument(std::string(name) + " must have shape (N, 2)");
-  VecArray<Dim> out(a.shape(0), Dim);
-  std::copy(a.data(), a.data() + a.size(), out.data());
+// numpy shape of a field with n rows: (n,), (n, k, k) for a k×k tensor (k > 1), else (n, columns).
+std::vector<py::ssize_t> numpy_shape(const FieldBase& f, py::ssize_t n) {
+  const int c = f.columns();
+  if (c == 1) return {n};
+  for (int k = 2; k * k <= c; ++k)
+    if (k * k == c) return {n, k, k};
+  return {n, c};
+}
+
+// Storage index of each particle in ascending id order.
+std::vector<Index> id_order(const IdArray& ids) {
+  std::vector<Index> order(static_cast<size_t>(ids.size()));
+  std::iota(order.begin(), order.end(), Index(0));
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return ids[a] < ids[b]; });
+  return order;
+}
+
+// A read-only copy of a field, rows in the given storage order.
+py::array copy_rows(const FieldBase& f, const std::vector<Index>& order) {
+  return visit_scalar(f, [&](auto zero) {
+    using Scalar = decltype(zero);
+    py::array_t<Scalar> out(numpy_shape(f, static_cast<py::ssize_t>(order.size())));
+    const std::size_t row = static_cast<std::size_t>(f.columns()) * sizeof(Scalar);
+    auto* dst = static_cast<char*>(static_cast<void*>(out.mutable_data()));
+    const auto* src = static_cast<const char*>(f.data());
+    for (std::size_t k = 0; k < order.size(); ++k)
+      std::memcpy(dst + k * row, src + static_cast<std::size_t>(order[k]) * row, row);
+    out.attr("flags").attr("writeable") = false;
+    return py::array(out);
+  });
+}
+
+// Writes `values` (rows in the given storage order) into a field, checking dtype-compatible shape.
+void write_rows(FieldBase& f, const py::handle& values, const std::vector<Index>& order, const std::string& label) {
+  visit_scalar(f, [&](auto zero) {
+    using Scalar = decltype(zero);
+    const auto a = py::array_t<Scalar, py::array::c_style | py::array::forcecast>::ensure(values);
+    if (!a) throw py::type_error(label + " must be an array of numbers");
+    const py::ssize_t n = static_cast<py::ssize_t>(order.size());
+    if (a.size() != n * f.columns() || (a.ndim() > 0 && a.shape(0) != n)) {
+      std::string shape;
+      for (py::ssize_t s : numpy_shape(f, n)) shape += (shape.empty() ? "" : ", ") + std::to_string(s);
+      throw std::invalid_argument(label + " must have shape (" + shape + (n >= 0 && f.columns() == 1 ? ",)" : ")"));
+    }
+    const std::size_t row = static_cast<std::size_t>(f.columns()) * sizeof(Scalar);
+    const auto* src = static_cast<const char*>(static_cast<const void*>(a.data()));
+    auto* dst = static_cast<char*>(f.data());
+    for (std::size_t k = 0; k < order.size(); ++k)
+      std::memcpy(dst + static_cast<std::size_t>(order[k]) * row, src + k * row, row);
+    return 0;
+  });
+}
+
+std::vector<Index> identity_order(Index n) {
+  std::vector<Index> order(static_cast<size_t>(n));
+  std::iota(order.begin(), order.end(), Index(0));
+  return order;
+}
+
+// Fills a fresh particle set from named arrays (in the given order, which becomes the id order
+// unless an 'id' array is given). `required` names the arrays that must be present.
+template <class Set>
+void fill_set(Set& set, const py::dict& arrays, const std::vector<std::string>& required, const std::string& label) {
+  for (const std::string& name : required)
+    if (!arrays.contains(name)) throw std::invalid_argument(label + " needs the array '" + name + "'");
+  const py::array first = py::array::ensure(arrays[py::str(required.front())]);
+  if (!first || first.ndim() < 1) throw std::invalid_argument(label + "['" + required.front() + "'] must be an array");
+  const Index n = first.shape(0);
+  set.resize(n);
+  const std::vector<Index> order = identity_order(n);
+  for (auto item : arrays) {
+    const std::string name = py::cast<std::string>(item.first);
+    if (!set.fields.contains(name)) {
+      std::string known;
+      for (const auto& f : set.fields.all()) known += (known.empty() ? "" : ", ") + f->name();
+      throw std::invalid_argument("unknown " + label + " array '" + name + "'; known: " + known);
+    }
+    write_rows(set.fields.at(name), item.second, order, label + "['" + name + "']");
+  }
+  if (!arrays.contains("id")) std::iota(set.id.data(), set.id.data() + n, std::int64_t(0));
+}
+
+// The storage-order fields of a set as {name: array} (a State part), and back.
+py::dict fields_to_dict(const FieldRegistry& fields) {
+  py::dict out;
+  const std::vector<Index> order = identity_order(fields.size());
+  for (const auto& f : fields.all()) out[py::str(f->name())] = copy_rows(*f, order);
   return out;
 }
-ScalarArray to_scalars(const py::array_t<double, py::array::c_style | py::array::forcecast>& a,
-                       Index n, const char* name) {
-  if (a.ndim() != 1 || a.shape(0) != n)
-    throw std::invalid_argument(std::string(name) + " must have shape (" + std::to_string(n) + ",)");
-  ScalarArray out(n);
-  std::copy(a.data(), a.data() + n, out.data());
-  return out;
+void fields_from_dict(FieldRegistry& fields, const py::dict& saved, const std::string& label) {
+  for (const auto& f : fields.all())
+    if (!saved.contains(f->name()))
+      throw std::invalid_argument("the saved state has no " + label + " field '" + f->name() +
+                                  "' that this simulation needs (another version or other options)");
+  Index n = -1;
+  for (auto item : saved) {
+    const std::string name = py::cast<std::string>(item.first);
+    if (!fields.contains(name))
+      throw std::invalid_argument("the saved state has a " + label + " field '" + name +
+                                  "' that this simulation does not use (another version or other options)");
+    const py::array a = py::array::ensure(item.second);
+    if (!a || a.ndim() < 1) throw std::invalid_argument("saved " + label + " field '" + name + "' is not an array");
+    if (n >= 0 && a.shape(0) != n)
+      throw std::invalid_argument("saved " + label + " fields have different lengths");
+    n = a.shape(0);
+  }
+  fields.resize(std::max<Index>(n, 0));
+  const std::vector<Index> order = identity_order(fields.size());
+  for (const auto& f : fields.all()) write_rows(*f, saved[py::str(f->name())], order, "saved " + label + " field '" + f->name() + "'");
 }
 
-std::unique_ptr<Sim> make_simulation(
-    const ModelParams<Dim>& params, const py::array_t<double, py::array::c_style | py::array::forcecast>& position,
-    const py::array_t<double, py::array::c_style | py::array::forcecast>& velocity,
-    const py::array_t<double, py::array::c_style | py::array::forcecast>& density,
-    const py::array_t<double, py::array::c_style | py::array::forcecast>& mass,
-    const py::array_t<double, py::array::c_style | py::array::forcecast>& wall_position,
-    const py::array_t<double, py::array::c_style | py::array::forcecast>& wall_normal,
-    const py::array_t<double, py::array::c_style | py::array::forcecast>& wall_mass,
-    const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& wall_no_slip,
-    const py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>& wall_group) {
-  GranularParticles<Dim> granular;
-  const VecArray<Dim> x = to_vectors(position, "position");
-  const Index n = x.rows();
-  granular.resize(n, params.numerics.xsph > 0.0, params.material.elastic_quasi_static);
-  granular.position = x;
-  granular.velocity = to_vectors(velocity, "velocity");
-  if (granular.velocity.rows() != n) throw std::invalid_argument("velocity must have shape (N, 2) like position");
-  granular.density = to_scalars(density, n, "density");
-  granular.mass = to_scalars(mass, n, "mass");
-
-  WallParticles<Dim> walls;
-  const VecArray<Dim> xw = to_vectors(wall_position, "wall_position");
-  const Index nw = xw.rows();
-  walls.resize(nw);
-  walls.position = xw;
-  walls.mass = to_scalars(wall_mass, nw, "wall_mass");
-  walls.normal = to_vectors(wall_normal, "wall_normal");
-  if (walls.normal.rows() != nw) throw std::invalid_argument("wall_normal must have shape (M, 2) like wall_position");
-  walls.density.setConstant(nw, params.material.reference_density);
-  if (wall_no_slip.size() != nw || wall_group.size() != nw)
-    throw std::invalid_argument("wall_no_slip and wall_group must have one entry per wall particle");
-  walls.no_slip.assign(wall_no_slip.data(), wall_no_slip.data() + nw);
-  walls.group.assign(wall_group.data(), wall_group.data() + nw);
-  return std::make_unique<Sim>(params, std::move(granular), std::move(walls));
+py::dict counters_to_dict(const RunCounters& c) {
+  py::dict d;
+  d["step"] = c.step;
+  d["time"] = c.time;
+  d["last_dt"] = c.last_dt;
+  d["neighbour_builds"] = c.neighbour_builds;
+  d["max_speed"] = c.max_speed;
+  d["max_acceleration"] = c.max_acceleration;
+  d["penetrating_particles"] = c.penetrating_particles;
+  d["penetrated_particles"] = c.penetrated_particles;
+  return d;
+}
+RunCounters counters_from_dict(const py::dict& d) {
+  RunCounters c;
+  c.step = d["step"].cast<std::int64_t>();
+  c.time = d["time"].cast<double>();
+  c.last_dt = d["last_dt"].cast<double>();
+  c.neighbour_builds = d["neighbour_builds"].cast<std::int64_t>();
+  c.max_speed = d["max_speed"].cast<double>();
+  c.max_acceleration = d["max_acceleration"].cast<double>();
+  c.penetrating_particles = d["penetrating_particles"].cast<std::int64_t>();
+  c.penetrated_particles = d["penetrated_particles"].cast<std::int64_t>();
+  return c;
 }
 
-// Motion segments from Python rows (duration s, vx m/s, vz m/s, spin rad/s clockwise).
-std::vector<MotionSegment<Dim>> to_segments(const std::vector<std::array<double, 4>>& rows) {
-  std::vector<MotionSegment<Dim>> out;
-  for (const auto& row : rows) {
-    MotionSegment<Dim> s;
+// A body's full state as numbers: kinematics, loads, impulses, and its motion schedule.
+template <int D> py::dict body_to_dict(const RigidBody<D>& b) {
+  py::dict d;
+  const BodyKinematics<D>& k = b.kinematics;
+  d["reference"] = Vec<D>(k.reference);
+  d["angle"] = k.angle;
+  d["velocity"] = Vec<D>(k.velocity);
+  d["spin"] = k.spin;
+  d["acceleration"] = Vec<D>(k.acceleration);
+  d["angular_acceleration"] = k.angular_acceleration;
+  d["driven"] = b.driven;
+  d["force"] = Vec<D>(b.force);
+  d["torque"] = b.torque;
+  d["impulse"] = Vec<D>(b.impulse);
+  d["angular_impulse"] = b.angular_impulse;
+  d["impulse_time"] = b.impulse_time;
+  d["motion_start"] = b.motion_start;
+  d["start_reference"] = Vec<D>(b.motion.start().reference);
+  d["start_angle"] = b.motion.start().angle;
+  std::vector<std::vector<double>> segments;
+  for (const MotionSegment<D>& s : b.motion.segments()) {
+    std::vector<double> row{s.duration};
+    for (int c = 0; c < D; ++c) row.push_back(s.velocity[c]);
+    row.push_back(s.spin);
+    segments.push_back(row);
+  }
+  d["segments"] = segments;
+  return d;
+}
+template <int D> RigidBody<D> body_from_dict(const py::dict& d) {
+  RigidBody<D> b;
+  BodyKinematics<D> start;
+  start.reference = d["start_reference"].cast<Vec<D>>();
+  start.angle = d["start_angle"].cast<double>();
+  std::vector<MotionSegment<D>> segments;
+  for (const auto& row : d["segments"].cast<std::vector<std::vector<double>>>()) {
+    if (row.size() != static_cast<size_t>(D + 2)) throw std::invalid_argument("a saved motion segment has the wrong length");
+    MotionSegment<D> s;
     s.duration = row[0];
-    s.velocity = Vec<Dim>(row[1], row[2]);
-    s.spin = row[3];
+    for (int c = 0; c < D; ++c) s.velocity[c] = row[1 + c];
+    s.spin = row[D + 1];
+    segments.push_back(s);
+  }
+  b.motion = PrescribedMotion<D>(start, std::move(segments));
+  b.motion_start = d["motion_start"].cast<double>();
+  b.kinematics.reference = d["reference"].cast<Vec<D>>();
+  b.kinematics.angle = d["angle"].cast<double>();
+  b.kinematics.velocity = d["velocity"].cast<Vec<D>>();
+  b.kinematics.spin = d["spin"].cast<double>();
+  b.kinematics.acceleration = d["acceleration"].cast<Vec<D>>();
+  b.kinematics.angular_acceleration = d["angular_acceleration"].cast<double>();
+  b.driven = d["driven"].cast<bool>();
+  b.force = d["force"].cast<Vec<D>>();
+  b.torque = d["torque"].cast<double>();
+  b.impulse = d["impulse"].cast<Vec<D>>();
+  b.angular_impulse = d["angular_impulse"].cast<double>();
+  b.impulse_time = d["impulse_time"].cast<double>();
+  return b;
+}
+
+// The load and pose of a body as users read it (per metre of depth; Python multiplies by width).
+template <int D> py::dict body_summary(const RigidBody<D>& b) {
+  py::dict d;
+  d["reference"] = Vec<D>(b.kinematics.reference);
+  d["angle"] = b.kinematics.angle;
+  d["velocity"] = Vec<D>(b.kinematics.velocity);
+  d["spin"] = b.kinematics.spin;
+  d["acceleration"] = Vec<D>(b.kinematics.acceleration);
+  d["angular_acceleration"] = b.kinematics.angular_acceleration;
+  d["driven"] = b.driven;
+  d["force"] = Vec<D>(b.force);
+  d["torque"] = b.torque;
+  const double t = b.impulse_time;
+  d["mean_force"] = t > 0.0 ? Vec<D>(b.impulse / t) : Vec<D>(b.force);
+  d["mean_torque"] = t > 0.0 ? b.angular_impulse / t : b.torque;
+  d["averaged_over"] = t;
+  return d;
+}
+
+// Motion segments from Python rows (duration s, velocity components m/s, spin rad/s clockwise).
+template <int D> std::vector<MotionSegment<D>> to_segments(const std::vector<std::vector<double>>& rows) {
+  std::vector<MotionSegment<D>> out;
+  for (const auto& row : rows) {
+    if (row.size() != static_cast<size_t>(D + 2))
+      throw std::invalid_argument("a motion row is (duration, velocity (" + std::to_string(D) + " values), spin)");
+    MotionSegment<D> s;
+    s.duration = row[0];
+    for (int c = 0; c < D; ++c) s.velocity[c] = row[1 + c];
+    s.spin = row[D + 1];
     out.push_back(s);
   }
   return out;
 }
 
-py::dict body_state(const RigidBody<Dim>& b) {
-  py::dict d;
-  d["reference"] = Vec<Dim>(b.kinematics.reference);
-  d["angle"] = b.kinematics.angle;
-  d["velocity"] = Vec<Dim>(b.kinematics.velocity);
-  d["spin"] = b.kinematics.spin;
-  d["force"] = Vec<Dim>(b.force);
-  d["torque"] = b.torque;
-  const double t = b.impulse_time;
-  d["mean_force"] = t > 0.0 ? Vec<Dim>(b.impulse / t) : Vec<Dim>(b.force);
-  d["mean_torque"] = t > 0.0 ? b.angular_impulse / t : b.torque;
-  d["averaged_over"] = t;
-  return d;
+template <int D> FieldRegistry& fields_of(Simulation<D>& s, const std::string& set) {
+  if (set == "granular") return s.granular().fields;
+  if (set == "walls") return s.walls().fields;
+  throw std::invalid_argument("particle set must be 'granular' or 'walls', not '" + set + "'");
+}
+template <int D> const IdArray& ids_of(Simulation<D>& s, const std::string& set) {
+  return set == "walls" ? s.walls().id : s.granular().id;
+}
+
+template <int D> void bind_simulation(py::module_& m, const char* class_name) {
+  using Sim = Simulation<D>;
+  auto field = [](Sim& s, const std::string& name, const std::string& set) {
+    FieldRegistry& fields = fields_of(s, set);
+    return copy_rows(fields.at(name), id_order(ids_of(s, set)));
+  };
+  auto property = [field](const char* field_name, const char* set, const char* doc) {
+    return py::cpp_function([field, field_name, set](Sim& s) { return field(s, field_name, set); },
+                            py::doc(doc));
+  };
+  py::class_<Sim> cls(m, class_name, "Granular SPH simulation (plane strain in 2D: x, z). Arrays are id-ordered copies.");
+  cls.def(py::init([](const ModelParams<D>& params, const py::dict& granular, const py::dict& walls) {
+           GranularParticles<D> g;
+           fill_set(g, granular, {"position", "velocity", "density", "mass"}, "granular");
+           WallParticles<D> w;
+           fill_set(w, walls, {"position", "normal", "mass", "no_slip", "group"}, "walls");
+           if (!walls.contains("density")) w.density.setConstant(w.size(), params.material.reference_density);
+           w.body.setConstant(w.size(), -1);
+           return std::make_unique<Sim>(params, std::move(g), std::move(w));
+         }),
+         py::arg("params"), py::arg("granular"), py::arg("walls"),
+         "granular: named arrays position (N, D), velocity, density (N,), mass (N,) [, id (N,)];\n"
+         "walls: position (M, D), normal, mass, no_slip (uint8), group (int32) [, id, density].")
+      .def("advance", &Sim::advance, py::arg("t_end"), py::arg("max_steps"), py::call_guard<py::gil_scoped_release>(),
+           "Step until t_end or max_steps (scheduled wall removals applied on the way); returns the steps taken.")
+      .def("refresh", &Sim::refresh, "Rebuild neighbours and rates after editing the state.")
+      .def("remove_wall_group", &Sim::remove_wall_group, py::arg("group"))
+      .def("schedule_wall_removal", &Sim::schedule_wall_removal, py::arg("group"), py::arg("time"),
+           "Remove wall group `group` when the simulation time reaches `time` (s).")
+      .def("field", field, py::arg("name"), py::arg("set") = "granular",
+           "A copy (read-only) of a registered per-particle field, rows in ascending id order.")
+      .def("set_field", [](Sim& s, const std::string& name, const py::handle& values, const std::string& set) {
+             write_rows(fields_of(s, set).at(name), values, id_order(ids_of(s, set)), set + " field '" + name + "'");
+           }, py::arg("name"), py::arg("values"), py::arg("set") = "granular",
+           "Overwrite a per-particle field, rows in ascending id order; call refresh() afterwards.")
+      .def("field_names", [](Sim& s, const std::string& set) {
+             std::vector<std::string> names;
+             for (const auto& f : fields_of(s, set).all()) names.push_back(f->name());
+             return names;
+           }, py::arg("set") = "granular", "Names of the registered fields of a particle set.")
+      .def("field_units", [](Sim& s, const std::string& set) {
+             py::dict out;
+             for (const auto& f : fields_of(s, set).all()) out[py::str(f->name())] = py::make_tuple(f->unit(), f->doc());
+             return out;
+           }, py::arg("set") = "granular", "{name: (unit, doc)} of the registered fields of a particle set.")
+      .def("state", [](Sim& s) {
+             py::dict d;
+             d["granular"] = fields_to_dict(s.granular().fields);
+             d["walls"] = fields_to_dict(s.walls().fields);
+             d["counters"] = counters_to_dict(s.counters());
+             py::list bodies;
+             for (const RigidBody<D>& b : s.bodies()) bodies.append(body_to_dict(b));
+             d["bodies"] = bodies;
+             std::vector<std::pair<double, std::int32_t>> removals;
+             for (const WallRemoval& r : s.pending_wall_removals()) removals.emplace_back(r.time, r.group);
+             d["removals"] = removals;
+             return d;
+           }, "The whole State in storage order (copies): granular and wall fields, counters, bodies, removals.")
+      .def("restore", [](Sim& s, const py::dict& state) {
+             fields_from_dict(s.granular().fields, state["granular"].cast<py::dict>(), "granular");
+             fields_from_dict(s.walls().fields, state["walls"].cast<py::dict>(), "wall");
+             std::vector<RigidBody<D>> bodies;
+             for (const auto& b : state["bodies"].cast<py::list>()) bodies.push_back(body_from_dict<D>(b.cast<py::dict>()));
+             std::vector<WallRemoval> removals;
+             for (const auto& [time, group] : state["removals"].cast<std::vector<std::pair<double, std::int32_t>>>())
+               removals.push_back({time, group});
+             s.restore(counters_from_dict(state["counters"].cast<py::dict>()), bodies, std::move(removals));
+           }, py::arg("state"), "Continue from a State made by state(): nothing is recomputed.")
+      .def("permute_storage", [](Sim& s, const std::string& set, const std::vector<Index>& order) {
+             std::vector<Index> check(order);
+             std::sort(check.begin(), check.end());
+             for (size_t k = 0; k < check.size(); ++k)
+               if (check[k] != static_cast<Index>(k)) throw std::invalid_argument("order must be a permutation of 0..N-1");
+             if (set == "walls") s.permute_walls(order);
+             else if (set == "granular") s.permute_granular(order);
+             else throw std::invalid_argument("particle set must be 'granular' or 'walls'");
+           }, py::arg("set"), py::arg("order"),
+           "Debug hook: reorder a particle set's storage (row k takes old row order[k]). Users see no change.")
+      .def("add_body", [](Sim& s, std::int32_t group, const Vec<D>& reference, double angle,
+                          const std::vector<std::vector<double>>& motion) {
+             return s.add_body(group, reference, angle, to_segments<D>(motion));
+           }, py::arg("group"), py::arg("reference"), py::arg("angle"), py::arg("motion"),
+           "Make a wall group a rigid body with reference point `reference` (m) and current clockwise "
+           "angle `angle` (rad), following `motion`: rows (duration s, velocity m/s, spin rad/s clockwise) "
+           "from now on, holding still after the last. Returns the body index.")
+      .def("add_driven_body", &Sim::add_driven_body, py::arg("group"), py::arg("reference"), py::arg("angle"),
+           "Make a wall group a rigid body driven from outside (a multibody engine): set its kinematics with "
+           "set_body_kinematics before each step. `reference` (m) and clockwise `angle` (rad) describe the "
+           "present layout. Returns the body index.")
+      .def("set_body_kinematics", [](Sim& s, int body, const Vec<D>& reference, double angle, const Vec<D>& velocity,
+                                     double spin, const Vec<D>& acceleration, double angular_acceleration) {
+             BodyKinematics<D> k;
+             k.reference = reference;
+             k.angle = angle;
+             k.velocity = velocity;
+             k.spin = spin;
+             k.acceleration = acceleration;
+             k.angular_acceleration = angular_acceleration;
+             s.set_body_kinematics(body, k);
+           }, py::arg("body"), py::arg("reference"), py::arg("angle"), py::arg("velocity"), py::arg("spin"),
+           py::arg("acceleration"), py::arg("angular_acceleration"),
+           "Pose (m, rad clockwise), velocity (m/s, rad/s) and acceleration (m/s², rad/s²) of a driven body at "
+           "the end of the next step; its particles follow at that step.")
+      .def_property_readonly("body_count", [](const Sim& s) { return s.bodies().size(); })
+      .def("body_state", [](const Sim& s, std::size_t b) {
+             if (b >= s.bodies().size()) throw py::index_error("no body " + std::to_string(b));
+             return body_summary(s.bodies()[b]);
+           }, py::arg("body"),
+           "Pose, rates and granular load of a body: force (N/m) and clockwise torque (N·m/m) about the "
+           "reference point at the last step, and their time averages since reset_body_means().")
+      .def("reset_body_means", &Sim::reset_body_impulses, "Restart the time averages of body loads.")
+      .def_property_readonly("penetrating_particles", [](const Sim& s) { return s.counters().penetrating_particles; },
+           "Granular particles past a wall's surface row (closer than spacing/2 to an interior wall "
+           "particle) at the last step.")
+      .def_property_readonly("penetrated_particles", [](const Sim& s) { return s.counters().penetrated_particles; },
+           "Distinct granular particles that have got past a wall's surface row at any step of the run "
+           "(leak counter).")
+      .def_property_readonly("leaked_ids", [](Sim& s) {
+             std::vector<std::int64_t> ids;
+             const GranularParticles<D>& g = s.granular();
+             for (Index i = 0; i < g.size(); ++i)
+               if (g.penetrated[i]) ids.push_back(g.id[i]);
+             std::sort(ids.begin(), ids.end());
+             return ids;
+           }, "Ids of the granular particles counted by the leak counter, ascending.")
+      .def("stable_time_step", &Sim::stable_time_step)
+      .def("apply_shepard_filter", &Sim::apply_shepard_filter)
+      .def("kernel_sum", [](Sim& s) {
+             const std::vector<Index> order = id_order(s.granular().id);
+             const ScalarArray sums = s.kernel_sum();
+             ScalarArray out(sums.size());
+             for (size_t k = 0; k < order.size(); ++k) out[static_cast<Index>(k)] = sums[order[k]];
+             return out;
+           }, "Σ_j V_j W_ij over granular neighbours, self included, in id order.")
+      .def("kernel_gradient_sum", [](Sim& s) {
+             const std::vector<Index> order = id_order(s.granular().id);
+             const VecArray<D> sums = s.kernel_gradient_sum();
+             VecArray<D> out(sums.rows(), D);
+             for (size_t k = 0; k < order.size(); ++k) out.row(static_cast<Index>(k)) = sums.row(order[k]);
+             return out;
+           }, "Σ_j V_j ∇W_ij over granular neighbours, in id order.")
+      .def_property_readonly("step", [](const Sim& s) { return s.counters().step; })
+      .def_property_readonly("time", [](const Sim& s) { return s.counters().time; })
+      .def_property_readonly("last_dt", [](const Sim& s) { return s.counters().last_dt; })
+      .def_property_readonly("neighbour_builds", [](const Sim& s) { return s.counters().neighbour_builds; })
+      .def_property_readonly("max_speed", [](const Sim& s) { return s.counters().max_speed; })
+      .def_property_readonly("max_acceleration", [](const Sim& s) { return s.counters().max_acceleration; })
+      .def_property_readonly("memory_bytes", &Sim::memory_bytes,
+                             "Bytes held by particle fields, neighbour lists and pair caches.")
+      .def_property_readonly("phase_seconds", [](const Sim& s) {
+        const PhaseTimes& t = s.counters().phase_seconds;
+        py::dict d;
+        d["neighbours"] = t.neighbours;
+        d["wall_velocity"] = t.wall_velocity;
+        d["velocity_gradient_and_stress"] = t.velocity_gradient_and_stress;
+        d["wall_stress"] = t.wall_stress;
+        d["forces"] = t.forces;
+        d["integrate_and_check"] = t.integrate_and_check;
+        return d;
+      }, "Wall-clock seconds spent in each phase of the step, summed over the run.")
+      .def_property_readonly("smoothing_length", &Sim::smoothing_length)
+      .def_property_readonly("params", &Sim::params);
+  // id-ordered copies of the fields users read most
+  const std::array<std::pair<const char*, const char*>, 12> granular_fields{{
+      {"id", "granular particle ids, ascending"}, {"position", "positions (N, D), m"},
+      {"velocity", "velocities (N, D), m/s"}, {"acceleration", "Dv/Dt (N, D), m/s²"},
+      {"density", "densities (N,), kg/m³"}, {"density_rate", "Dρ/Dt (N,)"}, {"pressure", "pressures (N,), Pa"},
+      {"mass", "masses (N,), kg per metre of depth in 2D"}, {"stress", "Cauchy stress (N, D, D), Pa"},
+      {"velocity_gradient", "∇v (N, D, D), 1/s"}, {"penetrated", "leak flags (N,)"},
+      {"volume", "m/ρ (N,)"}}};
+  for (const auto& [field_name, doc] : granular_fields)
+    cls.def_property_readonly(field_name, property(field_name, "granular", doc));
+  const std::array<std::pair<const char*, const char*>, 9> wall_fields{{
+      {"id", "wall particle ids, ascending"}, {"position", "wall positions, m"}, {"velocity", "wall velocities, m/s"},
+      {"density", "wall densities, kg/m³"}, {"normal", "wall normals"}, {"stress", "wall stress, Pa"},
+      {"group", "wall group of each wall particle"}, {"interior", "1: a layer or more inside its wall"},
+      {"body", "rigid body index, -1 for fixed walls"}}};
+  for (const auto& [field_name, doc] : wall_fields)
+    cls.def_property_readonly((std::string("wall_") + field_name).c_str(), property(field_name, "walls", doc));
 }
 
 }  // namespace
@@ -138,82 +478,33 @@ void bind_sph(py::module_& m) {
     }
   });
 
-  py::class_<Sim>(m, "Simulation2D", "Granular SPH simulation in plane strain (x, z).")
-      .def(py::init(&make_simulation), py::arg("params"), py::arg("position"), py::arg("velocity"),
-           py::arg("density"), py::arg("mass"), py::arg("wall_position"), py::arg("wall_normal"), py::arg("wall_mass"),
-           py::arg("wall_no_slip"), py::arg("wall_group"))
-      .def("advance", &Sim::advance, py::arg("t_end"), py::arg("max_steps"),
-           py::call_guard<py::gil_scoped_release>(),
-           "Step until t_end or max_steps; returns the number of steps taken.")
-      .def("refresh", &Sim::refresh, "Rebuild neighbours and rates after editing the state.")
-      .def("remove_wall_group", &Sim::remove_wall_group, py::arg("group"))
-      .def("add_body", [](Sim& s, std::int32_t group, const Vec<Dim>& reference, double angle,
-                          const std::vector<std::array<double, 4>>& motion) {
-             return s.add_body(group, reference, angle, to_segments(motion));
-           }, py::arg("group"), py::arg("reference"), py::arg("angle"), py::arg("motion"),
-           "Make a wall group a rigid body with reference point `reference` (m) and current clockwise "
-           "angle `angle` (rad), following `motion`: rows (duration s, vx, vz m/s, spin rad/s clockwise) "
-           "from now on, holding still after the last. Returns the body index.")
-      .def_property_readonly("body_count", [](const Sim& s) { return s.bodies().size(); })
-      .def("body_state", [](const Sim& s, std::size_t b) {
-             if (b >= s.bodies().size()) throw py::index_error("no body " + std::to_string(b));
-             return body_state(s.bodies()[b]);
-           }, py::arg("body"),
-           "Pose, rates and granular load of a body: force (N/m) and clockwise torque (N·m/m) about the "
-           "reference point at the last step, and their time averages since reset_body_means().")
-      .def("reset_body_means", &Sim::reset_body_impulses, "Restart the time averages of body loads.")
-      .def_property_readonly("penetrating_particles", [](const Sim& s) { return s.counters().penetrating_particles; },
-           "Granular particles past a wall's surface row (closer than spacing/2 to an interior wall "
-           "particle) at the last step.")
-      .def_property_readonly("penetrated_particles", [](const Sim& s) { return s.counters().penetrated_particles; },
-           "Distinct granular particles that have got past a wall's surface row at any step of the run "
-           "(leak counter).")
-      .def_property_readonly("wall_interior", [](const Sim& s) {
-        const auto& v = s.walls_const().interior;
-        return py::array_t<std::uint8_t>(static_cast<py::ssize_t>(v.size()), v.data());
-      }, "1 for wall particles a layer or more inside their wall, 0 on the surface row.")
-      .def("stable_time_step", &Sim::stable_time_step)
-      .def("apply_shepard_filter", &Sim::apply_shepard_filter)
-      .def("kernel_sum", &Sim::kernel_sum)
-      .def("kernel_gradient_sum", &Sim::kernel_gradient_sum)
-      .def_property_readonly("step", [](const Sim& s) { return s.counters().step; })
-      .def_property_readonly("time", [](const Sim& s) { return s.counters().time; })
-      .def_property_readonly("last_dt", [](const Sim& s) { return s.counters().last_dt; })
-      .def_property_readonly("neighbour_builds", [](const Sim& s) { return s.counters().neighbour_builds; })
-      .def_property_readonly("max_speed", [](const Sim& s) { return s.counters().max_speed; })
-      .def_property_readonly("max_acceleration", [](const Sim& s) { return s.counters().max_acceleration; })
-      .def_property_readonly("phase_seconds", [](const Sim& s) {
-        const PhaseTimes& t = s.counters().phase_seconds;
-        py::dict d;
-        d["neighbours"] = t.neighbours;
-        d["wall_velocity"] = t.wall_velocity;
-        d["velocity_gradient_and_stress"] = t.velocity_gradient_and_stress;
-        d["wall_stress"] = t.wall_stress;
-        d["forces"] = t.forces;
-        d["integrate_and_check"] = t.integrate_and_check;
-        return d;
-      }, "Wall-clock seconds spent in each phase of the step, summed over the run.")
-      .def_property_readonly("smoothing_length", &Sim::smoothing_length)
-      .def_property_readonly("params", &Sim::params)
-      .def_property_readonly("position", [](py::object self) { return vector_view(self.cast<Sim&>().granular().position, self); })
-      .def_property_readonly("velocity", [](py::object self) { return vector_view(self.cast<Sim&>().granular().velocity, self); })
-      .def_property_readonly("acceleration", [](py::object self) { return vector_view(self.cast<Sim&>().granular().acceleration, self); })
-      .def_property_readonly("density", [](py::object self) { return scalar_view(self.cast<Sim&>().granular().density, self); })
-      .def_property_readonly("density_rate", [](py::object self) { return scalar_view(self.cast<Sim&>().granular().density_rate, self); })
-      .def_property_readonly("pressure", [](py::object self) { return scalar_view(self.cast<Sim&>().granular().pressure, self); })
-      .def_property_readonly("mass", [](py::object self) { return scalar_view(self.cast<Sim&>().granular().mass, self); })
-      .def_property_readonly("stress", [](py::object self) { return tensor_view(self.cast<Sim&>().granular().stress, self); })
-      .def_property_readonly("deviatoric_stress", [](py::object self) { return tensor_view(self.cast<Sim&>().granular().deviatoric_stress, self); })
-      .def_property_readonly("velocity_gradient", [](py::object self) { return tensor_view(self.cast<Sim&>().granular().velocity_gradient, self); })
-      .def_property_readonly("wall_position", [](py::object self) { return vector_view(self.cast<Sim&>().walls().position, self); })
-      .def_property_readonly("wall_velocity", [](py::object self) { return vector_view(self.cast<Sim&>().walls().velocity, self); })
-      .def_property_readonly("wall_density", [](py::object self) { return scalar_view(self.cast<Sim&>().walls().density, self); })
-      .def_property_readonly("wall_normal", [](py::object self) { return vector_view(self.cast<Sim&>().walls().normal, self); })
-      .def_property_readonly("wall_stress", [](py::object self) { return tensor_view(self.cast<Sim&>().walls().stress, self); })
-      .def_property_readonly("wall_group", [](const Sim& s) {
-        const auto& g = s.walls_const().group;
-        return py::array_t<std::int32_t>(static_cast<py::ssize_t>(g.size()), g.data());
-      });
+  bind_simulation<2>(m, "Simulation2D");
+
+  m.def("constitutive_update", [](const ModelParams<2>& params, const Mat<2>& velocity_gradient, double density,
+                                  double dt, const Mat<2>& deviatoric_stress) {
+        params.validate();
+        FieldRegistry state;
+        state.resize(1);
+        ConstitutiveModelVariant<2> model = make_constitutive_model(params);
+        return std::visit([&](auto& chosen) {
+          chosen.register_fields(state);
+          if (state.contains("deviatoric_stress"))
+            row_mat<2>(state.get<double, 4>("deviatoric_stress"), 0) = deviatoric_stress;
+          double pressure = 0.0;
+          const Mat<2> sigma = chosen.update(0, velocity_gradient, density, dt, pressure);
+          py::dict out;
+          out["stress"] = sigma;
+          out["pressure"] = pressure;
+          out["deviatoric_stress"] = state.contains("deviatoric_stress")
+              ? Mat<2>(row_mat<2>(state.get<double, 4>("deviatoric_stress"), 0)) : Mat<2>(Mat<2>::Zero());
+          out["wave_speed"] = chosen.wave_speed();
+          return out;
+        }, model);
+      }, py::arg("params"), py::arg("velocity_gradient"), py::arg("density"), py::arg("dt"),
+      py::arg("deviatoric_stress") = Mat<2>(Mat<2>::Zero()),
+      "One stress update of the configured constitutive model for one particle (for tests and studies): "
+      "returns stress, pressure, the model's new deviatoric-stress state (zero for stateless models) and its "
+      "wave speed.");
 
   m.def("set_num_threads", [](int n) {
         if (n < 1) throw std::invalid_argument("threads must be >= 1");
@@ -222,14 +513,16 @@ void bind_sph(py::module_& m) {
   m.def("get_max_threads", &omp_get_max_threads, "OpenMP threads a parallel loop would use now.");
 
   m.def("neighbour_lists", [](const py::array_t<double, py::array::c_style | py::array::forcecast>& points, double radius) {
-        const VecArray<Dim> x = to_vectors(points, "points");
+        if (points.ndim() != 2 || points.shape(1) != 2) throw std::invalid_argument("points must have shape (N, 2)");
+        VecArray<2> x(points.shape(0), 2);
+        std::copy(points.data(), points.data() + points.size(), x.data());
         if (!(radius > 0.0)) throw std::invalid_argument("radius must be > 0");
-        Vec<Dim> lower, upper;
-        bounding_box<Dim>(x, VecArray<Dim>(0, Dim), radius, lower, upper);
-        CellGrid<Dim> grid;
+        Vec<2> lower, upper;
+        bounding_box<2>(x, VecArray<2>(0, 2), radius, lower, upper);
+        CellGrid<2> grid;
         grid.build(x, lower, upper, radius);
         NeighbourList list;
-        build_neighbour_list<Dim>(x, x, grid, radius, true, list);
+        build_neighbour_list<2>(x, x, grid, radius, true, list);
         py::array_t<std::int64_t> offsets(static_cast<py::ssize_t>(list.offsets.size()), list.offsets.data());
         py::array_t<std::int32_t> indices(static_cast<py::ssize_t>(list.indices.size()), list.indices.data());
         return py::make_tuple(offsets, indices);
@@ -238,7 +531,7 @@ void bind_sph(py::module_& m) {
 
   m.def("wendland_c2_2d", [](const py::array_t<double, py::array::c_style | py::array::forcecast>& r, double h) {
         if (!(h > 0.0)) throw std::invalid_argument("h must be > 0");
-        const WendlandC2<Dim> kernel(h);
+        const WendlandC2<2> kernel(h);
         py::array_t<double> w(r.size()), f(r.size());
         for (py::ssize_t k = 0; k < r.size(); ++k) {
           w.mutable_data()[k] = kernel.value(r.data()[k]);

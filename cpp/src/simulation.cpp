@@ -12,38 +12,21 @@
 #include <string>
 
 #include "terrasph/errors.hpp"
+#include "terrasph/pair_terms.hpp"
 #include "terrasph/parallel.hpp"
 
 namespace terrasph {
 
 namespace {
 
-// Monaghan artificial viscosity Π_ij (Eq. 2.46–2.47) with α_Π = alpha, β_Π = 0, c_ij = c0.
-// Written without a branch: approaching and receding pairs are equally likely, so a branch on the
-// sign of v_ij·x_ij would be mispredicted half the time.
-inline double artificial_viscosity(double v_dot_x, double r2, double h, double alpha, double c0,
-                                   double inv_rho_mean) {
-  const double phi = h * std::min(v_dot_x, 0.0) / (r2 + 0.01 * h * h);
-  return -alpha * c0 * phi * inv_rho_mean;
-}
-
-// δ-SPH density diffusion, Molteni & Colagrossi (2009) form of Eq. 2.42–2.43 written so that it
-// reduces density differences, applied to the dynamic part of the difference only (Fourtakis,
-// Rogers et al. 2019): the hydrostatic difference ρ0 g·x_ji / c_eos² is subtracted, so a bed at
-// rest under gravity is not driven by the diffusion of its own lithostatic density gradient.
-//   2δhc0 (ρ_j − ρ_i − ρ0 g·x_ji/c²) (x_ji·∇_iW_ij)/|x_ij|² V_j,   x_ji·∇_iW_ij/|x_ij|² = −grad_factor
-// Contact barrier between a grain and a wall particle closer than r0 = 0.75Δx: a_i = K (1 − r/r0)²
-// x_iw/r with K = c²/h, whose largest value keeps the acceleration step bound √(h/|a|) at the
-// sound-speed bound h/c. r0 exceeds Δx/√2, so no point between two surface particles is out of its
-// reach, and stays below the contact distance Δx of a grain resting on a wall (terrasph's own
-// addition, in the spirit of Monaghan's 1994 repulsive boundary force).
-inline double barrier_factor(double r, double r0, double strength) {
-  const double gap = 1.0 - r / r0;
-  return strength * gap * gap / r;
-}
-
-inline double density_diffusion(double delta_h_c0, double rho_difference, double volume_j, double grad_factor) {
-  return 2.0 * delta_h_c0 * rho_difference * (-grad_factor) * volume_j;
+// Calls f(std::bool_constant<b>...) with each runtime flag made a compile-time one: optional terms
+// are chosen once per run (when the passes are composed), not tested per pair, and without a
+// hand-written ladder of branches.
+template <class F> auto dispatch_flags(F&& f) { return f(); }
+template <class F, class... Rest> auto dispatch_flags(F&& f, bool first, Rest... rest) {
+  if (first)
+    return dispatch_flags([&](auto... tail) { return f(std::true_type{}, tail...); }, rest...);
+  return dispatch_flags([&](auto... tail) { return f(std::false_type{}, tail...); }, rest...);
 }
 
 // The ∇v pass takes neighbours in batches of at most kPairBatch: their |x_ij|² are gathered into
@@ -56,19 +39,6 @@ template <int D>
 void squared_distances(const std::int32_t* j, int count, const Vec<D>& xi, const VecArray<D>& position,
                        std::array<double, kPairBatch>& r2) {
   for (int k = 0; k < count; ++k) r2[k] = (xi - row_vec<D>(position, j[k])).squaredNorm();
-}
-
-// (σ_i/ρ_i² + σ_j/ρ_j²)·∇_iW_ij of Eq. 2.45, row by row in registers: Eigen's product of the
-// summed matrices goes through a stack temporary whose reload stalls store forwarding.
-template <int D>
-Vec<D> stress_divergence_term(const Mat<D>& si, const Eigen::Map<const Mat<D>>& sj, const Vec<D>& grad_w) {
-  Vec<D> term;
-  for (int r = 0; r < D; ++r) {
-    double sum = (si(r, 0) + sj(r, 0)) * grad_w[0];
-    for (int c = 1; c < D; ++c) sum += (si(r, c) + sj(r, c)) * grad_w[c];
-    term[r] = sum;
-  }
-  return term;
 }
 
 // Constants of the pair terms of the continuity and momentum equations.
@@ -84,6 +54,7 @@ template <int D, bool UseDelta, bool UseXsph>
 void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
                          const std::vector<double>& kernel_value, const std::vector<double>& gradient_factor,
                          const ForceConstants<D>& constants, Vec<D>& acc, Vec<D>& xsph, double& drho) {
+  namespace term = pair_terms;
   const ForceConstants<D> c = constants;
   const Vec<D> xi = row_vec<D>(p.position, i);
   const Vec<D> vi = row_vec<D>(p.velocity, i);
@@ -101,58 +72,86 @@ void add_granular_forces(Index i, const GranularParticles<D>& p, const Neighbour
     const double m_j = p.mass[j];
     const double rho_j = p.density[j];
     const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
-    r += m_j * vij.dot(grad_w);  // Eq. 2.42, first term
+    r += term::continuity<D>(m_j, vij, grad_w);
     if constexpr (UseDelta)  // x_ji = −x_ij
-      r += density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
-    const double pi_ij = artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
-    a.noalias() += m_j * (stress_divergence_term<D>(si, row_mat<D>(p.stress_over_rho2, j), grad_w) - pi_ij * grad_w);
-    if constexpr (UseXsph) x -= (c.chi * m_j * inv_rho_mean * kernel_value[s]) * vij;
+      r += term::density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
+    const double pi_ij = term::artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
+    a.noalias() += term::momentum<D>(m_j, si, row_mat<D>(p.stress_over_rho2, j), pi_ij, grad_w);
+    if constexpr (UseXsph) x += term::xsph<D>(c.chi, m_j, inv_rho_mean, kernel_value[s], vij);
   }
   acc = a;
   xsph = x;
   drho = r;
 }
 
+// The constitutive model a scene asks for, with its fields registered in the granular set.
+template <int D>
+ConstitutiveModelVariant<D> make_model(const ModelParams<D>& params, FieldRegistry& granular_fields) {
+  ConstitutiveModelVariant<D> model = make_constitutive_model(params);
+  std::visit([&](auto& m) { m.register_fields(granular_fields); }, model);
+  return model;
+}
+
+template <int D> const ModelParams<D>& validated(const ModelParams<D>& params) {
+  params.validate();
+  return params;
+}
+
 }  // namespace
 
 template <int D>
-Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> granular,
-                          WallParticles<D> walls)
-    : params_(params),
+Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> granular, WallParticles<D> walls)
+    : params_(validated(params)),
       kernel_(params.smoothing_length()),
-      eos_(params.material),
-      rheology_(params.material, params.strain_rate_epsilon()),
+      model_(make_model(params, granular.fields)),
       sound_speed_(params.artificial_sound_speed()),
-      signal_speed_(params.signal_speed()),
-      shear_modulus_(params.shear_modulus()),
+      signal_speed_(std::max(sound_speed_, std::visit([](const auto& m) { return m.wave_speed(); }, model_))),
       wall_volume_(std::pow(params.numerics.spacing, D)),
       granular_(std::move(granular)),
       walls_(std::move(walls)) {
-  params_.validate();
   const Index n = granular_.size();
-  if (granular_.velocity.rows() != n || granular_.density.size() != n || granular_.mass.size() != n)
-    throw std::invalid_argument("granular particle arrays have inconsistent lengths");
-  if (walls_.velocity.rows() != walls_.size() || walls_.mass.size() != walls_.size())
-    throw std::invalid_argument("wall particle arrays have inconsistent lengths");
-  const bool with_xsph = params_.numerics.xsph > 0.0;
-  if (with_xsph && granular_.xsph_correction.rows() != n) granular_.xsph_correction.setZero(n, D);
-  granular_.volume.resize(n);
-  if (params_.material.elastic_quasi_static && granular_.deviatoric_stress.rows() != n)
-    granular_.deviatoric_stress.setZero(n, D * D);
   for (Index i = 0; i < n; ++i) {
     const Vec<D> x = row_vec<D>(granular_.position, i);
     for (int k = 0; k < D; ++k) {
       if (!(x[k] >= params_.domain.lower[k] && x[k] <= params_.domain.upper[k]))
-        throw std::invalid_argument("granular particle " + std::to_string(i) +
+        throw std::invalid_argument("granular particle " + std::to_string(granular_.id[i]) +
                                     " lies outside the domain box (parameter 'domain')");
     }
     if (!(granular_.mass[i] > 0.0) || !(granular_.density[i] > 0.0))
-      throw std::invalid_argument("granular particle " + std::to_string(i) +
+      throw std::invalid_argument("granular particle " + std::to_string(granular_.id[i]) +
                                   " has a non-positive mass or density");
   }
-  penetrated_.assign(static_cast<size_t>(n), 0);
+  check_ids();
+  if (params_.numerics.xsph > 0.0)
+    xsph_correction_ = &granular_.fields.template add<double, D>("xsph_correction", "m/s",
+                                                                 "XSPH velocity correction (Eq. 2.49)");
   mark_interior_walls();
+  compose_passes();
   refresh();
+}
+
+// Ids must be unique within a set: everything a user reads is keyed by them.
+template <int D> void Simulation<D>::check_ids() const {
+  auto check = [](const IdArray& ids, const char* set) {
+    std::vector<std::int64_t> sorted(ids.data(), ids.data() + ids.size());
+    std::sort(sorted.begin(), sorted.end());
+    if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+      throw std::invalid_argument(std::string(set) + " particle ids must be unique");
+  };
+  check(granular_.id, "granular");
+  check(walls_.id, "wall");
+}
+
+// The passes of this run, compiled for its constitutive model and its optional terms.
+template <int D> void Simulation<D>::compose_passes() {
+  std::visit([this](const auto& model) {
+    using Model = std::decay_t<decltype(model)>;
+    stress_pass_ = &Simulation::template velocity_gradient_and_stress_pass<Model>;
+    wall_stress_pass_ = &Simulation::template wall_stress_pass<Model>;
+  }, model_);
+  force_pass_ = dispatch_flags([](auto delta, auto xsph, auto bodies) -> ForcePass {
+    return &Simulation::template force_pass<decltype(delta)::value, decltype(xsph)::value, decltype(bodies)::value>;
+  }, params_.numerics.delta_sph > 0.0, params_.numerics.xsph > 0.0, !bodies_.empty());
 }
 
 // A wall particle is interior when another particle of its wall group sits one spacing further
@@ -183,25 +182,61 @@ template <int D> void Simulation<D>::refresh() {
   compute_rates(0.0);
 }
 
+// ---------------------------------------------------------------- state restore and storage order
+
+template <int D>
+void Simulation<D>::restore(const RunCounters& counters, const std::vector<RigidBody<D>>& bodies,
+                            std::vector<WallRemoval> pending_removals) {
+  if (bodies.size() != bodies_.size())
+    throw std::invalid_argument("the saved state has " + std::to_string(bodies.size()) + " bodies, the scene " +
+                                std::to_string(bodies_.size()));
+  if (granular_.fields.size() != granular_.position.rows() || walls_.fields.size() != walls_.position.rows())
+    throw std::invalid_argument("restored particle fields have inconsistent lengths");
+  check_ids();
+  counters_ = counters;
+  bodies_ = bodies;
+  pending_removals_ = std::move(pending_removals);
+  compose_passes();
+  build_neighbour_lists(granular_.position_at_build, walls_.position_at_build);
+  neighbours_valid_ = true;
+}
+
+template <int D> void Simulation<D>::permute_granular(const std::vector<Index>& order) {
+  if (static_cast<Index>(order.size()) != granular_.size())
+    throw std::invalid_argument("a storage order must list every granular particle once");
+  granular_.fields.gather(order);
+  build_neighbour_lists(granular_.position_at_build, walls_.position_at_build);
+}
+
+template <int D> void Simulation<D>::permute_walls(const std::vector<Index>& order) {
+  if (static_cast<Index>(order.size()) != walls_.size())
+    throw std::invalid_argument("a storage order must list every wall particle once");
+  walls_.fields.gather(order);
+  build_neighbour_lists(granular_.position_at_build, walls_.position_at_build);
+}
+
 // ---------------------------------------------------------------- neighbours
 
 template <int D> void Simulation<D>::build_neighbours() {
-  const double radius = kernel_.support_radius() * (1.0 + 0.5 * params_.numerics.neighbour_skin);
-  Vec<D> lower, upper;
-  bounding_box<D>(granular_.position, walls_.position, radius, lower, upper);
-  granular_grid_.build(granular_.position, lower, upper, radius);
-  wall_grid_.build(walls_.position, lower, upper, radius);
-  build_neighbour_list<D>(granular_.position, granular_.position, granular_grid_, radius, true,
-                          granular_granular_);
-  build_neighbour_list<D>(granular_.position, walls_.position, wall_grid_, radius, false,
-                          granular_wall_);
-  build_neighbour_list<D>(walls_.position, granular_.position, granular_grid_, radius, false,
-                          wall_granular_);
-  if (!bodies_.empty()) pair_body_force_.resize(static_cast<Index>(granular_wall_.indices.size()), D);
-  granular_position_at_build_ = granular_.position;
-  wall_position_at_build_ = walls_.position;
+  build_neighbour_lists(granular_.position, walls_.position);
+  granular_.position_at_build = granular_.position;
+  walls_.position_at_build = walls_.position;
   neighbours_valid_ = true;
   ++counters_.neighbour_builds;
+}
+
+// The lists of all pairs within 2h(1 + skin/2) of the given positions.
+template <int D>
+void Simulation<D>::build_neighbour_lists(const VecArray<D>& granular_at, const VecArray<D>& walls_at) {
+  const double radius = kernel_.support_radius() * (1.0 + 0.5 * params_.numerics.neighbour_skin);
+  Vec<D> lower, upper;
+  bounding_box<D>(granular_at, walls_at, radius, lower, upper);
+  granular_grid_.build(granular_at, lower, upper, radius);
+  wall_grid_.build(walls_at, lower, upper, radius);
+  build_neighbour_list<D>(granular_at, granular_at, granular_grid_, radius, true, granular_granular_);
+  build_neighbour_list<D>(granular_at, walls_at, wall_grid_, radius, false, granular_wall_);
+  build_neighbour_list<D>(walls_at, granular_at, granular_grid_, radius, false, wall_granular_);
+  if (!bodies_.empty()) pair_body_force_.resize(static_cast<Index>(granular_wall_.indices.size()), D);
 }
 
 // The lists hold all pairs within 2h(1 + skin/2); they stay complete while no two particles
@@ -211,17 +246,12 @@ template <int D> void Simulation<D>::update_neighbours_if_needed() {
     build_neighbours();
     return;
   }
-  double max_granular = 0.0, max_wall = 0.0;
-  const Index n = granular_.size();
-#pragma omp parallel for reduction(max : max_granular) schedule(static)
-  for (Index i = 0; i < n; ++i)
-    max_granular = std::max(max_granular, (row_vec<D>(granular_.position, i) -
-                                           row_vec<D>(granular_position_at_build_, i)).squaredNorm());
-  const Index nw = walls_.size();
-#pragma omp parallel for reduction(max : max_wall) schedule(static)
-  for (Index w = 0; w < nw; ++w)
-    max_wall = std::max(max_wall, (row_vec<D>(walls_.position, w) -
-                                   row_vec<D>(wall_position_at_build_, w)).squaredNorm());
+  const double max_granular = max_over_particles(granular_.size(), 0.0, [&](Index i) {
+    return (row_vec<D>(granular_.position, i) - row_vec<D>(granular_.position_at_build, i)).squaredNorm();
+  });
+  const double max_wall = max_over_particles(walls_.size(), 0.0, [&](Index w) {
+    return (row_vec<D>(walls_.position, w) - row_vec<D>(walls_.position_at_build, w)).squaredNorm();
+  });
   const double allowed = 0.5 * params_.numerics.neighbour_skin * kernel_.support_radius();
   if (2.0 * std::sqrt(max_granular) >= allowed ||
       std::sqrt(max_granular) + std::sqrt(max_wall) >= allowed)
@@ -230,7 +260,7 @@ template <int D> void Simulation<D>::update_neighbours_if_needed() {
 
 // ---------------------------------------------------------------- rates
 
-// `dt` advances the stress state of the elastic quasi-static branch (0: evaluate only).
+// `dt` advances the constitutive model's state (0: evaluate only).
 template <int D> void Simulation<D>::compute_rates(double dt) {
   PhaseTimes& t = counters_.phase_seconds;
   double clock = omp_get_wtime();
@@ -244,26 +274,12 @@ template <int D> void Simulation<D>::compute_rates(double dt) {
   for_each_particle(granular_.size(), [&](Index i) { granular_.volume[i] = granular_.mass[i] / granular_.density[i]; });
   wall_velocity_pass();
   lap(t.wall_velocity);
-  if (params_.material.elastic_quasi_static) velocity_gradient_and_stress_pass<true>(dt);
-  else velocity_gradient_and_stress_pass<false>(dt);
+  (this->*stress_pass_)(dt);
   lap(t.velocity_gradient_and_stress);
-  wall_stress_pass();
+  (this->*wall_stress_pass_)();
   lap(t.wall_stress);
-  const bool delta = params_.numerics.delta_sph > 0.0;
-  const bool xsph = params_.numerics.xsph > 0.0;
-  // optional terms are chosen once per evaluation, not tested per pair
-  if (bodies_.empty()) {
-    if (delta && xsph) force_pass<true, true, false>();
-    else if (delta) force_pass<true, false, false>();
-    else if (xsph) force_pass<false, true, false>();
-    else force_pass<false, false, false>();
-  } else {
-    if (delta && xsph) force_pass<true, true, true>();
-    else if (delta) force_pass<true, false, true>();
-    else if (xsph) force_pass<false, true, true>();
-    else force_pass<false, false, true>();
-    accumulate_body_loads(dt);
-  }
+  (this->*force_pass_)();
+  if (!bodies_.empty()) accumulate_body_loads(dt);
   lap(t.forces);
 }
 
@@ -342,11 +358,12 @@ void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& gr
 }
 
 // ∇v_i = Σ_j V_j (v_j − v_i) ⊗ ∇_iW_ij (Eq. 2.48), optionally renormalised by
-// M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_iW_ij so that linear fields are exact; then P (Eq. 2.30) and
-// σ from the μ(I) rheology (Eq. 2.29), in rate form or with the elastic quasi-static branch.
+// M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_iW_ij so that linear fields are exact; then P and σ from the
+// constitutive model.
 template <int D>
-template <bool ElasticQuasiStatic>
+template <class Model>
 void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
+  const Model& model = std::get<Model>(model_);
   const bool correct = params_.numerics.kernel_gradient_correction;
   pair_kernel_value_.resize(granular_granular_.indices.size());
   pair_gradient_factor_.resize(granular_granular_.indices.size());
@@ -358,13 +375,9 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
     if (correct && std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
     row_mat<D>(granular_.velocity_gradient, i) = grad;
     const double rho = granular_.density[i];
-    const double p = eos_.pressure(rho);
+    double p;
+    const Mat<D> sigma = model.update(i, grad, rho, dt, p);
     granular_.pressure[i] = p;
-    Mat<D> sigma;
-    if constexpr (ElasticQuasiStatic)
-      sigma = rheology_.elastic_plastic_stress(grad, p, dt, shear_modulus_, row_mat<D>(granular_.deviatoric_stress, i));
-    else
-      sigma = rheology_.stress(grad, p);
     row_mat<D>(granular_.stress, i) = sigma;
     row_mat<D>(granular_.stress_over_rho2, i) = sigma / (rho * rho);
   });
@@ -374,8 +387,12 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
 // (Adami, Hu & Adams 2012, Eq. 3.31, applied to the full stress tensor):
 //   σ_w = Σ_f σ_f W_wf / Σ_f W_wf − [(g − a_w)·Σ_f ρ_f x_wf W_wf / Σ_f W_wf] I,
 // all of it for a rough (no-slip) wall, less the shear traction on its surface for a smooth one;
-// pressure clipped at 0 as in the EOS; ρ_w from the inverse EOS (Eq. 3.32).
-template <int D> void Simulation<D>::wall_stress_pass() {
+// pressure held at the model's tension cut-off; ρ_w from the model's inverse EOS (Eq. 3.32).
+template <int D>
+template <class Model>
+void Simulation<D>::wall_stress_pass() {
+  const Model& model = std::get<Model>(model_);
+  const double floor = model.wall_pressure_floor();
   const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const Vec<D> g = params_.domain.gravity;
   for_each_particle(walls_.size(), [&](Index w) {
@@ -398,16 +415,16 @@ template <int D> void Simulation<D>::wall_stress_pass() {
       const double hydrostatic = (g - row_vec<D>(walls_.acceleration, w)).dot(sum_rho_x) / sum_w;
       sigma = sum_sigma / sum_w - hydrostatic * Mat<D>::Identity();
       const double p = -sigma.trace() / D;
-      if (p < 0.0) sigma += p * Mat<D>::Identity();  // no tension, as in the EOS
+      if (p < floor) sigma += (p - floor) * Mat<D>::Identity();  // tension cut-off
       if (!walls_.no_slip[w]) {  // smooth wall: remove the shear traction τ = σn − (n·σn)n
         const Vec<D> n = row_vec<D>(walls_.normal, w);
         const Vec<D> traction = sigma * n;
         const Vec<D> shear = traction - n.dot(traction) * n;
         sigma -= n * shear.transpose() + shear * n.transpose();
       }
-      walls_.density[w] = eos_.density(std::max(p, 0.0));
+      walls_.density[w] = model.density_for_pressure(std::max(p, floor));
     } else {
-      walls_.density[w] = eos_.reference_density();
+      walls_.density[w] = model.reference_density();
     }
     const double rho = walls_.density[w];
     row_mat<D>(walls_.stress, w) = sigma;
@@ -436,11 +453,12 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
   const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;
   const double barrier_reach2 = barrier_strength > 0.0 ? barrier_radius * barrier_radius : 0.0;  // 0: off
   const ForceConstants<D> constants{h, alpha, c0, delta_h_c0, chi, hydrostatic_gradient};
-  double max_acc2 = 0.0;
-  std::int64_t penetrating = 0, newly_penetrated = 0;
-  const Index n = granular_.size();
-#pragma omp parallel for reduction(max : max_acc2) reduction(+ : penetrating, newly_penetrated) schedule(static)
-  for (Index i = 0; i < n; ++i) {
+  struct Partial {
+    double max_acc2 = 0.0;
+    std::int64_t penetrating = 0, newly_penetrated = 0;
+  };
+  const Partial total = reduce_over_particles(granular_.size(), Partial{}, [&](Index i, Partial& partial) {
+    namespace term = pair_terms;
     const Vec<D> xi = row_vec<D>(granular_.position, i);
     const Vec<D> vi = row_vec<D>(granular_.velocity, i);
     const double rho_i = granular_.density[i];
@@ -462,30 +480,37 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
       const Vec<D> grad_w = kernel_.gradient_factor(std::sqrt(r2)) * xiw;
       const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
       const double m_w = walls_.mass[w];
-      drho += m_w * viw.dot(grad_w);
-      const double pi_iw = artificial_viscosity(viw.dot(xiw), r2, h, alpha_wall, c0, 2.0 / (rho_i + walls_.density[w]));
-      Vec<D> pair_acc = m_w * ((si + row_mat<D>(walls_.stress_over_rho2, w)) * grad_w - pi_iw * grad_w);
-      if (r2 < barrier_reach2)
-        pair_acc += barrier_factor(std::sqrt(r2), barrier_radius, barrier_strength) * xiw;
+      drho += term::continuity<D>(m_w, viw, grad_w);
+      // a smooth wall resists only the approach along its normal: the tangential part of v_iw would
+      // make the viscosity a wall friction (a sliding block stopped as on a rough wall)
+      const double approach = walls_.no_slip[w] ? viw.dot(xiw) : viw.dot(row_vec<D>(walls_.normal, w)) *
+                                                                     row_vec<D>(walls_.normal, w).dot(xiw);
+      const double pi_iw = term::artificial_viscosity(approach, r2, h, alpha_wall, c0, 2.0 / (rho_i + walls_.density[w]));
+      Vec<D> pair_acc = term::momentum<D>(m_w, si, row_mat<D>(walls_.stress_over_rho2, w), pi_iw, grad_w);
+      if (r2 < barrier_reach2) pair_acc += term::wall_barrier(std::sqrt(r2), barrier_radius, barrier_strength) * xiw;
       acc.noalias() += pair_acc;
       if (on_body) row_vec<D>(pair_body_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
     }
     if (nearest_wall2 < inside_wall2) {
-      ++penetrating;
-      if (!penetrated_[static_cast<size_t>(i)]) {
-        penetrated_[static_cast<size_t>(i)] = 1;
-        ++newly_penetrated;
+      ++partial.penetrating;
+      if (!granular_.penetrated[i]) {
+        granular_.penetrated[i] = 1;
+        ++partial.newly_penetrated;
       }
     }
     acc += g;
     row_vec<D>(granular_.acceleration, i) = acc;
     granular_.density_rate[i] = drho;
-    if constexpr (UseXsph) row_vec<D>(granular_.xsph_correction, i) = xsph;
-    max_acc2 = std::max(max_acc2, acc.squaredNorm());
-  }
-  counters_.max_acceleration = std::sqrt(max_acc2);
-  counters_.penetrating_particles = penetrating;
-  counters_.penetrated_particles += newly_penetrated;
+    if constexpr (UseXsph) row_vec<D>(*xsph_correction_, i) = xsph;
+    partial.max_acc2 = std::max(partial.max_acc2, acc.squaredNorm());
+  }, [](Partial& sum, const Partial& p) {
+    sum.max_acc2 = std::max(sum.max_acc2, p.max_acc2);
+    sum.penetrating += p.penetrating;
+    sum.newly_penetrated += p.newly_penetrated;
+  });
+  counters_.max_acceleration = std::sqrt(total.max_acc2);
+  counters_.penetrating_particles = total.penetrating;
+  counters_.penetrated_particles += total.newly_penetrated;
 }
 
 // ---------------------------------------------------------------- rigid bodies
@@ -493,28 +518,59 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
 template <int D>
 int Simulation<D>::add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
                             std::vector<MotionSegment<D>> motion) {
-  if (!reference.allFinite() || !std::isfinite(angle))
-    throw std::invalid_argument("body reference point and angle must be finite");
-  const int index = static_cast<int>(bodies_.size());
-  Index members = 0;
-  for (Index w = 0; w < walls_.size(); ++w) {
-    if (walls_.group[w] != wall_group) continue;
-    if (walls_.body[w] >= 0)
-      throw std::invalid_argument("wall group " + std::to_string(wall_group) + " is already a body");
-    walls_.body[w] = index;
-    row_vec<D>(walls_.body_offset, w) = rotate_clockwise<D>(row_vec<D>(walls_.position, w) - reference, -angle);
-    row_vec<D>(walls_.body_normal, w) = rotate_clockwise<D>(row_vec<D>(walls_.normal, w), -angle);
-    ++members;
-  }
-  if (members == 0)
-    throw std::invalid_argument("wall group " + std::to_string(wall_group) + " has no particles to make a body of");
   BodyKinematics<D> start;
   start.reference = reference;
   start.angle = angle;
   RigidBody<D> body;
   body.motion = PrescribedMotion<D>(start, std::move(motion));
   body.motion_start = counters_.time;
+  return attach_body(wall_group, std::move(body));
+}
+
+template <int D> int Simulation<D>::add_driven_body(std::int32_t wall_group, const Vec<D>& reference, double angle) {
+  RigidBody<D> body;
+  body.driven = true;
+  body.kinematics.reference = reference;
+  body.kinematics.angle = angle;
+  return attach_body(wall_group, std::move(body));
+}
+
+template <int D> void Simulation<D>::set_body_kinematics(int index, const BodyKinematics<D>& kinematics) {
+  if (index < 0 || index >= static_cast<int>(bodies_.size()))
+    throw std::out_of_range("no body " + std::to_string(index));
+  if (!bodies_[static_cast<size_t>(index)].driven)
+    throw std::invalid_argument("body " + std::to_string(index) + " follows a prescribed motion; only a driven "
+                                "body takes its kinematics from outside");
+  if (!kinematics.reference.allFinite() || !std::isfinite(kinematics.angle) || !kinematics.velocity.allFinite() ||
+      !std::isfinite(kinematics.spin) || !kinematics.acceleration.allFinite() ||
+      !std::isfinite(kinematics.angular_acceleration))
+    throw std::invalid_argument("body " + std::to_string(index) + " kinematics must be finite numbers");
+  bodies_[static_cast<size_t>(index)].kinematics = kinematics;
+}
+
+// Makes the particles of `wall_group` the rigid body `body`, its frame given by the body's
+// kinematics at the current time (reference point and clockwise angle of the present layout).
+template <int D> int Simulation<D>::attach_body(std::int32_t wall_group, RigidBody<D> body) {
+  const BodyKinematics<D> now = body.driven ? body.kinematics : body.motion.at(0.0);
+  if (!now.reference.allFinite() || !std::isfinite(now.angle))
+    throw std::invalid_argument("body reference point and angle must be finite");
+  const int index = static_cast<int>(bodies_.size());
+  body_offset_ = &walls_.fields.template add<double, D>("body_offset", "m", "position in the body frame");
+  body_normal_ = &walls_.fields.template add<double, D>("body_normal", "", "normal in the body frame");
+  Index members = 0;
+  for (Index w = 0; w < walls_.size(); ++w) {
+    if (walls_.group[w] != wall_group) continue;
+    if (walls_.body[w] >= 0)
+      throw std::invalid_argument("wall group " + std::to_string(wall_group) + " is already a body");
+    walls_.body[w] = index;
+    row_vec<D>(*body_offset_, w) = rotate_clockwise<D>(row_vec<D>(walls_.position, w) - now.reference, -now.angle);
+    row_vec<D>(*body_normal_, w) = rotate_clockwise<D>(row_vec<D>(walls_.normal, w), -now.angle);
+    ++members;
+  }
+  if (members == 0)
+    throw std::invalid_argument("wall group " + std::to_string(wall_group) + " has no particles to make a body of");
   bodies_.push_back(std::move(body));
+  compose_passes();
   move_bodies(counters_.time);
   refresh();
   reset_body_impulses();
@@ -529,19 +585,24 @@ template <int D> void Simulation<D>::reset_body_impulses() {
   }
 }
 
-// Places every body particle at its prescribed pose: x = c + R(θ) r, v = v_c + ω J R r, and the
-// acceleration a = −ω² R r of a steady spin, which enters the wall pressure as (g − a_w) (Eq. 3.31).
+// Places every body particle at its body's pose at `time` (the schedule's for a prescribed body,
+// the last one set for a driven body), with the rigid-body velocity and acceleration
+//   x = c + R(θ) r,  v = v_c + ω J R r,  a = a_c + α J R r − ω² R r  (J: quarter turn clockwise),
+// the acceleration entering the wall pressure as (g − a_w) (Eq. 3.31). A prescribed schedule has
+// piecewise-constant velocities, so a_c = α = 0 there and a = −ω² R r, the steady-spin term.
 template <int D> void Simulation<D>::move_bodies(double time) {
-  for (RigidBody<D>& body : bodies_) body.kinematics = body.motion.at(time - body.motion_start);
+  for (RigidBody<D>& body : bodies_)
+    if (!body.driven) body.kinematics = body.motion.at(time - body.motion_start);
   for_each_particle(walls_.size(), [&](Index w) {
     const std::int32_t b = walls_.body[w];
     if (b < 0) return;
     const BodyKinematics<D>& k = bodies_[static_cast<size_t>(b)].kinematics;
-    const Vec<D> arm = rotate_clockwise<D>(row_vec<D>(walls_.body_offset, w), k.angle);
+    const Vec<D> arm = rotate_clockwise<D>(row_vec<D>(*body_offset_, w), k.angle);
+    const Vec<D> turned = quarter_turn_clockwise<D>(arm);
     row_vec<D>(walls_.position, w) = k.reference + arm;
-    row_vec<D>(walls_.velocity, w) = k.velocity + k.spin * quarter_turn_clockwise<D>(arm);
-    row_vec<D>(walls_.acceleration, w) = -(k.spin * k.spin) * arm;
-    row_vec<D>(walls_.normal, w) = rotate_clockwise<D>(row_vec<D>(walls_.body_normal, w), k.angle);
+    row_vec<D>(walls_.velocity, w) = k.velocity + k.spin * turned;
+    row_vec<D>(walls_.acceleration, w) = k.acceleration + k.angular_acceleration * turned - (k.spin * k.spin) * arm;
+    row_vec<D>(walls_.normal, w) = rotate_clockwise<D>(row_vec<D>(*body_normal_, w), k.angle);
   });
 }
 
@@ -583,20 +644,41 @@ template <int D> double Simulation<D>::stable_time_step() const {
 
 template <int D> std::int64_t Simulation<D>::advance(double t_end, std::int64_t max_steps) {
   check_health();  // the state may have been edited since the last step; catch it before it spreads
+  apply_due_removals();
   std::int64_t taken = 0;
   const double fixed = params_.numerics.fixed_dt;
   while (taken < max_steps && counters_.time < t_end * (1.0 - 1e-14)) {
+    // the step lands on the next scheduled removal, as on t_end
+    const double target = pending_removals_.empty() ? t_end : std::min(t_end, pending_removals_.front().time);
     const double bound = stable_time_step();
     if (fixed > 0.0 && fixed > bound)
       throw InstabilityError("fixed time step numerics.fixed_dt = " + format_number(fixed) +
                                  " s exceeds the stable bound " + format_number(bound) + " s",
                              counters_.step, counters_.time, -1);
     double dt = fixed > 0.0 ? fixed : bound;
-    if (counters_.time + dt > t_end) dt = t_end - counters_.time;
+    if (counters_.time + dt > target) dt = target - counters_.time;
     step(dt);
     ++taken;
+    apply_due_removals();
   }
   return taken;
+}
+
+// Removes the wall groups whose time has come (within the landing tolerance of advance()).
+template <int D> void Simulation<D>::apply_due_removals() {
+  while (!pending_removals_.empty() && counters_.time >= pending_removals_.front().time * (1.0 - 1e-14)) {
+    const std::int32_t group = pending_removals_.front().group;
+    pending_removals_.erase(pending_removals_.begin());
+    remove_wall_group(group);
+  }
+}
+
+template <int D> void Simulation<D>::schedule_wall_removal(std::int32_t group, double time) {
+  if (!std::isfinite(time)) throw parameter_error("wall removal time", time, "a finite time (s)");
+  const WallRemoval removal{time, group};
+  const auto later = std::upper_bound(pending_removals_.begin(), pending_removals_.end(), removal,
+                                      [](const WallRemoval& a, const WallRemoval& b) { return a.time < b.time; });
+  pending_removals_.insert(later, removal);
 }
 
 template <int D> void Simulation<D>::step(double dt) {
@@ -612,21 +694,19 @@ template <int D> void Simulation<D>::step(double dt) {
     v += half * row_vec<D>(granular_.acceleration, i);
     granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
     Vec<D> drift = v;
-    if (xsph) drift += row_vec<D>(granular_.xsph_correction, i);
+    if (xsph) drift += row_vec<D>(*xsph_correction_, i);
     row_vec<D>(granular_.position, i) += dt * drift;
   });
   if (!bodies_.empty()) move_bodies(counters_.time + dt);
   const double before_rates = omp_get_wtime();
   compute_rates(dt);
   const double after_rates = omp_get_wtime();
-  double max_v2 = 0.0;
-#pragma omp parallel for reduction(max : max_v2) schedule(static)
-  for (Index i = 0; i < n; ++i) {  // closing kick
+  const double max_v2 = max_over_particles(n, 0.0, [&](Index i) {  // closing kick
     auto v = row_vec<D>(granular_.velocity, i);
     v += half * row_vec<D>(granular_.acceleration, i);
     granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
-    max_v2 = std::max(max_v2, v.squaredNorm());
-  }
+    return v.squaredNorm();
+  });
   counters_.max_speed = std::sqrt(max_v2);
   counters_.time += dt;
   counters_.last_dt = dt;
@@ -638,35 +718,37 @@ template <int D> void Simulation<D>::step(double dt) {
 }
 
 // Stops the run on non-finite state, an escaped particle or a density out of the sane band;
-// reports the lowest offending index so the message is the same for any thread count.
+// reports the offending particle with the lowest id, so the message is the same for any thread
+// count and any storage order.
 template <int D> void Simulation<D>::check_health() const {
   const Index n = granular_.size();
   const double rho0 = params_.material.reference_density;
   const double lo = params_.numerics.density_ratio_min * rho0;
   const double hi = params_.numerics.density_ratio_max * rho0;
   const Vec<D> lower = params_.domain.lower, upper = params_.domain.upper;
-  Index first_bad = n;
-#pragma omp parallel for reduction(min : first_bad) schedule(static)
-  for (Index i = 0; i < n; ++i) {
+  constexpr Index none = std::numeric_limits<Index>::max();
+  const Index first_bad_id = reduce_over_particles(n, none, [&](Index i, Index& lowest) {
     const Vec<D> x = row_vec<D>(granular_.position, i);
     const Vec<D> v = row_vec<D>(granular_.velocity, i);
     const double rho = granular_.density[i];
     const bool finite = x.allFinite() && v.allFinite() && std::isfinite(rho);
     const bool inside = (x.array() >= lower.array()).all() && (x.array() <= upper.array()).all();
-    if (!finite || !inside || rho < lo || rho > hi) first_bad = std::min(first_bad, i);
-  }
-  if (first_bad == n) return;
-  const Vec<D> x = row_vec<D>(granular_.position, first_bad);
-  const double rho = granular_.density[first_bad];
+    if (!finite || !inside || rho < lo || rho > hi) lowest = std::min(lowest, granular_.id[i]);
+  }, [](Index& total, Index p) { total = std::min(total, p); });
+  if (first_bad_id == none) return;
+  Index bad = 0;
+  while (granular_.id[bad] != first_bad_id) ++bad;
+  const Vec<D> x = row_vec<D>(granular_.position, bad);
+  const double rho = granular_.density[bad];
   std::string reason;
-  if (!(x.allFinite() && row_vec<D>(granular_.velocity, first_bad).allFinite() && std::isfinite(rho)))
+  if (!(x.allFinite() && row_vec<D>(granular_.velocity, bad).allFinite() && std::isfinite(rho)))
     reason = "non-finite position, velocity or density";
   else if (rho < lo || rho > hi)
     reason = "density " + format_number(rho) + " kg/m3 outside the band [" + format_number(lo) + ", " +
              format_number(hi) + "] (numerics.density_ratio_min/max)";
   else
     reason = "particle left the domain box (a leak through a wall or an escape)";
-  throw InstabilityError(reason, counters_.step, counters_.time, first_bad);
+  throw InstabilityError(reason, counters_.step, counters_.time, first_bad_id);
 }
 
 // ---------------------------------------------------------------- filters and diagnostics
@@ -736,25 +818,18 @@ template <int D> void Simulation<D>::remove_wall_group(std::int32_t group) {
   std::vector<Index> keep;
   for (Index w = 0; w < walls_.size(); ++w)
     if (walls_.group[w] != group) keep.push_back(w);
-  WallParticles<D> kept;
-  kept.resize(static_cast<Index>(keep.size()));
-  for (Index k = 0; k < static_cast<Index>(keep.size()); ++k) {
-    const Index w = keep[k];
-    row_vec<D>(kept.position, k) = row_vec<D>(walls_.position, w);
-    row_vec<D>(kept.velocity, k) = row_vec<D>(walls_.velocity, w);
-    row_vec<D>(kept.acceleration, k) = row_vec<D>(walls_.acceleration, w);
-    row_vec<D>(kept.normal, k) = row_vec<D>(walls_.normal, w);
-    kept.density[k] = walls_.density[w];
-    kept.mass[k] = walls_.mass[w];
-    kept.no_slip[k] = walls_.no_slip[w];
-    kept.group[k] = walls_.group[w];
-    kept.body[k] = walls_.body[w];
-    kept.interior[k] = walls_.interior[w];
-    row_vec<D>(kept.body_offset, k) = row_vec<D>(walls_.body_offset, w);
-    row_vec<D>(kept.body_normal, k) = row_vec<D>(walls_.body_normal, w);
-  }
-  walls_ = std::move(kept);
+  walls_.fields.gather(keep);
   refresh();
+}
+
+template <int D> std::size_t Simulation<D>::memory_bytes() const {
+  auto list_bytes = [](const NeighbourList& l) {
+    return l.offsets.capacity() * sizeof(Index) + l.indices.capacity() * sizeof(std::int32_t);
+  };
+  return granular_.fields.bytes() + walls_.fields.bytes() + list_bytes(granular_granular_) +
+         list_bytes(granular_wall_) + list_bytes(wall_granular_) +
+         (pair_kernel_value_.capacity() + pair_gradient_factor_.capacity()) * sizeof(double) +
+         static_cast<std::size_t>(pair_body_force_.size()) * sizeof(double);
 }
 
 template class Simulation<2>;

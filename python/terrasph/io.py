@@ -129,6 +129,39 @@ class RunWriter:
         self._file.create_group("series")
         self._file.flush()
 
+    @classmethod
+    def reopen(cls, path: str | os.PathLike[str], *, frames: int, series_rows: Mapping[str, int],
+               compression: str = "gzip") -> RunWriter:
+        """Reopens a run's file to continue it from a checkpoint: frames past the first `frames`,
+        series rows past `series_rows[group]` and series groups it does not name (all written
+        after the checkpoint) are dropped, so the continued run writes each once."""
+        if compression not in _COMPRESSIONS:
+            raise ValueError(f"compression must be one of {_COMPRESSIONS}, got {compression!r}")
+        writer = cls.__new__(cls)
+        writer.path = pathlib.Path(path)
+        writer._filters = {} if compression == "none" else {"compression": compression, "shuffle": True}
+        writer._file = h5py.File(writer.path, "r+")
+        if "run" in writer._file:  # the interrupted run's status and checkpoint name no longer hold
+            writer._file["run"].attrs.clear()
+        frame_group = writer._file["frames"]
+        for dataset in frame_group.values():
+            dataset.resize(frames, axis=0)
+        fields = [name for name in frame_group if name not in _RESERVED_FRAME_NAMES]
+        writer._frame_shapes = ({name: (frame_group[name].shape[1:], frame_group[name].dtype) for name in fields}
+                                if fields else None)
+        writer._series_shapes = {}
+        series = writer._file["series"]
+        for group in _datasets_groups(series):
+            if group not in series_rows:
+                del series[group]
+                continue
+            datasets = series[group]
+            for dataset in datasets.values():
+                dataset.resize(series_rows[group], axis=0)
+            writer._series_shapes[group] = {name: (d.shape[1:], d.dtype) for name, d in datasets.items()}
+        writer._file.flush()
+        return writer
+
     # -- context manager -------------------------------------------------------------------
     def __enter__(self) -> RunWriter:
         return self
@@ -361,6 +394,18 @@ class RunData:
         if not -self.n_frames <= k < self.n_frames:
             raise IndexError(f"frame index {k} out of range for {self.n_frames} frames")
         return {name: values[k] for name, values in self.fields.items()}
+
+
+def _datasets_groups(group: h5py.Group) -> list[str]:
+    """Relative names of the groups below `group` that hold datasets (series groups)."""
+    names: list[str] = []
+
+    def visit(name: str, item: h5py.HLObject) -> None:
+        if isinstance(item, h5py.Group) and any(isinstance(child, h5py.Dataset) for child in item.values()):
+            names.append(name)
+
+    group.visititems(visit)
+    return names
 
 
 def _datasets_below(group: h5py.Group) -> dict[str, h5py.Dataset]:

@@ -61,8 +61,9 @@ def describe_run(path: str | os.PathLike[str]) -> dict[str, Any]:
         "results": {k: _plain(v) for k, v in run.group_attrs.get("/results", {}).items()},
         "versions": {k: v for k, v in run.attrs.items() if k.startswith("version")},
     }
-    if "message" in status:
-        info["message"] = str(status["message"])
+    for key in ("message", "checkpoint"):
+        if key in status:
+            info[key] = str(status[key])
     return info
 
 
@@ -90,8 +91,10 @@ def _cmd_info(args: argparse.Namespace) -> int:
     for key, value in info["results"].items():
         print(f"  {key} = {value}")
     if info["status"] not in ("completed", "at_rest"):
-        print("  the run did not finish: its frames up to the time reached are readable; "
-              f"`terrasph plot {info['file']}` draws them. To go further, run the scene again.")
+        next_step = (f"`terrasph resume {info['file']}` continues it from {info['checkpoint']}"
+                     if "checkpoint" in info else "to go further, run the scene again")
+        print(f"  the run did not finish: its frames up to the time reached are readable and "
+              f"`terrasph plot {info['file']}` draws them; {next_step}")
     return 0
 
 

@@ -31,13 +31,15 @@ class WallGroup:
 @dataclass
 class BodyGroup(WallGroup):
     """A wall group that is a rigid body: its shape placed at `reference` turned clockwise by
-    `angle` (rad), following `motion` from t = 0. Loads are reported for the real `width` (m)."""
+    `angle` (rad), following `motion` from t = 0, or, if `driven`, the kinematics set on the
+    simulation before each step (a multibody engine's). Loads are reported for the real `width` (m)."""
 
     shape: BodyShape | None = None
     reference: tuple[float, float] = (0.0, 0.0)
     angle: float = 0.0
     motion: Motion = field(default_factory=Motion)
     width: float = 1.0
+    driven: bool = False
 
 
 def _close_pairs(a: np.ndarray, b: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -131,11 +133,12 @@ class Scene:
 
     def add_body(self, name: str, shape: BodyShape, *, reference: tuple[float, float], angle: float = 0.0,
                  motion: Motion | None = None, width: float | None = None, no_slip: bool = True,
-                 clear_granular: bool = True) -> BodyGroup:
+                 clear_granular: bool = True, driven: bool = False) -> BodyGroup:
         """Adds a rigid body: `shape` turned clockwise by `angle` (rad) about its reference point,
-        placed at `reference` (m), following `motion` (default: held still). Loads are reported in
-        N for `width` (default: the shape's width). With `clear_granular`, granular particles
-        closer than Δx to the body are removed so it starts in a hole of its own shape."""
+        placed at `reference` (m), following `motion` (default: held still) or, with `driven`,
+        the kinematics given to :meth:`Simulation.set_body_kinematics` before each step. Loads are
+        reported in N for `width` (default: the shape's width). With `clear_granular`, granular
+        particles closer than Δx to the body are removed so it starts in a hole of its own shape."""
         if any(w.name == name for w in self.walls):
             raise ConfigError(f"wall name '{name}' is used twice")
         if not isinstance(shape, BodyShape):
@@ -148,12 +151,15 @@ class Scene:
             raise ConfigError(f"parameter 'width' of body '{name}' = {width!r} is invalid: allowed > 0 (m)")
         if not np.isfinite(angle) or len(reference) != 2 or not np.all(np.isfinite(reference)):
             raise ConfigError(f"body '{name}': reference must be (x, z) and angle finite")
+        if driven and motion is not None:
+            raise ConfigError(f"body '{name}' is driven from outside; it cannot also have a 'motion'")
         motion = Motion() if motion is None else motion
         if not isinstance(motion, Motion):
             raise ConfigError(f"parameter 'motion' of body '{name}' must be a terrasph.motion.Motion")
         position, normal = shape.transformed(angle, (float(reference[0]), float(reference[1])))
         group = BodyGroup(name, len(self.walls), position, normal, no_slip, None, shape,
-                          (float(reference[0]), float(reference[1])), float(angle), motion, float(width))
+                          (float(reference[0]), float(reference[1])), float(angle), motion, float(width),
+                          bool(driven))
         self.walls.append(group)
         if clear_granular:
             self.clear_granular_near(position, self.spacing)

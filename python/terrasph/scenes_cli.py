@@ -39,6 +39,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     column.set_defaults(handler=_run_column)
     _register_plate(scenes)
     _register_leg(scenes)
+    _register_resume(subparsers)
 
 
 def _add_run_options(parser: argparse.ArgumentParser, default_output: str) -> None:
@@ -51,8 +52,13 @@ def _add_run_options(parser: argparse.ArgumentParser, default_output: str) -> No
 
 
 def _prepare(args: argparse.Namespace) -> None:
-    """Checks ``--out`` and applies ``--threads`` (process-wide OpenMP setting) before any work."""
+    """Checks ``--out`` and applies ``--threads`` before any work."""
     check_output_file(args.out, args.force)
+    _apply_threads(args)
+
+
+def _apply_threads(args: argparse.Namespace) -> None:
+    """Applies ``--threads`` (process-wide OpenMP setting) when given."""
     if args.threads is not None:
         from terrasph import _core
 
@@ -128,3 +134,36 @@ def _run_leg(args: argparse.Namespace) -> int:
     _prepare(args)
     result = leg_rotation.run_leg_rotation(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
+
+
+def _register_resume(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Adds ``terrasph resume RUN.h5``."""
+    resume = subparsers.add_parser(
+        "resume", help="continue an interrupted or finished scene run from its checkpoint",
+        description="Continue a scene run from the checkpoint beside its file (RUN.checkpoint.h5, written every "
+                    "10 minutes of wall time and on Ctrl-C or SIGTERM) into the same file: frames and series "
+                    "written after the checkpoint are replaced, so each appears once, and the result is bitwise "
+                    "the run that never stopped.")
+    resume.add_argument("run_file", metavar="RUN.h5", help="the run's HDF5 file")
+    resume.add_argument("--until", type=float, default=None,
+                        help="simulated end time in s (default: the scene's own end time)")
+    add_threads_option(resume)
+    resume.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    resume.set_defaults(handler=_resume)
+
+
+def _resume(args: argparse.Namespace) -> int:
+    import h5py
+
+    from terrasph.config import ConfigError
+    from terrasph.scenes import scene_of_run
+
+    _apply_threads(args)
+    try:
+        with h5py.File(args.run_file, "r") as file:
+            config_json = str(file.attrs["config_json"])
+    except (OSError, KeyError) as error:
+        raise ConfigError(f"{args.run_file} is not a readable terrasph run file: {error}") from error
+    entry, config = scene_of_run(config_json)
+    result = entry.run(config, output=args.run_file, progress=not args.no_progress, resume=True, until=args.until)
+    return _print_summary(result.summary(), args.run_file, result.plot)

@@ -3,12 +3,16 @@ run loop with progress, HDF5 output, scheduled wall removal and safe interruptio
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
+import pathlib
 import platform
+import signal
+import threading
 import time as wallclock
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -18,12 +22,45 @@ from terrasph import _core
 from terrasph.config import ConfigError, Material, Numerics, as_dict
 from terrasph.scene import Scene, hydrostatic_density
 
-__all__ = ["RunResult", "Simulation", "versions"]
+__all__ = ["RunResult", "Simulation", "checkpoint_path", "versions"]
 
 #: Wall time (s) one call into the core may take, so Ctrl-C and the progress bar stay responsive
 #: however slow a step is; the steps per call follow from the last call's seconds per step.
 CHUNK_SECONDS = 0.2
 MAX_STEPS_PER_CHUNK = 500
+
+
+def checkpoint_path(output: str | os.PathLike[str]) -> pathlib.Path:
+    """Where a run writing `output` keeps its checkpoint: ``run.h5`` → ``run.checkpoint.h5``."""
+    path = pathlib.Path(output)
+    return path.with_name(path.stem + ".checkpoint.h5")
+
+
+class _StopRequest:
+    """Turns SIGINT and SIGTERM into a request that the run loop honours at the next step
+    boundary, so a stop never lands in the middle of writing a frame or a checkpoint. Outside the
+    main thread (where Python cannot install handlers) signals keep their default behaviour."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+    @contextlib.contextmanager
+    def catching_signals(self) -> Iterator[None]:
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def request(signum: int, frame: object) -> None:
+            if self.requested:  # a second Ctrl-C: stop now
+                raise KeyboardInterrupt
+            self.requested = True
+
+        previous = {sig: signal.signal(sig, request) for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
 
 
 def versions() -> dict[str, str]:
@@ -54,10 +91,11 @@ class RunResult:
 class Simulation:
     """A granular SPH simulation in plane strain, built from a validated scene.
 
-    Particle arrays (``position``, ``velocity``, ``density``, ``pressure``, ``stress``, …) are zero-copy
-    views into the C++ state: read them freely; after writing to them call :meth:`refresh`. Granular
-    views stay valid for the simulation's lifetime; views of wall arrays (``core.wall_position``, …)
-    are invalidated when a wall group is removed, so take them afresh after a removal.
+    Particle arrays (``position``, ``velocity``, ``density``, ``pressure``, ``stress``, any registered
+    field through :meth:`field`) are read-only copies in particle-id order: the core may store
+    particles in any order, and nothing handed out can dangle. To edit the state, assign
+    (``sim.velocity = v``) or call :meth:`set_field`, then :meth:`refresh`. Wall arrays
+    (``core.wall_position``, ``core.wall_group``, …) are id-ordered copies too.
     Granular masses are per metre of depth (m = ρ·Δx²); multiply by ``width`` for the real sample.
     """
 
@@ -87,13 +125,22 @@ class Simulation:
             if scene.walls else np.zeros(0, np.int32)
         wall_no_slip = np.concatenate([np.full(len(w.position), w.no_slip, np.uint8) for w in scene.walls]) \
             if scene.walls else np.zeros(0, np.uint8)
-        self._removals = sorted((w.remove_at, w.group_id) for w in scene.walls if w.remove_at is not None)
         self.core = _core.Simulation2D(
-            self._core_params(), position, np.zeros_like(position), density, density * dx2,
-            walls, scene.wall_normal, np.full(len(walls), material.reference_density * dx2), wall_no_slip, wall_group)
+            self._core_params(),
+            granular={"position": position, "velocity": np.zeros_like(position), "density": density,
+                      "mass": density * dx2},
+            walls={"position": walls, "normal": scene.wall_normal,
+                   "mass": np.full(len(walls), material.reference_density * dx2),
+                   "no_slip": wall_no_slip, "group": wall_group})
+        for wall in scene.walls:
+            if wall.remove_at is not None:
+                self.core.schedule_wall_removal(wall.group_id, wall.remove_at)
         self.bodies = scene.bodies
         for body in self.bodies:
-            self.core.add_body(body.group_id, np.asarray(body.reference), body.angle, body.motion.rows())
+            if body.driven:
+                self.core.add_driven_body(body.group_id, np.asarray(body.reference), body.angle)
+            else:
+                self.core.add_body(body.group_id, np.asarray(body.reference), body.angle, body.motion.rows())
 
     def _core_params(self) -> _core.ModelParams2D:
         params = _core.ModelParams2D()
@@ -129,33 +176,54 @@ class Simulation:
 
     @property
     def position(self) -> np.ndarray:
-        """Granular positions (N, 2), m (view)."""
+        """Granular positions (N, 2), m, in id order (a read-only copy; assign to change them)."""
         return self.core.position
+
+    @position.setter
+    def position(self, values: np.ndarray) -> None:
+        self.set_field("position", values)
 
     @property
     def velocity(self) -> np.ndarray:
-        """Granular velocities (N, 2), m/s (view)."""
+        """Granular velocities (N, 2), m/s, in id order (a read-only copy; assign to change them)."""
         return self.core.velocity
+
+    @velocity.setter
+    def velocity(self, values: np.ndarray) -> None:
+        self.set_field("velocity", values)
 
     @property
     def density(self) -> np.ndarray:
-        """Granular densities (N,), kg/m³ (view)."""
+        """Granular densities (N,), kg/m³, in id order (a read-only copy; assign to change them)."""
         return self.core.density
+
+    @density.setter
+    def density(self, values: np.ndarray) -> None:
+        self.set_field("density", values)
 
     @property
     def pressure(self) -> np.ndarray:
-        """Granular pressures from the EOS (N,), Pa (view)."""
+        """Granular pressures from the EOS (N,), Pa, in id order (a read-only copy)."""
         return self.core.pressure
 
     @property
     def stress(self) -> np.ndarray:
-        """Granular Cauchy stress (N, 2, 2), Pa (view)."""
+        """Granular Cauchy stress (N, 2, 2), Pa, in id order (a read-only copy)."""
         return self.core.stress
 
     @property
     def mass(self) -> np.ndarray:
-        """Granular masses per metre of depth (N,), kg/m (view)."""
+        """Granular masses per metre of depth (N,), kg/m, in id order (a read-only copy)."""
         return self.core.mass
+
+    def field(self, name: str, particles: str = "granular") -> np.ndarray:
+        """A registered per-particle field of ``particles`` ("granular" or "walls") in id order: a
+        read-only copy. ``core.field_names(particles)`` lists the names, ``core.field_units`` their units."""
+        return self.core.field(name, particles)
+
+    def set_field(self, name: str, values: np.ndarray, particles: str = "granular") -> None:
+        """Overwrites a per-particle field, rows in id order; call :meth:`refresh` before stepping on."""
+        self.core.set_field(name, np.asarray(values), particles)
 
     def kinetic_energy(self) -> float:
         """½ Σ m|v|² for the real width (J)."""
@@ -166,10 +234,11 @@ class Simulation:
         """Pose and load of a body, loads in N and N·m for its real width (DESIGN §2).
 
         Keys: ``reference`` (x, z) m, ``angle`` rad and ``omega`` rad/s (clockwise-positive),
-        ``velocity`` (vx, vz) m/s, ``force`` (F_x, F_z) N of the terrain on the body and ``torque``
+        ``velocity`` (vx, vz) m/s, ``acceleration`` (ax, az) m/s² and ``angular_acceleration`` rad/s²
+        (zero for a prescribed schedule), ``force`` (F_x, F_z) N of the terrain on the body and ``torque``
         N·m (clockwise-positive, about the reference point), both averaged over the time since the
-        last :meth:`reset_body_means` (a box filter; the instant values are ``force_now`` and
-        ``torque_now``), ``lowest_z`` m and, when the scene has a ``surface_level``, ``sinkage`` m.
+        last :meth:`reset_body_means` (a box filter over ``averaged_over`` s; the instant values are
+        ``force_now`` and ``torque_now``), ``lowest_z`` m and, when the scene has a ``surface_level``, ``sinkage`` m.
         """
         index = self._body_index(name)
         body = self.bodies[index]
@@ -179,11 +248,24 @@ class Simulation:
         state = {"reference": np.asarray(raw["reference"]), "angle": raw["angle"],
                  "velocity": np.asarray(raw["velocity"]), "omega": raw["spin"],
                  "force": np.asarray(raw["mean_force"]) * body.width, "torque": raw["mean_torque"] * body.width,
+                 "acceleration": np.asarray(raw["acceleration"]), "angular_acceleration": raw["angular_acceleration"],
                  "force_now": np.asarray(raw["force"]) * body.width, "torque_now": raw["torque"] * body.width,
-                 "lowest_z": lowest}
+                 "averaged_over": raw["averaged_over"], "lowest_z": lowest}
         if self.scene.surface_level is not None:
             state["sinkage"] = self.scene.surface_level - lowest
         return state
+
+    def set_body_kinematics(self, name: str, reference: tuple[float, float], angle: float,
+                            velocity: tuple[float, float], omega: float,
+                            acceleration: tuple[float, float] = (0.0, 0.0), angular_acceleration: float = 0.0) -> None:
+        """Pose (m; rad, clockwise), velocity (m/s; rad/s) and acceleration (m/s²; rad/s²) of a
+        driven body at the end of the next step (DESIGN §3.6): its particles follow at that step,
+        and the acceleration enters its walls' pressure, a_w = a_c + α J r − ω² r (Eq. 3.31)."""
+        index = self._body_index(name)
+        if not self.bodies[index].driven:
+            raise ConfigError(f"body '{name}' follows a prescribed motion; add it with driven=True to drive it")
+        self.core.set_body_kinematics(index, np.asarray(reference, float), float(angle), np.asarray(velocity, float),
+                                      float(omega), np.asarray(acceleration, float), float(angular_acceleration))
 
     def reset_body_means(self) -> None:
         """Restarts the time averages of body forces and torques."""
@@ -207,25 +289,41 @@ class Simulation:
 
     def advance(self, t_end: float, max_steps: int = 2**62) -> int:
         """Steps to `t_end` (s), applying scheduled wall removals; returns the steps taken."""
-        taken = 0
-        self._remove_due_walls()
-        while self.core.time < t_end * (1 - 1e-14) and taken < max_steps:
-            target = min(t_end, self._removals[0][0]) if self._removals else t_end
-            taken += self.core.advance(target, max_steps - taken)
-            self._remove_due_walls()
-        return taken
+        return int(self.core.advance(t_end, max_steps))
 
-    def _remove_due_walls(self) -> None:
-        """Removes the wall groups whose removal time has come."""
-        while self._removals and self._removals[0][0] <= self.core.time:
-            self.core.remove_wall_group(self._removals.pop(0)[1])
+    # -- checkpoints ----------------------------------------------------------------------
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
+        """Writes the whole State to `path` (HDF5, atomically); :meth:`restore` continues from it
+        bit for bit. `progress` is the run loop's own state (plain data), kept with it."""
+        from terrasph.checkpoint import write_checkpoint
+
+        return write_checkpoint(path, self.core.state(), self.describe(), progress)
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        """Replaces the State by the one saved in `path` and returns the run loop's progress saved
+        with it. The checkpoint must belong to this simulation's configuration (scene, material,
+        numerics, width, bodies): anything else is refused with :class:`CheckpointError` naming
+        the entries that differ, as is a corrupted, truncated or other-version file."""
+        from terrasph.checkpoint import CheckpointError, configuration_differences, read_checkpoint
+
+        state, config, progress = read_checkpoint(path)
+        differences = configuration_differences(config, self.describe())
+        if differences:
+            raise CheckpointError(f"checkpoint {path} belongs to another configuration; it differs in: "
+                                  f"{', '.join(differences)}")
+        try:
+            self.core.restore(state)
+        except (ValueError, TypeError, KeyError) as error:
+            raise CheckpointError(f"checkpoint {path} does not fit this simulation: {error}") from error
+        return progress
 
     # -- run loop -------------------------------------------------------------------------
     def run(self, t_end: float, *, output: str | os.PathLike | None = None, frame_interval: float = 0.05,
             progress: bool = True, config: dict[str, Any] | None = None,
             stop_when_at_rest: float | None = None, min_time: float = 0.0,
             on_frame: Callable[[Simulation], None] | None = None,
-            body_interval: float = 0.01) -> RunResult:
+            body_interval: float = 0.01, checkpoint_every: float | None = 600.0,
+            resume: bool = False) -> RunResult:
         """Runs to `t_end` (s), writing a frame every `frame_interval` (s) to `output` (HDF5).
 
         Every `body_interval` (s) each body's pose and load, averaged over the interval, is
@@ -233,42 +331,64 @@ class Simulation:
 
         With ``stop_when_at_rest = r`` the run ends once t ≥ `min_time` and the kinetic energy per
         unit mass ½|v|² (mean) drops below r·g·Δx — a bed whose grains move less than about
-        √(2r g Δx). Ctrl-C ends the run cleanly: the last frame is written and the file closed.
-        An :class:`terrasph.InstabilityError` is recorded in the file before it propagates.
+        √(2r g Δx).
+
+        With an `output`, the State is checkpointed to :func:`checkpoint_path` (`output` with
+        ``.checkpoint.h5``) every `checkpoint_every` seconds of wall time (None: never) and when
+        the run is stopped by Ctrl-C (SIGINT) or SIGTERM: the run then ends at the next step
+        boundary, the last frame is written, the file closed, and ``KeyboardInterrupt`` raised.
+        ``resume=True`` continues such a run from its checkpoint into the same file (frames and
+        series written after the checkpoint are dropped first, so each appears once); the
+        continued run is bitwise identical to one that never stopped. `t_end` may then exceed
+        the original one. An :class:`terrasph.InstabilityError` is recorded in the file before
+        it propagates.
         """
-        if not (t_end > self.time):
-            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")
         if not frame_interval > 0:
             raise ConfigError(f"parameter 'frame_interval' = {frame_interval} is invalid: allowed > 0")
         if not body_interval > 0:
             raise ConfigError(f"parameter 'body_interval' = {body_interval} is invalid: allowed > 0")
+        if checkpoint_every is not None and not checkpoint_every > 0:
+            raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
+        if resume and output is None:
+            raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
         if progress:
             from tqdm.auto import tqdm
         else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
             from tqdm import tqdm
 
-        from terrasph.io import RunWriter, write_xdmf
+        from terrasph.io import RunWriter, read_run, write_xdmf
 
-        writer = RunWriter(output, config or self.describe(), versions=versions()) if output else None
-        if writer:
-            writer.write_static("granular/mass", np.array(self.mass))
-            on_body = self._on_body()
-            wall_group = np.asarray(self.core.wall_group)
-            writer.write_static("walls/position", np.array(np.asarray(self.core.wall_position)[~on_body]))
-            writer.write_static("walls/group", np.array(wall_group[~on_body]))
-            if self.bodies:  # which body each particle of the frames' body_* fields belongs to
-                index_of_group = {body.group_id: index for index, body in enumerate(self.bodies)}
-                writer.write_static("bodies/index", np.array([index_of_group[g] for g in wall_group[on_body]],
-                                                             dtype=np.int32))
+        saved = self.restore(checkpoint_path(output)) if resume else {}
+        if not (t_end > self.time):
+            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")
+        if resume:
+            writer = RunWriter.reopen(output, frames=saved["frames"], series_rows=saved["series_rows"])
+        else:
+            writer = RunWriter(output, config or self.describe(), versions=versions()) if output else None
+            if writer:
+                writer.write_static("granular/mass", np.array(self.mass))
+                writer.write_static("granular/id", np.array(self.core.id))
+                body = np.asarray(self.core.wall_body)  # body index of each wall particle, -1: a fixed wall
+                for name in ("position", "group", "id"):
+                    writer.write_static(f"walls/{name}", np.array(np.asarray(getattr(self.core, f"wall_{name}"))[body < 0]))
+                if self.bodies:  # ids and body index of each particle of the frames' body_* fields
+                    writer.write_static("bodies/id", np.array(np.asarray(self.core.wall_id)[body >= 0]))
+                    writer.write_static("bodies/index", np.array(body[body >= 0], dtype=np.int32))
         diagnostics: dict[str, list[float]] = {k: [] for k in ("time", "step", "dt", "kinetic_energy",
                                                                  "max_speed", "neighbour_builds", "wall_time",
                                                                  "leaked_particles")}
         body_series: dict[str, dict[str, list[Any]]] = {b.name: {} for b in self.bodies}
-        start = wallclock.perf_counter()
-        frames = 0
+        start = wallclock.perf_counter() - saved.get("wall_time", 0.0)
+        frames = saved.get("frames", 0)
+        series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
         status = "completed"
         total_mass = float(self.mass.sum())
         rest_threshold = None if stop_when_at_rest is None else stop_when_at_rest * self.scene.gravity * self.scene.spacing
+
+        def append_series(group: str, row: dict[str, Any]) -> None:
+            if writer:
+                writer.append_series(group, row)
+                series_rows[group] = series_rows.get(group, 0) + 1
 
         def record() -> None:
             nonlocal frames
@@ -280,7 +400,7 @@ class Simulation:
                 diagnostics[key].append(float(value))
             if writer:
                 writer.write_frame(self.time, self.step_count, self.frame_fields())
-                writer.append_series("diagnostics", row)
+            append_series("diagnostics", row)
             frames += 1
             if on_frame:
                 on_frame(self)
@@ -290,9 +410,14 @@ class Simulation:
                 row = {"time": self.time, **self.body_state(body.name)}
                 for key, value in row.items():
                     body_series[body.name].setdefault(key, []).append(value)
-                if writer:
-                    writer.append_series(f"bodies/{body.name}", row)
+                append_series(f"bodies/{body.name}", row)
             self.reset_body_means()
+
+        def save_checkpoint() -> None:
+            if writer:
+                self.checkpoint(checkpoint_path(output), {
+                    "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
+                    "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start})
 
         t_start = self.time
         bar = tqdm(total=round(t_end - t_start, 9), unit="s", disable=not progress, mininterval=0.5,
@@ -319,31 +444,44 @@ class Simulation:
             writer.set_attrs("/run", {"status": end_status, "wall_time": wallclock.perf_counter() - start,
                                       "steps": self.step_count, "time": self.time, **extra})
 
-        try:
-            record()
-            if self.bodies:
-                record_bodies()
+        if resume:
+            next_frame, next_sample = saved["next_frame"], saved["next_sample"]
+        else:
             next_frame = self.time + frame_interval
             next_sample = self.time + body_interval if self.bodies else math.inf
-            while self.time < t_end * (1 - 1e-14):
-                # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
-                advance_chunk(min(next_frame, next_sample, t_end))
-                if self.time >= next_sample * (1 - 1e-12) or (self.bodies and self.time >= t_end * (1 - 1e-14)):
-                    record_bodies()
-                    next_sample += body_interval
-                bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
-                if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
+        stop = _StopRequest()
+        try:
+            with stop.catching_signals():
+                if not resume:
                     record()
-                    next_frame += frame_interval
-                    specific_energy = diagnostics["kinetic_energy"][-1] / (total_mass * self.width)
-                    if rest_threshold is not None and self.time >= min_time and specific_energy < rest_threshold:
-                        status = "at_rest"
-                        break
+                    if self.bodies:
+                        record_bodies()
+                last_checkpoint = wallclock.perf_counter()
+                while self.time < t_end * (1 - 1e-14):
+                    # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
+                    advance_chunk(min(next_frame, next_sample, t_end))
+                    if self.time >= next_sample * (1 - 1e-12) or (self.bodies and self.time >= t_end * (1 - 1e-14)):
+                        record_bodies()
+                        next_sample += body_interval
+                    bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
+                    if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
+                        record()
+                        next_frame += frame_interval
+                        specific_energy = diagnostics["kinetic_energy"][-1] / (total_mass * self.width)
+                        if rest_threshold is not None and self.time >= min_time and specific_energy < rest_threshold:
+                            status = "at_rest"
+                            break
+                    if stop.requested:
+                        raise KeyboardInterrupt
+                    if checkpoint_every is not None and wallclock.perf_counter() - last_checkpoint >= checkpoint_every:
+                        save_checkpoint()
+                        last_checkpoint = wallclock.perf_counter()
         except KeyboardInterrupt:
             close_bar(finished=False)
             if writer:
+                save_checkpoint()  # before the extra frame below, which a resumed run drops
                 writer.write_frame(self.time, self.step_count, self.frame_fields())
-                record_end("interrupted")
+                record_end("interrupted", checkpoint=checkpoint_path(output).name)
                 writer.close()
                 write_xdmf(output)
             raise
@@ -357,6 +495,8 @@ class Simulation:
             raise
         close_bar(finished=True)
         wall_time = wallclock.perf_counter() - start
+        bodies = {name: {key: np.asarray(values) for key, values in series.items()}
+                  for name, series in body_series.items()}
         if writer:
             writer.set_attrs("/run", {"status": status, "wall_time": wall_time, "steps": self.step_count,
                                       "time": self.time, "granular_particles": len(self.mass),
@@ -364,8 +504,11 @@ class Simulation:
                                       "leaked_particles": self.leaked_particles})
             writer.close()
             write_xdmf(output)
-        bodies = {name: {key: np.asarray(values) for key, values in series.items()}
-                  for name, series in body_series.items()}
+            if resume:  # the whole run's series, not only the resumed part
+                series = read_run(output).series
+                diagnostics = {key: list(values) for key, values in series.get("diagnostics", {}).items()}
+                bodies = {b.name: dict(series.get(f"bodies/{b.name}", {})) for b in self.bodies}
+                frames = read_run(output).n_frames
         return RunResult(self.time, self.step_count, wall_time, frames, os.fspath(output) if output else None,
                          status, diagnostics, bodies)
 
@@ -377,14 +520,10 @@ class Simulation:
                   "density": np.array(self.density), "pressure": np.array(self.pressure),
                   "stress": np.array(self.stress)}
         if self.bodies:
-            on_body = self._on_body()
+            on_body = np.asarray(self.core.wall_body) >= 0
             fields["body_position"] = np.array(np.asarray(self.core.wall_position)[on_body])
             fields["body_velocity"] = np.array(np.asarray(self.core.wall_velocity)[on_body])
         return fields
-
-    def _on_body(self) -> np.ndarray:
-        """Mask of the wall particles that belong to a body."""
-        return np.isin(np.asarray(self.core.wall_group), [body.group_id for body in self.bodies])
 
     def describe(self) -> dict[str, Any]:
         """Configuration of this simulation as plain data (saved with the output)."""
@@ -393,7 +532,7 @@ class Simulation:
                 "walls": [{"name": w.name, "no_slip": w.no_slip, "remove_at": w.remove_at,
                            "particles": len(w.position)} for w in self.scene.walls],
                 "bodies": [{"name": b.name, "shape": b.shape.name if b.shape else None, "reference": list(b.reference),
-                            "angle": b.angle, "width": b.width, "motion": b.motion.rows(),
+                            "angle": b.angle, "width": b.width, "motion": b.motion.rows(), "driven": b.driven,
                             "units": "force N and torque N*m for the body's width; angles clockwise"}
                            for b in self.bodies],
                 "granular_particles": len(self.mass)}

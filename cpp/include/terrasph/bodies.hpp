@@ -44,10 +44,12 @@ template <int D> struct MotionSegment {
 
 // Pose and rates of a body at one instant.
 template <int D> struct BodyKinematics {
-  Vec<D> reference = Vec<D>::Zero();  // position of the reference point
-  double angle = 0.0;                 // clockwise rotation from the body frame (rad)
-  Vec<D> velocity = Vec<D>::Zero();   // of the reference point
-  double spin = 0.0;                  // clockwise angular velocity (rad/s)
+  Vec<D> reference = Vec<D>::Zero();     // position of the reference point
+  double angle = 0.0;                    // clockwise rotation from the body frame (rad)
+  Vec<D> velocity = Vec<D>::Zero();      // of the reference point
+  double spin = 0.0;                     // clockwise angular velocity (rad/s)
+  Vec<D> acceleration = Vec<D>::Zero();  // of the reference point (0 for a prescribed schedule)
+  double angular_acceleration = 0.0;     // clockwise (rad/s², 0 for a prescribed schedule)
 };
 
 // A piecewise-constant-velocity schedule starting at t = 0; after its last piece the body holds
@@ -87,6 +89,9 @@ template <int D> class PrescribedMotion {
     return k;
   }
 
+  const BodyKinematics<D>& start() const { return start_; }
+  const std::vector<MotionSegment<D>>& segments() const { return segments_; }
+
  private:
   BodyKinematics<D> start_;
   std::vector<MotionSegment<D>> segments_;
@@ -96,6 +101,9 @@ template <int D> class PrescribedMotion {
 // Force and torque are per metre of depth in 2D (N/m, N·m/m); the Python layer multiplies by the
 // body's real width. The torque is about the reference point, clockwise-positive.
 template <int D> struct RigidBody {
+  // false: follows `motion`; true: driven from outside (a multibody engine sets its kinematics
+  // before every step, DESIGN §3.6)
+  bool driven = false;
   PrescribedMotion<D> motion;
   double motion_start = 0.0;         // simulation time at which the schedule's t = 0 falls
   BodyKinematics<D> kinematics;

@@ -16,7 +16,8 @@ inline std::string format_number(double value) {
   return out.str();
 }
 
-// A run that went unstable: where and when, so the user can find it in the output.
+// A run that went unstable: where and when, and which particle (by its stable id), so the user can
+// find it in the output.
 class InstabilityError : public std::runtime_error {
  public:
   InstabilityError(const std::string& reason, std::int64_t step, double time, std::int64_t particle)
@@ -32,7 +33,7 @@ class InstabilityError : public std::runtime_error {
   static std::string format(const std::string& reason, std::int64_t step, double time,
                             std::int64_t particle) {
     std::string msg = reason + " at step " + std::to_string(step) + ", t = " + format_number(time) + " s";
-    if (particle >= 0) msg += ", granular particle " + std::to_string(particle);
+    if (particle >= 0) msg += ", granular particle id " + std::to_string(particle);
     return msg;
   }
   std::string reason_;

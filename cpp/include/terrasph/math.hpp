@@ -9,11 +9,14 @@ namespace terrasph {
 template <int D> using Vec = Eigen::Matrix<double, D, 1>;
 template <int D> using Mat = Eigen::Matrix<double, D, D, Eigen::RowMajor>;
 
-// (N, D) row-major per-particle vectors and (N, D*D) per-particle tensors: the layout numpy
-// sees through the bindings without copying.
+// (N, D) row-major per-particle vectors and (N, D*D) per-particle tensors (numpy's (N, D) and
+// (N, D, D) layouts), and per-particle scalars, ids and flags.
 template <int D> using VecArray = Eigen::Matrix<double, Eigen::Dynamic, D, Eigen::RowMajor>;
 template <int D> using MatArray = Eigen::Matrix<double, Eigen::Dynamic, D * D, Eigen::RowMajor>;
 using ScalarArray = Eigen::VectorXd;
+using IdArray = Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1>;
+using Int32Array = Eigen::Matrix<std::int32_t, Eigen::Dynamic, 1>;
+using FlagArray = Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 1>;
 using Index = std::int64_t;
 
 template <int D> inline Eigen::Map<Vec<D>> row_vec(VecArray<D>& a, Index i) {

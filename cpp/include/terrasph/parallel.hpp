@@ -1,14 +1,49 @@
-// The one place that owns threading for per-particle loops. Every loop is a gather: particle i
-// writes only its own entries, so results do not depend on the number of threads.
+// The one place that owns threading for particle loops. Every loop is a gather: particle i writes
+// only its own entries, and reductions combine per-thread partials only with operations whose
+// result does not depend on the grouping (max, min, integer sums), so results do not depend on the
+// number of threads. No floating-point atomics, no floating-point sums across threads.
 #pragma once
+
+#include <omp.h>
+
+#include <algorithm>
+#include <vector>
 
 #include "terrasph/math.hpp"
 
 namespace terrasph {
 
+// body(i) for i in [0, n), static chunks.
 template <class Body> void for_each_particle(Index n, Body&& body) {
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) body(i);
+}
+
+// body(i, partial) for i in [0, n) on a per-thread partial that starts at `identity`; the partials
+// are then merged with merge(total, partial). merge must be exact under regrouping (max, min,
+// integer counts); a floating-point sum would make the result depend on the thread count.
+template <class Partial, class Body, class Merge>
+Partial reduce_over_particles(Index n, const Partial& identity, Body&& body, Merge&& merge) {
+  std::vector<Partial> partials;
+#pragma omp parallel
+  {
+#pragma omp single
+    partials.assign(static_cast<std::size_t>(omp_get_num_threads()), identity);
+    Partial local = identity;
+#pragma omp for schedule(static)
+    for (Index i = 0; i < n; ++i) body(i, local);
+    partials[static_cast<std::size_t>(omp_get_thread_num())] = local;
+  }
+  Partial total = identity;
+  for (const Partial& p : partials) merge(total, p);
+  return total;
+}
+
+// Largest value of f(i) over [0, n), and `floor` for an empty range.
+template <class F> double max_over_particles(Index n, double floor, F&& f) {
+  return reduce_over_particles(
+      n, floor, [&](Index i, double& m) { m = std::max(m, f(i)); },
+      [](double& total, double p) { total = std::max(total, p); });
 }
 
 }  // namespace terrasph

@@ -78,27 +78,6 @@ template <int D> struct ModelParams {
                      m.reference_density);
   }
 
-  // G of the elastic quasi-static branch.
-  double shear_modulus() const {
-    const MaterialParams& m = material;
-    if (m.shear_modulus > 0.0) return m.shear_modulus;
-    constexpr double poisson = 0.3;
-    const double bulk = m.bulk_stiffness * m.eos_exponent * (1.0 + m.water_content);
-    return 3.0 * bulk * (1.0 - 2.0 * poisson) / (2.0 * (1.0 + poisson));
-  }
-
-  // Fastest wave the explicit step must resolve: c0, the EOS sound speed, and with the elastic
-  // branch the P-wave speed √((K + 4G/3)/ρ0).
-  double signal_speed() const {
-    double c = std::max(artificial_sound_speed(), eos_sound_speed());
-    if (material.elastic_quasi_static) {
-      const MaterialParams& m = material;
-      const double bulk = m.bulk_stiffness * m.eos_exponent * (1.0 + m.water_content);
-      c = std::max(c, std::sqrt((bulk + 4.0 / 3.0 * shear_modulus()) / m.reference_density));
-    }
-    return c;
-  }
-
   double strain_rate_epsilon() const {
     const double h = smoothing_length();
     return numerics.strain_rate_epsilon >= 0.0 ? numerics.strain_rate_epsilon : 0.01 * h * h;

@@ -1,20 +1,23 @@
-// A granular SPH simulation: model constants + particle state + the step.
-// Per step (kick–drift–kick, DESIGN §3.7):
+// A granular SPH simulation: the model (constants: ModelParams, kernel, constitutive model) and
+// the state (everything a step reads and writes: the two particle sets' registered fields, the
+// counters, the bodies, the wall-removal schedule). Per step (kick–drift–kick, DESIGN §3.7):
 //   v ← v + ½dt a,  ρ ← ρ + ½dt Dρ/Dt          (kick)
 //   x ← x + dt (v + δv_XSPH)                   (drift)
 //   rates at the new positions                  (wall ghosts, ∇v and σ, wall stress, forces)
 //   v ← v + ½dt a,  ρ ← ρ + ½dt Dρ/Dt          (kick), then health checks
+// A State saved with the accessors below and loaded with restore_* continues bit for bit: the
+// neighbour lists are rebuilt from the positions they were built at, and no rate is recomputed.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
 #include "terrasph/bodies.hpp"
+#include "terrasph/constitutive.hpp"
 #include "terrasph/kernel.hpp"
 #include "terrasph/neighbours.hpp"
 #include "terrasph/params.hpp"
 #include "terrasph/particles.hpp"
-#include "terrasph/rheology.hpp"
 
 namespace terrasph {
 
@@ -28,6 +31,7 @@ struct PhaseTimes {
   double integrate_and_check = 0.0;
 };
 
+// The scalar part of the state.
 struct RunCounters {
   std::int64_t step = 0;
   double time = 0.0;
@@ -42,20 +46,30 @@ struct RunCounters {
   PhaseTimes phase_seconds;
 };
 
+// A wall group to remove at a given simulation time (e.g. the gate of a column collapse).
+struct WallRemoval {
+  double time = 0.0;
+  std::int32_t group = 0;
+};
+
 template <int D> class Simulation {
  public:
-  // Takes ownership of the particle sets; their densities and masses must be set.
+  // Takes ownership of the particle sets; positions, velocities, densities and masses of the
+  // granular set and positions, normals, masses, slip flags and groups of the walls must be set.
+  // Ids are assigned in the given order (0, 1, …) unless the sets carry them already.
   Simulation(const ModelParams<D>& params, GranularParticles<D> granular, WallParticles<D> walls);
 
   const ModelParams<D>& params() const { return params_; }
   GranularParticles<D>& granular() { return granular_; }
+  const GranularParticles<D>& granular() const { return granular_; }
   WallParticles<D>& walls() { return walls_; }
-  const WallParticles<D>& walls_const() const { return walls_; }
+  const WallParticles<D>& walls() const { return walls_; }
   const RunCounters& counters() const { return counters_; }
   double smoothing_length() const { return kernel_.h; }
   const WendlandC2<D>& kernel() const { return kernel_; }
 
-  // Advances until `t_end` (the last step is shortened to land on it) or `max_steps` steps;
+  // Advances until `t_end` (the last step is shortened to land on it) or `max_steps` steps,
+  // removing scheduled wall groups when their time comes (a step is shortened to land on it too);
   // returns the number of steps taken. Throws InstabilityError on a blow-up.
   std::int64_t advance(double t_end, std::int64_t max_steps);
 
@@ -65,13 +79,18 @@ template <int D> class Simulation {
   // Re-evaluates neighbours and all rates from the current state (after the state was edited).
   void refresh();
 
-  // Removes the wall particles of one group (e.g. the gate of a column collapse).
+  // Removes the wall particles of one group now / at simulation time `time`.
   void remove_wall_group(std::int32_t group);
+  void schedule_wall_removal(std::int32_t group, double time);
+  const std::vector<WallRemoval>& pending_wall_removals() const { return pending_removals_; }
 
   // Kernel sums for diagnostics and tests: Σ_j V_j W_ij (self included) and Σ_j V_j ∇W_ij
   // over granular neighbours only.
   ScalarArray kernel_sum() const;
   VecArray<D> kernel_gradient_sum() const;
+
+  // Bytes held by the particle fields, the neighbour lists and the pair caches.
+  std::size_t memory_bytes() const;
 
   // Applies the Shepard density filter once (Eq. 2.41).
   void apply_shepard_filter();
@@ -82,40 +101,77 @@ template <int D> class Simulation {
   // Returns the body's index.
   int add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
                std::vector<MotionSegment<D>> motion);
+  // Makes the particles of `wall_group` a body driven from outside (a multibody engine, DESIGN
+  // §3.6): its kinematics are set with set_body_kinematics before each step, and they are taken
+  // as the body's state at the end of that step. `reference` and `angle` describe the layout now.
+  int add_driven_body(std::int32_t wall_group, const Vec<D>& reference, double angle);
+  void set_body_kinematics(int index, const BodyKinematics<D>& kinematics);
   const std::vector<RigidBody<D>>& bodies() const { return bodies_; }
   // Restarts the time averages of force and torque (impulse / elapsed time) of every body.
   void reset_body_impulses();
 
+  // --- state restore (the fields are written through granular()/walls() first) ---
+  // Sets the scalar state, the bodies' dynamic state and the removal schedule, then rebuilds the
+  // neighbour lists at the saved build positions. Nothing is recomputed.
+  void restore(const RunCounters& counters, const std::vector<RigidBody<D>>& bodies,
+               std::vector<WallRemoval> pending_removals);
+
+  // Debug hook: reorders the storage of one particle set (order[k] = old storage index of the new
+  // row k), as the cell-ordered storage will; everything a user sees is keyed by id and unchanged.
+  void permute_granular(const std::vector<Index>& order);
+  void permute_walls(const std::vector<Index>& order);
+
  private:
+  using StressPass = void (Simulation::*)(double);
+  using ForcePass = void (Simulation::*)();
+
+  void compose_passes();
   void step(double dt);
+  void apply_due_removals();
   void update_neighbours_if_needed();
   void build_neighbours();
+  void build_neighbour_lists(const VecArray<D>& granular_at, const VecArray<D>& walls_at);
   void compute_rates(double dt);
   void wall_velocity_pass();
-  template <bool ElasticQuasiStatic> void velocity_gradient_and_stress_pass(double dt);
+  template <class Model> void velocity_gradient_and_stress_pass(double dt);
   void add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment);
   void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const;
-  void wall_stress_pass();
+  template <class Model> void wall_stress_pass();
   template <bool UseDelta, bool UseXsph, bool WithBodies> void force_pass();
+  int attach_body(std::int32_t wall_group, RigidBody<D> body);
   void move_bodies(double time);
   void accumulate_body_loads(double dt);
   void check_health() const;
   void mark_interior_walls();
+  void check_ids() const;
 
+  // model
   ModelParams<D> params_;
   WendlandC2<D> kernel_;
-  EquationOfState eos_;
-  MuIRheology<D> rheology_;
+  ConstitutiveModelVariant<D> model_;
   double sound_speed_;
   double signal_speed_;
-  double shear_modulus_;
   double wall_volume_;  // V_w = Δx^D
 
+  // state
   GranularParticles<D> granular_;
   WallParticles<D> walls_;
   RunCounters counters_;
+  std::vector<RigidBody<D>> bodies_;
+  std::vector<WallRemoval> pending_removals_;  // by time
+  bool neighbours_valid_ = false;
 
-  // neighbour lists with a Verlet skin, and the positions they were built at
+  // optional fields, registered by the modules that use them
+  VecArray<D>* xsph_correction_ = nullptr;  // χ Σ ... of Eq. 2.49 (XSPH on)
+  VecArray<D>* body_offset_ = nullptr;      // position in the body frame (bodies present)
+  VecArray<D>* body_normal_ = nullptr;      // normal in the body frame
+
+  // the passes of this run, composed once for its model and optional terms
+  StressPass stress_pass_ = nullptr;
+  void (Simulation::*wall_stress_pass_)() = nullptr;
+  ForcePass force_pass_ = nullptr;
+
+  // derived from the state at each neighbour build (rebuilt, not saved)
   CellGrid<D> granular_grid_;
   CellGrid<D> wall_grid_;
   NeighbourList granular_granular_;
@@ -127,11 +183,6 @@ template <int D> class Simulation {
   std::vector<double> pair_gradient_factor_;
   // force each granular–wall pair exerts on the wall, kept for walls that belong to a body
   VecArray<D> pair_body_force_;
-  std::vector<RigidBody<D>> bodies_;
-  std::vector<std::uint8_t> penetrated_;   // 1 once a granular particle has got past a wall's surface row
-  VecArray<D> granular_position_at_build_;
-  VecArray<D> wall_position_at_build_;
-  bool neighbours_valid_ = false;
 };
 
 }  // namespace terrasph

@@ -131,8 +131,13 @@ class ColumnResult:
 
 
 def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: str | os.PathLike | None = None,
-                        progress: bool = True, plot: bool = True) -> ColumnResult:
-    """Builds and runs a collapse until at rest (or t_end); writes HDF5 and a PNG of the final profile."""
+                        progress: bool = True, plot: bool = True,
+                        resume: bool = False, until: float | None = None) -> ColumnResult:
+    """Builds and runs a collapse until at rest (or t_end); writes HDF5 and a PNG of the final profile.
+
+    ``resume=True`` continues the run in `output` from its checkpoint; ``until`` replaces the end
+    time (see :meth:`terrasph.simulation.Simulation.run`).
+    """
     from terrasph import analysis
 
     scene, material, numerics = build_column_collapse(config)
@@ -141,7 +146,8 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
     dx = scene.spacing
     length0 = float(initial[:, 0].max() + 0.5 * dx)
     height0 = float(initial[:, 1].max() + 0.5 * dx)
-    run = sim.run(config.t_end, output=output, frame_interval=config.frame_interval, progress=progress,
+    run = sim.run(config.t_end if until is None else until, output=output, resume=resume,
+                  frame_interval=config.frame_interval, progress=progress,
                   config={"scene": "column-collapse", "column_collapse": dataclasses.asdict(config),
                           **sim.describe()},
                   stop_when_at_rest=config.rest_threshold, min_time=config.release_time + 0.3)

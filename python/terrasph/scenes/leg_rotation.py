@@ -189,13 +189,19 @@ class LegResult:
 
 
 def run_leg_rotation(config: LegRotation = LegRotation(), *, output: str | os.PathLike | None = None,
-                     progress: bool = True, plot: bool = True) -> LegResult:
+                     progress: bool = True, plot: bool = True,
+                     resume: bool = False, until: float | None = None) -> LegResult:
     """Builds and runs a leg rotation; writes HDF5 (body series under /series/bodies/leg) and a
-    PNG of lift and thrust against θ beside it."""
+    PNG of lift and thrust against θ beside it.
+
+    ``resume=True`` continues the run in `output` from its checkpoint; ``until`` replaces the end
+    time (see :meth:`terrasph.simulation.Simulation.run`).
+    """
     scene, material, numerics = build_leg_rotation(config)
     sim = Simulation(scene, material, numerics, width=config.width)
     interval = 1.0 / (config.samples_per_radian * config.omega)
-    run = sim.run(config.duration, output=output, frame_interval=config.frame_interval, progress=progress,
+    run = sim.run(config.duration if until is None else until, output=output, resume=resume,
+                  frame_interval=config.frame_interval, progress=progress,
                   body_interval=interval,
                   config={"scene": "leg-rotation", "leg_rotation": dataclasses.asdict(config), **sim.describe()})
     series = run.bodies["leg"]

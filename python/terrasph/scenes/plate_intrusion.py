@@ -243,12 +243,18 @@ def _strokes(series: dict[str, np.ndarray], config: PlateIntrusion) -> tuple[np.
 
 
 def run_plate_intrusion(config: PlateIntrusion = PlateIntrusion(), *, output: str | os.PathLike | None = None,
-                        progress: bool = True, plot: bool = True) -> PlateResult:
+                        progress: bool = True, plot: bool = True,
+                        resume: bool = False, until: float | None = None) -> PlateResult:
     """Builds and runs a plate intrusion; writes HDF5 (body series under /series/bodies/plate,
-    summary under /results) and a PNG of F_z against depth beside it."""
+    summary under /results) and a PNG of F_z against depth beside it.
+
+    ``resume=True`` continues the run in `output` from its checkpoint; ``until`` replaces the end
+    time (see :meth:`terrasph.simulation.Simulation.run`).
+    """
     scene, material, numerics = build_plate_intrusion(config)
     sim = Simulation(scene, material, numerics, width=config.width)
-    run = sim.run(config.duration, output=output, frame_interval=config.frame_interval, progress=progress,
+    run = sim.run(config.duration if until is None else until, output=output, resume=resume,
+                  frame_interval=config.frame_interval, progress=progress,
                   body_interval=config.sample_interval,
                   config={"scene": "plate-intrusion", "plate_intrusion": dataclasses.asdict(config), **sim.describe()})
     depth, force, phase, time = _strokes(run.bodies["plate"], config)
