@@ -70,14 +70,14 @@ def throughput(sizes: list[int], threads: list[int], steps: int) -> None:
 
 
 FEATURES: dict[str, tuple[dict, dict]] = {
-    "plain (rate μ(I), no δ, no XSPH)": ({"quasi_static": "rate"}, {"delta_sph": 0.0, "xsph": 0.0}),
-    "+ δ-SPH (δ = 0.1)": ({"quasi_static": "rate"}, {"delta_sph": 0.1, "xsph": 0.0}),
-    "+ XSPH (χ = 0.2)": ({"quasi_static": "rate"}, {"delta_sph": 0.0, "xsph": 0.2}),
-    "+ Shepard every 10 steps": ({"quasi_static": "rate"}, {"delta_sph": 0.0, "xsph": 0.0, "shepard_interval": 10}),
-    "+ kernel gradient correction": ({"quasi_static": "rate"}, {"delta_sph": 0.0, "xsph": 0.0,
+    "plain (rate μ(I), no δ, no XSPH)": ({"model": "mu_i_rate"}, {"delta_sph": 0.0, "xsph": 0.0}),
+    "+ δ-SPH (δ = 0.1)": ({"model": "mu_i_rate"}, {"delta_sph": 0.1, "xsph": 0.0}),
+    "+ XSPH (χ = 0.2)": ({"model": "mu_i_rate"}, {"delta_sph": 0.0, "xsph": 0.2}),
+    "+ Shepard every 10 steps": ({"model": "mu_i_rate"}, {"delta_sph": 0.0, "xsph": 0.0, "shepard_interval": 10}),
+    "+ kernel gradient correction": ({"model": "mu_i_rate"}, {"delta_sph": 0.0, "xsph": 0.0,
                                                                "kernel_gradient_correction": True}),
-    "+ elastic quasi-static branch": ({"quasi_static": "elastic"}, {"delta_sph": 0.0, "xsph": 0.0}),
-    "default (elastic, δ, XSPH)": ({}, {}),
+    "+ hypoelastic μ(I) (mu_i_hypoelastic)": ({"model": "mu_i_hypoelastic"}, {"delta_sph": 0.0, "xsph": 0.0}),
+    "default (hypoelastic, δ, XSPH)": ({}, {}),
 }
 
 

@@ -4,8 +4,8 @@
 
 A speed change to the core that should not change any result (a reordered loop, a cache, a new
 pass structure) must leave every line the same; run it before and after and `diff` the output.
-The variants switch each optional term on and off (δ-SPH, XSPH, the rate or elastic quasi-static
-branch, kernel gradient correction, Shepard filter) and include a rotating leg, so each code path
+The variants switch each optional term on and off (δ-SPH, XSPH, the rate or hypoelastic μ(I)
+model, kernel gradient correction, Shepard filter) and include a rotating leg, so each code path
 of the two pair passes is hashed. Same output for any thread count (the core's determinism).
 """
 
@@ -40,10 +40,10 @@ def bed_variants() -> dict[str, tuple[Material, Numerics]]:
     """Material and numerics of each bed variant, spanning the optional terms."""
     return {
         "default": (Material(), Numerics(spacing=SPACING)),
-        "rate": (Material(quasi_static="rate"), Numerics(spacing=SPACING)),
+        "rate": (Material(model="mu_i_rate"), Numerics(spacing=SPACING)),
         "no-delta": (Material(), Numerics(spacing=SPACING, delta_sph=0.0)),
         "no-xsph": (Material(), Numerics(spacing=SPACING, xsph=0.0)),
-        "plain": (Material(quasi_static="rate"), Numerics(spacing=SPACING, xsph=0.0, delta_sph=0.0)),
+        "plain": (Material(model="mu_i_rate"), Numerics(spacing=SPACING, xsph=0.0, delta_sph=0.0)),
         "correction+shepard": (Material(), Numerics(spacing=SPACING, kernel_gradient_correction=True,
                                                     shepard_interval=7)),
     }

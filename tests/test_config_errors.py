@@ -66,7 +66,8 @@ def test_mu2_below_mu1() -> None:
 
 @pytest.mark.parametrize("name, value", [
     ("mu1", -0.1), ("bulk_stiffness", 0.0), ("bulk_stiffness", -5.0), ("grain_diameter", math.nan),
-    ("water_content", 1.5), ("eos_exponent", 0.5), ("quasi_static", "plastic"),
+    ("water_content", 1.5), ("eos_exponent", 0.5), ("model", "plastic"), ("filling_angle", 2.0),
+    ("packing_fraction", 1.2), ("mu1", True),
 ])
 def test_bad_material_values_name_the_parameter(name, value) -> None:
     with pytest.raises(ConfigError, match=rf"'material\.{name}'"):
@@ -76,7 +77,7 @@ def test_bad_material_values_name_the_parameter(name, value) -> None:
 @pytest.mark.parametrize("name, value", [
     ("h_factor", 0.9), ("h_factor", 2.5), ("cfl", 0.0), ("cfl", 0.8), ("fixed_dt", -1e-5),
     ("delta_sph", -0.1), ("xsph", 1.5), ("shepard_interval", -1), ("shepard_interval", 2.5),
-    ("density_ratio_min", 1.2), ("density_ratio_max", 0.9),
+    ("density_ratio_min", 1.2), ("density_ratio_max", 0.9), ("sound_speed", -1.0),
 ])
 def test_bad_numerics_values_name_the_parameter(name, value) -> None:
     with pytest.raises(ConfigError, match=rf"'numerics\.{name}'"):
@@ -99,8 +100,14 @@ def test_unknown_parameters_are_named() -> None:
     with pytest.raises(ConfigError, match=r"unknown parameter 'numerics\.delta'"):
         build_column_collapse(ColumnCollapse(numerics={"delta": 0.1}))
     # and keyword arguments of the dataclasses themselves
-    with pytest.raises(TypeError, match="spacingg"):
+    with pytest.raises(ConfigError, match=r"unknown parameter 'numerics\.spacingg'"):
         Numerics(spacingg=DX)
+
+
+def test_grain_density_not_above_reference_density() -> None:
+    """Checked only in C++ before (a traceback from the core); now a ConfigError from Material."""
+    with pytest.raises(ConfigError, match=r"'material\.grain_density'.*> reference_density"):
+        Material(grain_density=2500.0, reference_density=2507.0)
 
 
 def test_particle_outside_the_domain(no_core) -> None:

@@ -26,9 +26,9 @@ DX = 0.005
 N_SIDE = 20
 
 
-def bump_simulation(free_block, delta: float, quasi_static: str = "elastic") -> tuple[Simulation, np.ndarray]:
+def bump_simulation(free_block, delta: float, model: str = "mu_i_hypoelastic") -> tuple[Simulation, np.ndarray]:
     scene, block = free_block(DX, N_SIDE, N_SIDE)
-    material = Material(quasi_static=quasi_static)
+    material = Material(model=model)
     density = np.full(len(block), material.reference_density)
     centre = np.full(2, 0.5 * N_SIDE * DX)
     bump = np.hypot(*(block - centre).T) < 1.1 * DX
@@ -51,11 +51,11 @@ def test_density_diffusion_rate_at_rest_reduces_the_bump(free_block) -> None:
     assert np.all(plain.core.density_rate == 0.0)  # δ = 0: nothing moves, nothing diffuses
 
 
-@pytest.mark.parametrize("quasi_static", ["elastic", "rate"])
-def test_density_bump_decays_faster_with_delta_sph(free_block, quasi_static) -> None:
+@pytest.mark.parametrize("model", ["mu_i_hypoelastic", "mu_i_rate"])
+def test_density_bump_decays_faster_with_delta_sph(free_block, model) -> None:
     deviations = {}
     for delta in (0.1, 0.0):
-        sim, _ = bump_simulation(free_block, delta, quasi_static)
+        sim, _ = bump_simulation(free_block, delta, model)
         rho0 = sim.material.reference_density
         mass0 = np.array(sim.mass)
         total0 = float(np.sum(sim.mass))
@@ -71,11 +71,11 @@ def test_density_bump_decays_faster_with_delta_sph(free_block, quasi_static) -> 
     assert deviations[0.1] < 0.25 * deviations[0.0]
 
 
-@pytest.mark.parametrize("quasi_static", ["elastic", "rate"])
-def test_momentum_conserved_without_walls_and_gravity(free_block, rng, quasi_static) -> None:
+@pytest.mark.parametrize("model", ["mu_i_hypoelastic", "mu_i_rate"])
+def test_momentum_conserved_without_walls_and_gravity(free_block, rng, model) -> None:
     """Random velocities (σ = 0.1 m/s, seeded) in a slightly compressed 16 × 16 block, 300 steps."""
     scene, block = free_block(DX, 16, 16)
-    material = Material(quasi_static=quasi_static)
+    material = Material(model=model)
     sim = Simulation(scene, material, Numerics(spacing=DX),
                      initial_density=np.full(len(block), 1.002 * material.reference_density))
     sim.velocity = rng.normal(0.0, 0.1, (len(block), 2))

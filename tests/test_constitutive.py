@@ -30,11 +30,10 @@ D = 0.002
 MU1, MU2, I0 = math.tan(math.radians(21)), math.tan(math.radians(33)), 0.279
 
 
-def params(*, hypoelastic: bool, cohesion: float = 0.0) -> _core.ModelParams2D:
+def params(*, hypoelastic: bool, water_content: float = 0.0) -> _core.ModelParams2D:
     p = _core.ModelParams2D()
-    p.material.elastic_quasi_static = hypoelastic
-    if cohesion:
-        p.material.cohesion = cohesion
+    p.material.model = "mu_i_hypoelastic" if hypoelastic else "mu_i_rate"
+    p.material.water_content = water_content
     return p
 
 
@@ -78,14 +77,22 @@ def test_rate_form_stress_follows_the_equations(rate) -> None:
 
 
 def test_cohesion_adds_to_the_yield_stress() -> None:
-    rho, cohesion = 1.001 * RHO0, 150.0
+    """A wet material (w = 0.5 %) adds its cohesion c (Eq. 2.33–2.34, the material's own
+    cohesion()) to μ(I)P, with P scaled by (1 + w) (Eq. 2.30)."""
+    rho, w = 1.001 * RHO0, 0.005
     grad = np.array([[0.0, 50.0], [0.0, 0.0]])
-    dry = update(params(hypoelastic=False), grad, rho)
-    wet = update(params(hypoelastic=False, cohesion=cohesion), grad, rho)
-    gain = magnitude(wet["stress"] + wet["pressure"] * np.eye(2)) - magnitude(dry["stress"] + dry["pressure"] * np.eye(2))
+    wet_params = params(hypoelastic=False, water_content=w)
+    cohesion = wet_params.material.cohesion()
+    assert cohesion > 100.0  # about 115 Pa for the default bridges of Table 2.1
     shear_rate = 25.0
     epsilon = 0.01 * (0.0026 * 1.3) ** 2
-    assert gain == pytest.approx(cohesion * shear_rate / (shear_rate + epsilon), rel=1e-12)
+    for p, water, c in ((params(hypoelastic=False), 0.0, 0.0), (wet_params, w, cohesion)):
+        out = update(p, grad, rho)
+        pressure = eos_pressure(rho) * (1.0 + water)
+        assert out["pressure"] == pytest.approx(pressure, rel=1e-12)
+        strength = friction(shear_rate, pressure) * pressure + c
+        assert magnitude(out["stress"] + pressure * np.eye(2)) == pytest.approx(
+            strength * shear_rate / (shear_rate + epsilon), rel=1e-12)
 
 
 def test_no_tension_below_the_reference_density() -> None:

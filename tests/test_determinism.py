@@ -16,12 +16,12 @@ from terrasph.simulation import Simulation
 FIELDS = ("position", "velocity", "density", "pressure", "stress")
 
 
-def run_state(threads: int, quasi_static: str, numerics: dict, steps: int) -> dict[str, np.ndarray]:
+def run_state(threads: int, model: str, numerics: dict, steps: int) -> dict[str, np.ndarray]:
     _core.set_num_threads(threads)
     assert _core.get_max_threads() == threads
     # the coarse column collapse (475 particles, walls, gate removed at t = 0): a flowing case
     scene, material, numerics_obj = build_column_collapse(ColumnCollapse(resolution="coarse", numerics=numerics))
-    material = dataclasses.replace(material, quasi_static=quasi_static)
+    material = dataclasses.replace(material, model=model)
     sim = Simulation(scene, material, numerics_obj)
     sim.advance(1.0, max_steps=steps)
     assert sim.step_count == steps
@@ -31,14 +31,14 @@ def run_state(threads: int, quasi_static: str, numerics: dict, steps: int) -> di
     return state
 
 
-@pytest.mark.parametrize("quasi_static, numerics", [
-    ("elastic", {}),
-    ("rate", {"shepard_interval": 25, "kernel_gradient_correction": True}),
+@pytest.mark.parametrize("model, numerics", [
+    ("mu_i_hypoelastic", {}),
+    ("mu_i_rate", {"shepard_interval": 25, "kernel_gradient_correction": True}),
 ])
-def test_bitwise_identical_with_one_two_and_three_threads(restore_threads, quasi_static, numerics) -> None:
-    one = run_state(1, quasi_static, numerics, 400)
+def test_bitwise_identical_with_one_two_and_three_threads(restore_threads, model, numerics) -> None:
+    one = run_state(1, model, numerics, 400)
     for threads in (2, 3):
-        other = run_state(threads, quasi_static, numerics, 400)
+        other = run_state(threads, model, numerics, 400)
         for name in one:
             assert np.array_equal(one[name], other[name]), f"{name} differs between 1 and {threads} threads"
     assert one["neighbour_builds"] >= 2  # the lists were rebuilt during the run, not only at start
@@ -47,7 +47,7 @@ def test_bitwise_identical_with_one_two_and_three_threads(restore_threads, quasi
 
 def test_repeat_run_is_identical(restore_threads) -> None:
     _core.set_num_threads(2)
-    first = run_state(2, "elastic", {}, 200)
-    second = run_state(2, "elastic", {}, 200)
+    first = run_state(2, "mu_i_hypoelastic", {}, 200)
+    second = run_state(2, "mu_i_hypoelastic", {}, 200)
     for name in first:
         assert np.array_equal(first[name], second[name])

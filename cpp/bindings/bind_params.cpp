@@ -1,6 +1,12 @@
 // Bindings of the model constants (cpp/include/terrasph/params.hpp): material, numerics, domain.
+// The material and numerics fields are bound from the parameter lists themselves, and the lists
+// are exported as `parameter_table()` for the Python configuration classes (terrasph.config).
 #include <pybind11/eigen.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <string>
+#include <type_traits>
 
 #include "terrasph/params.hpp"
 
@@ -9,43 +15,66 @@ using namespace terrasph;
 
 namespace {
 constexpr int Dim = 2;
+
+// A number or bool is a plain attribute; a choice is a str attribute that refuses unknown names.
+template <class Group, class T>
+void bind_field(py::class_<Group>& cls, const ParameterField<Group, T>& field) {
+  if constexpr (std::is_enum_v<T>) {
+    const auto member = field.member;
+    const std::string parameter = field.qualified_name();
+    cls.def_property(
+        field.name, [member](const Group& group) { return choice_name(group.*member); },
+        [member, parameter](Group& group, const std::string& name) {
+          group.*member = parse_choice<T>(parameter, name);
+        },
+        field.doc);
+  } else {
+    cls.def_readwrite(field.name, field.member, field.doc);
+  }
+}
+
+template <class Group> py::class_<Group> bind_group(py::module_& m, const char* class_name) {
+  py::class_<Group> cls(m, class_name);
+  cls.def(py::init<>());
+  Group::for_each_field([&](const auto& field) { bind_field(cls, field); });
+  cls.def("validate", &Group::validate,
+          "Checks every parameter against its range and the rules linking them; ValueError names the first "
+          "offender.");
+  return cls;
+}
+
+py::dict as_dict(const ParameterInfo& info) {
+  py::dict entry;
+  entry["group"] = info.group;
+  entry["name"] = info.name;
+  entry["kind"] = info.kind;
+  entry["default"] = std::visit([](const auto& value) { return py::cast(value); }, info.default_value);
+  entry["unit"] = info.unit;
+  entry["lower"] = info.lower;
+  entry["lower_inclusive"] = info.lower_inclusive;
+  entry["upper"] = info.upper;
+  entry["upper_inclusive"] = info.upper_inclusive;
+  entry["choices"] = py::tuple(py::cast(info.choices));
+  entry["allowed"] = info.allowed;
+  entry["doc"] = info.doc;
+  return entry;
+}
+
+py::list exported_table() {
+  py::list table;
+  for (const auto& info : parameter_table<MaterialParams>()) table.append(as_dict(info));
+  for (const auto& info : parameter_table<NumericsParams>()) table.append(as_dict(info));
+  return table;
+}
 }  // namespace
 
 void bind_params(py::module_& m) {
-  py::class_<MaterialParams>(m, "MaterialParams")
-      .def(py::init<>())
-      .def_readwrite("grain_density", &MaterialParams::grain_density)
-      .def_readwrite("reference_density", &MaterialParams::reference_density)
-      .def_readwrite("grain_diameter", &MaterialParams::grain_diameter)
-      .def_readwrite("mu1", &MaterialParams::mu1)
-      .def_readwrite("mu2", &MaterialParams::mu2)
-      .def_readwrite("inertial_number_i0", &MaterialParams::inertial_number_i0)
-      .def_readwrite("bulk_stiffness", &MaterialParams::bulk_stiffness)
-      .def_readwrite("eos_exponent", &MaterialParams::eos_exponent)
-      .def_readwrite("water_content", &MaterialParams::water_content)
-      .def_readwrite("cohesion", &MaterialParams::cohesion)
-      .def_readwrite("elastic_quasi_static", &MaterialParams::elastic_quasi_static)
-      .def_readwrite("shear_modulus", &MaterialParams::shear_modulus);
-
-  py::class_<NumericsParams>(m, "NumericsParams")
-      .def(py::init<>())
-      .def_readwrite("spacing", &NumericsParams::spacing)
-      .def_readwrite("h_factor", &NumericsParams::h_factor)
-      .def_readwrite("cfl", &NumericsParams::cfl)
-      .def_readwrite("fixed_dt", &NumericsParams::fixed_dt)
-      .def_readwrite("sound_speed", &NumericsParams::sound_speed)
-      .def_readwrite("artificial_viscosity", &NumericsParams::artificial_viscosity)
-      .def_readwrite("wall_artificial_viscosity", &NumericsParams::wall_artificial_viscosity)
-      .def_readwrite("wall_barrier", &NumericsParams::wall_barrier)
-      .def_readwrite("density_floor", &NumericsParams::density_floor)
-      .def_readwrite("delta_sph", &NumericsParams::delta_sph)
-      .def_readwrite("xsph", &NumericsParams::xsph)
-      .def_readwrite("shepard_interval", &NumericsParams::shepard_interval)
-      .def_readwrite("kernel_gradient_correction", &NumericsParams::kernel_gradient_correction)
-      .def_readwrite("strain_rate_epsilon", &NumericsParams::strain_rate_epsilon)
-      .def_readwrite("neighbour_skin", &NumericsParams::neighbour_skin)
-      .def_readwrite("density_ratio_min", &NumericsParams::density_ratio_min)
-      .def_readwrite("density_ratio_max", &NumericsParams::density_ratio_max);
+  bind_group<MaterialParams>(m, "MaterialParams")
+      .def("cohesion", &MaterialParams::cohesion, "Capillary cohesion c (Pa) of Eq. 2.33-2.34, 0 when dry.");
+  bind_group<NumericsParams>(m, "NumericsParams");
+  m.def("parameter_table", &exported_table,
+        "Every material and numerics parameter as a dict: group, name, kind ('double', 'int', 'bool', "
+        "'choice'), default, unit, lower, lower_inclusive, upper, upper_inclusive, choices, allowed, doc.");
 
   py::class_<DomainParams<Dim>>(m, "DomainParams2D")
       .def(py::init<>())

@@ -479,6 +479,7 @@ void bind_sph(py::module_& m) {
   });
 
   bind_simulation<2>(m, "Simulation2D");
+  bind_simulation<3>(m, "Simulation3D");
 
   m.def("constitutive_update", [](const ModelParams<2>& params, const Mat<2>& velocity_gradient, double density,
                                   double dt, const Mat<2>& deviatoric_stress) {

@@ -1,92 +1,194 @@
 """Validated, documented configuration: granular material and numerical settings.
 
-Every value is checked when the object is made; a bad or unknown parameter raises
-:class:`ConfigError` naming it and its allowed range, before any work starts.
+Each parameter (name, default, unit, allowed range, one-line doc) is defined once, in the C++
+core's lists (``cpp/include/terrasph/params.hpp``), which the core exports as
+``_core.parameter_table()``. :class:`Material` and :class:`Numerics` are generated from that table:
+their fields, defaults, types and docstrings, and their validation, which is the core's own
+(range of each parameter, then the rules linking parameters). A bad, unknown or mistyped
+parameter raises :class:`ConfigError` naming it and its allowed range, before any work starts.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
-from collections.abc import Mapping
+import numbers
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any, ClassVar, TypeVar
 
-__all__ = ["ConfigError", "Material", "Numerics", "as_dict", "from_mapping"]
+import numpy as np
+
+from terrasph import _core
+
+__all__ = ["PARAMETERS", "ConfigError", "Material", "Numerics", "Parameter", "as_dict", "from_mapping",
+           "parameter", "parameter_units"]
 
 
 class ConfigError(ValueError):
     """A configuration value is missing, unknown or outside its allowed range."""
 
 
-def _require(condition: bool, name: str, value: Any, allowed: str) -> None:
-    if not condition:
-        raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed {allowed}")
-
-
-def _is_number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def _finite_positive(name: str, value: float) -> None:
-    _require(_is_number(value) and math.isfinite(value) and value > 0, name, value, "a finite number > 0")
+_PYTHON_TYPES: dict[str, type] = {"double": float, "int": int, "bool": bool, "choice": str}
 
 
 @dataclass(frozen=True)
-class Material:
+class Parameter:
+    """One configuration parameter as the core defines it (an entry of ``_core.parameter_table()``)."""
+
+    group: str  #: "material" or "numerics"
+    name: str
+    kind: str  #: "double", "int", "bool" or "choice"
+    default: Any
+    unit: str  #: SI unit; "1" for a pure number
+    lower: float  #: the allowed interval of a number (±inf when open-ended)
+    lower_inclusive: bool
+    upper: float
+    upper_inclusive: bool
+    choices: tuple[str, ...]  #: the allowed values of a choice
+    allowed: str  #: the allowed range as the error messages state it
+    doc: str
+
+    @property
+    def qualified_name(self) -> str:
+        """``group.name``, as error messages name the parameter."""
+        return f"{self.group}.{self.name}"
+
+    @property
+    def python_type(self) -> type:
+        """The Python type of the value: float, int, bool or str."""
+        return _PYTHON_TYPES[self.kind]
+
+    def help(self) -> str:
+        """One line for docstrings and command-line help: doc, default and allowed range."""
+        return f"{self.doc} (default {self.default!r}; allowed {self.allowed})"
+
+    def coerce(self, value: Any) -> Any:
+        """``value`` as this parameter's Python type; ConfigError if it is not of that type.
+
+        A bool is not accepted for a number, nor a float for an int; numpy scalars are accepted.
+        """
+        is_bool = isinstance(value, (bool, np.bool_))
+        if self.kind == "double" and isinstance(value, numbers.Real) and not is_bool:
+            try:
+                return float(value)
+            except OverflowError:
+                pass
+        elif self.kind == "int" and isinstance(value, numbers.Integral) and not is_bool:
+            return int(value)
+        elif (self.kind == "bool" and is_bool) or (self.kind == "choice" and isinstance(value, str)):
+            return bool(value) if is_bool else value
+        allowed = {"double": f"a real number, {self.allowed}", "int": f"an integer, {self.allowed}",
+                   "bool": "True or False"}.get(self.kind, self.allowed)
+        raise ConfigError(f"parameter '{self.qualified_name}' = {value!r} is invalid: allowed {allowed}")
+
+
+#: Every material and numerics parameter, in the core's order.
+PARAMETERS: tuple[Parameter, ...] = tuple(
+    Parameter(**{**entry, "choices": tuple(entry["choices"])}) for entry in _core.parameter_table())
+
+
+def parameter(qualified_name: str) -> Parameter:
+    """The parameter called ``group.name``, e.g. ``parameter("material.water_content")``."""
+    for entry in PARAMETERS:
+        if entry.qualified_name == qualified_name:
+            return entry
+    raise KeyError(qualified_name)
+
+
+def parameter_units() -> dict[str, dict[str, str]]:
+    """Unit of every parameter by group and name (saved beside the configuration in run files)."""
+    units: dict[str, dict[str, str]] = {}
+    for entry in PARAMETERS:
+        units.setdefault(entry.group, {})[entry.name] = entry.unit
+    return units
+
+
+class _ParameterGroup:
+    """What Material and Numerics share: keyword-only construction from the core's table, values
+    coerced to their types and checked by the core's validate()."""
+
+    _group: ClassVar[str]
+    _core_class: ClassVar[type]
+    _parameters: ClassVar[tuple[Parameter, ...]]
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> Any:
+        _reject_unknown(cls, kwargs)
+        return super().__new__(cls)
+
+    def __post_init__(self) -> None:
+        for entry in self._parameters:
+            object.__setattr__(self, entry.name, entry.coerce(getattr(self, entry.name)))
+        try:
+            self.to_core().validate()
+        except ValueError as error:
+            raise ConfigError(str(error)) from None
+
+    def to_core(self) -> Any:
+        """The core's parameter struct (``_core.MaterialParams`` / ``NumericsParams``) with these values."""
+        core = self._core_class()
+        for entry in self._parameters:
+            value = getattr(self, entry.name)
+            try:
+                setattr(core, entry.name, value)
+            except ValueError as error:  # a choice the core does not know
+                raise ConfigError(str(error)) from None
+            except TypeError:  # e.g. an int beyond the core's int
+                raise ConfigError(f"parameter '{entry.qualified_name}' = {value!r} is invalid: allowed "
+                                  f"{entry.allowed}") from None
+        return core
+
+
+def _reject_unknown(cls: type[_ParameterGroup], names: Mapping[str, Any]) -> None:
+    known = [entry.name for entry in cls._parameters]
+    for name in names:
+        if name not in known:
+            raise ConfigError(f"unknown parameter '{cls._group}.{name}'; known: {', '.join(sorted(known))}")
+
+
+def _docstring(summary: str, parameters: tuple[Parameter, ...]) -> str:
+    lines = [summary.rstrip(), "", "Parameters (keyword only; defined in cpp/include/terrasph/params.hpp):", ""]
+    for entry in parameters:
+        lines.append(f"{entry.name}: {entry.python_type.__name__} = {entry.default!r}; allowed {entry.allowed}")
+        lines.append(f"    {entry.doc}")
+    return "\n".join(lines)
+
+
+def _from_table(group: str, core_class: type) -> Callable[[type], type]:
+    """Class decorator: makes ``cls`` a frozen, keyword-only dataclass with one field per parameter
+    of ``group`` in the core's table (type, default, unit/range/doc in the field metadata)."""
+
+    def build(cls: type) -> type:
+        parameters = tuple(entry for entry in PARAMETERS if entry.group == group)
+        cls.__annotations__ = {entry.name: entry.python_type for entry in parameters}
+        for entry in parameters:
+            setattr(cls, entry.name, dataclasses.field(
+                default=entry.default, metadata={"unit": entry.unit, "allowed": entry.allowed, "doc": entry.doc}))
+        cls._group, cls._core_class, cls._parameters = group, core_class, parameters  # type: ignore[attr-defined]
+        cls.__doc__ = _docstring(cls.__doc__ or "", parameters)
+        return dataclass(frozen=True, kw_only=True)(cls)
+
+    return build
+
+
+@_from_table("material", _core.MaterialParams)
+class Material(_ParameterGroup):
     """Granular material for the μ(I) rheology (Eq. 2.29–2.34), SI units.
 
     Defaults are the dry glass beads of the column collapse (Table 2.1, μ1 = tan 21°, μ2 = tan 33°).
-    Densities of a wet material scale with (1 + w) (Table 2.1); use :meth:`wet`.
+    Densities of a wet material scale with (1 + w) (Table 2.1); use :meth:`wet`. ``model`` is
+    ``"mu_i_hypoelastic"`` (default: a hypoelastic–plastic μ(I), the deviatoric stress is state,
+    loaded with the Jaumann rate and capped at μ(I)P + c, so a bed at rest holds shear) or
+    ``"mu_i_rate"`` (the rate form of Eq. 2.29 everywhere).
     """
-
-    grain_density: float = 2532.0  #: ρ_s (kg/m³)
-    reference_density: float = 2507.0  #: ρ0 of the EOS (kg/m³)
-    grain_diameter: float = 0.002  #: d (m)
-    mu1: float = math.tan(math.radians(21.0))  #: quasi-static friction μ1
-    mu2: float = math.tan(math.radians(33.0))  #: dynamic friction limit μ2
-    inertial_number_i0: float = 0.279  #: I0 (Jop, Forterre & Pouliquen 2006)
-    bulk_stiffness: float = 28000.0  #: κ (Pa)
-    eos_exponent: float = 7.0  #: γ
-    water_content: float = 0.0  #: w, gravimetric (kg water / kg grains)
-    packing_fraction: float = 0.6  #: ν in the cohesion of Eq. 2.33
-    bridges_per_grain: float = 6.0  #: k in Eq. 2.33
-    surface_tension: float = 0.0725  #: γ_s (N/m), water
-    filling_angle: float = math.radians(15.0)  #: φ of the liquid bridge (rad), Eq. 2.34
-    #: Quasi-static branch: "rate" is Eq. 2.29 everywhere, τ = (μP + c)D′/(|D′| + ε); "elastic"
-    #: keeps the deviatoric stress as state, loaded elastically with the Jaumann rate and capped at
-    #: μ(I)P + c, so a bed at rest holds shear stress below yield (the aim of Eq. 3.6).
-    quasi_static: str = "elastic"
-    shear_modulus: float = 0.0  #: G (Pa) of the elastic branch; 0 → 3K(1−2ν)/(2(1+ν)), K = κγ(1+w), ν = 0.3
-
-    def __post_init__(self) -> None:
-        for name in ("grain_density", "reference_density", "grain_diameter", "inertial_number_i0",
-                     "bulk_stiffness", "packing_fraction", "bridges_per_grain"):
-            _finite_positive(f"material.{name}", getattr(self, name))
-        _require(self.mu1 >= 0, "material.mu1", self.mu1, "mu1 >= 0")
-        _require(self.mu2 >= self.mu1, "material.mu2", self.mu2, f"mu2 >= mu1 = {self.mu1:.6g}")
-        _require(self.eos_exponent >= 1, "material.eos_exponent", self.eos_exponent, "gamma >= 1")
-        _require(0 <= self.water_content < 1, "material.water_content", self.water_content, "0 <= w < 1")
-        _require(self.surface_tension >= 0, "material.surface_tension", self.surface_tension, ">= 0")
-        _require(0 <= self.filling_angle < math.pi / 2, "material.filling_angle", self.filling_angle,
-                 "0 <= phi < pi/2 (radians)")
-        _require(self.packing_fraction <= 1, "material.packing_fraction", self.packing_fraction, "(0, 1]")
-        _require(self.quasi_static in ("rate", "elastic"), "material.quasi_static", self.quasi_static,
-                 "'rate' or 'elastic'")
-        _require(self.shear_modulus >= 0, "material.shear_modulus", self.shear_modulus, ">= 0 (0 = from the EOS)")
 
     @property
     def cohesion(self) -> float:
         """Capillary cohesion c (Pa) of a pendular wet material, 0 when dry.
 
         c = ν k F / (π d²) (Rumpf; Eq. 2.33) with the mean bridge force
-        F = 2π r γ_s / (1 + tan(φ/2)) (Eq. 2.34), r = d/2.
+        F = 2π r γ_s / (1 + tan(φ/2)) (Eq. 2.34), r = d/2. Computed by the core.
         """
-        if self.water_content == 0.0:
-            return 0.0
-        radius = 0.5 * self.grain_diameter
-        bridge_force = 2.0 * math.pi * radius * self.surface_tension / (1.0 + math.tan(0.5 * self.filling_angle))
-        return self.packing_fraction * self.bridges_per_grain * bridge_force / (math.pi * self.grain_diameter**2)
+        return float(self.to_core().cohesion())
 
     @classmethod
     def wet(cls, water_content: float, **overrides: Any) -> Material:
@@ -97,55 +199,13 @@ class Material:
                                    reference_density=base.reference_density * (1 + water_content))
 
 
-@dataclass(frozen=True)
-class Numerics:
+@_from_table("numerics", _core.NumericsParams)
+class Numerics(_ParameterGroup):
     """Discretisation and optional numerical terms; a term set to 0 is switched off and costs nothing.
 
     ``h_factor`` = 1.3 is the default (h = 1.3 Δx, about 21 neighbours in 2D with the Wendland C2
     support 2h), inside the usual 1.2–1.5 range.
     """
-
-    spacing: float = 0.0026  #: Δx (m)
-    h_factor: float = 1.3  #: h = h_factor·Δx
-    cfl: float = 0.25  #: C of the adaptive step
-    fixed_dt: float = 0.0  #: > 0: fixed step (s), checked against the stable bound every step
-    sound_speed: float = 0.0  #: c0 (m/s); 0 → Eq. 2.44
-    artificial_viscosity: float = 0.1  #: α_Π (Eq. 2.46) between grains; the dissertation uses 1 (docs/design_decisions.md)
-    wall_artificial_viscosity: float = 1.0  #: α_Π for granular–wall pairs, which keeps grains out of walls
-    #: strength of the contact barrier that pushes a grain centre out of a wall's solid (closer than
-    #: Δx/2 to a wall particle); 1 = K = c²/h, 0 = off (docs/design_decisions.md)
-    wall_barrier: float = 1.0
-    delta_sph: float = 0.1  #: δ of the density diffusion (Eq. 2.42–2.43)
-    xsph: float = 0.2  #: χ (Eq. 2.49)
-    shepard_interval: int = 0  #: Shepard filter every N steps (Eq. 2.41); 0 = off
-    kernel_gradient_correction: bool = False  #: renormalised ∇v (exact for linear fields)
-    strain_rate_epsilon: float = -1.0  #: ε (1/s) of |D′| + ε; < 0 → 0.01·h² as in the dissertation
-    neighbour_skin: float = 0.15  #: Verlet skin as a fraction of h
-    #: ρ ≥ density_floor·ρ0 after every kick, 0 = off. With the tension-free EOS a separating grain
-    #: has P = 0 below ρ0 anyway; a floor of 1 lets it push back as soon as it re-enters the bed
-    density_floor: float = 0.0
-    density_ratio_min: float = 0.5  #: the run stops if ρ/ρ0 leaves [min, max]
-    density_ratio_max: float = 1.5
-
-    def __post_init__(self) -> None:
-        _finite_positive("numerics.spacing", self.spacing)
-        _require(1.0 <= self.h_factor <= 2.0, "numerics.h_factor", self.h_factor, "1.0 <= h_factor <= 2.0")
-        _require(0 < self.cfl <= 0.5, "numerics.cfl", self.cfl, "0 < cfl <= 0.5")
-        _require(self.fixed_dt >= 0, "numerics.fixed_dt", self.fixed_dt, ">= 0 (0 = adaptive)")
-        _require(self.sound_speed >= 0, "numerics.sound_speed", self.sound_speed, ">= 0 (0 = Eq. 2.44)")
-        _require(self.artificial_viscosity >= 0, "numerics.artificial_viscosity", self.artificial_viscosity, ">= 0")
-        _require(self.wall_artificial_viscosity >= 0, "numerics.wall_artificial_viscosity",
-                 self.wall_artificial_viscosity, ">= 0")
-        _require(self.wall_barrier >= 0, "numerics.wall_barrier", self.wall_barrier, ">= 0 (0 = off)")
-        _require(0 <= self.density_floor <= 1, "numerics.density_floor", self.density_floor, "[0, 1] (0 = off)")
-        _require(0 <= self.delta_sph <= 1, "numerics.delta_sph", self.delta_sph, "0 <= delta <= 1")
-        _require(0 <= self.xsph <= 1, "numerics.xsph", self.xsph, "0 <= chi <= 1")
-        _require(isinstance(self.shepard_interval, int) and not isinstance(self.shepard_interval, bool)
-                 and self.shepard_interval >= 0,
-                 "numerics.shepard_interval", self.shepard_interval, "an integer >= 0")
-        _require(0 <= self.neighbour_skin <= 1, "numerics.neighbour_skin", self.neighbour_skin, "0 <= skin <= 1")
-        _require(0 < self.density_ratio_min < 1, "numerics.density_ratio_min", self.density_ratio_min, "(0, 1)")
-        _require(self.density_ratio_max > 1, "numerics.density_ratio_max", self.density_ratio_max, "> 1")
 
     @property
     def smoothing_length(self) -> float:
@@ -158,16 +218,9 @@ T = TypeVar("T", Material, Numerics)
 
 def from_mapping(cls: type[T], values: Mapping[str, Any]) -> T:
     """Build ``cls`` from a mapping, rejecting unknown keys by name."""
-    known = {f.name for f in dataclasses.fields(cls)}
-    prefix = cls.__name__.lower()
-    for key in values:
-        if key not in known:
-            raise ConfigError(f"unknown parameter '{prefix}.{key}'; known: {', '.join(sorted(known))}")
     return cls(**dict(values))
 
 
 def as_dict(obj: Material | Numerics) -> dict[str, Any]:
     """Plain dict of a configuration object (for HDF5 attributes and JSON)."""
     return dataclasses.asdict(obj)
-
-

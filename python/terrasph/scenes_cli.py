@@ -7,6 +7,7 @@ import json
 from typing import Any
 
 from terrasph.cli_common import add_force_option, add_threads_option, check_output_file
+from terrasph.config import parameter
 from terrasph.scenes import leg_rotation, plate_intrusion
 from terrasph.scenes.column_collapse import (
     RESOLUTIONS,
@@ -28,11 +29,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                         help="about 475/1036/2310/4620/9240 interior particles (default coarse)")
     column.add_argument("--spacing", type=float, default=None, help="particle spacing in m (overrides --resolution)")
     column.add_argument("--mu1-deg", type=float, default=21.0,
-                        help="quasi-static friction angle (deg) (default %(default)s)")
+                        help=f"friction angle atan(mu1) in degrees (default 21); {parameter('material.mu1').doc}")
     column.add_argument("--mu2-deg", type=float, default=33.0,
-                        help="dynamic friction angle (deg) (default %(default)s)")
-    column.add_argument("--water-content", type=float, default=0.0,
-                        help="gravimetric water content w (default %(default)s)")
+                        help=f"friction angle atan(mu2) in degrees (default 33); {parameter('material.mu2').doc}")
+    water = parameter("material.water_content")
+    column.add_argument("--water-content", type=float, default=water.default, help=water.help())
     column.add_argument("--t-end", type=float, default=1.0,
                         help="simulated time limit in s; the run stops earlier once at rest (default %(default)s)")
     _add_run_options(column, default_output="column_collapse.h5")

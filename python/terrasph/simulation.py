@@ -4,7 +4,6 @@ run loop with progress, HDF5 output, scheduled wall removal and safe interruptio
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import math
 import os
 import pathlib
@@ -19,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from terrasph import _core
-from terrasph.config import ConfigError, Material, Numerics, as_dict
+from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_units
 from terrasph.scene import Scene, hydrostatic_density
 
 __all__ = ["RunResult", "Simulation", "checkpoint_path", "versions"]
@@ -144,17 +143,8 @@ class Simulation:
 
     def _core_params(self) -> _core.ModelParams2D:
         params = _core.ModelParams2D()
-        material = params.material
-        for key in ("grain_density", "reference_density", "grain_diameter", "mu1", "mu2", "inertial_number_i0",
-                    "bulk_stiffness", "eos_exponent", "water_content", "shear_modulus"):
-            setattr(material, key, float(getattr(self.material, key)))
-        material.cohesion = self.material.cohesion
-        material.elastic_quasi_static = self.material.quasi_static == "elastic"
-        params.material = material
-        numerics = params.numerics
-        for f in dataclasses.fields(Numerics):
-            setattr(numerics, f.name, getattr(self.numerics, f.name))
-        params.numerics = numerics
+        params.material = self.material.to_core()
+        params.numerics = self.numerics.to_core()
         lower, upper = self.scene.domain()
         domain = params.domain
         domain.lower, domain.upper = lower, upper
@@ -528,6 +518,7 @@ class Simulation:
     def describe(self) -> dict[str, Any]:
         """Configuration of this simulation as plain data (saved with the output)."""
         return {"material": as_dict(self.material), "numerics": as_dict(self.numerics),
+                "parameter_units": parameter_units(),
                 "spacing": self.scene.spacing, "width": self.width, "gravity": self.scene.gravity,
                 "walls": [{"name": w.name, "no_slip": w.no_slip, "remove_at": w.remove_at,
                            "particles": len(w.position)} for w in self.scene.walls],

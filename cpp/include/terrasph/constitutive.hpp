@@ -97,7 +97,8 @@ template <int D> using ConstitutiveModelVariant = std::variant<MuIRateModel<D>, 
 // The model a configuration asks for (its fields not yet registered).
 template <int D> ConstitutiveModelVariant<D> make_constitutive_model(const ModelParams<D>& params) {
   const double epsilon = params.strain_rate_epsilon();
-  if (params.material.elastic_quasi_static) return MuIHypoelasticModel<D>(params.material, epsilon);
+  if (params.material.model == ConstitutiveModel::mu_i_hypoelastic)
+    return MuIHypoelasticModel<D>(params.material, epsilon);
   return MuIRateModel<D>(params.material, epsilon);
 }
 

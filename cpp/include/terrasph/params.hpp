@@ -1,53 +1,133 @@
 // Model constants of a simulation (the "model", kept apart from the particle state).
-// All SI. Every field is validated by validate() with a message naming it and its range.
+// All SI. validate() checks every field with a message naming it and its range.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
 #include "terrasph/errors.hpp"
 #include "terrasph/math.hpp"
+#include "terrasph/parameter.hpp"
 
 namespace terrasph {
 
-// Granular material: μ(I) rheology (Eq. 2.29–2.32) with the EOS of Eq. 2.30.
+// The stress model of the grains (DESIGN §3.3; docs/design_decisions.md).
+enum class ConstitutiveModel {
+  mu_i_rate,         // Eq. 2.29 everywhere: τ = (μ(I)P + c) D′/(|D′| + ε), no stress state
+  mu_i_hypoelastic,  // hypoelastic–plastic μ(I): deviatoric stress s as state (Jaumann rate),
+                     // capped at |s| ≤ μ(I)P + c
+};
+// The names in the order of the enum's values (the Python side sees a str).
+template <> struct ChoiceNames<ConstitutiveModel> {
+  static constexpr std::array<const char*, 2> names = {"mu_i_rate", "mu_i_hypoelastic"};
+};
+
+// THE definition of every material and numerics parameter: everything else (struct fields and
+// defaults, range checks, the bindings, the Python dataclasses, HDF5 units, CLI help) derives
+// from these lists. An entry is X(type, name, default, unit, lower, upper, one-line doc); type is
+// double, int, bool or a choice enum with ChoiceNames; unit "1" is a pure number. A rule that
+// links two parameters goes into the group's validate() below. docs/design_decisions.md.
+#define TERRASPH_MATERIAL_PARAMETERS(X)                                                                  \
+  X(double, grain_density, 2532.0, "kg/m^3", exclusive(0.0), exclusive(inf),                             \
+    "rho_s, density of the grains' solid (Table 2.1); > reference_density")                              \
+  X(double, reference_density, 2507.0, "kg/m^3", exclusive(0.0), exclusive(inf),                         \
+    "rho_0, bulk reference density of the EOS (Eq. 2.30)")                                               \
+  X(double, grain_diameter, 0.002, "m", exclusive(0.0), exclusive(inf), "d, grain diameter")             \
+  X(double, mu1, 0.3838640350354158, "1", inclusive(0.0), exclusive(inf),                                \
+    "mu_1, quasi-static friction coefficient of mu(I) (Eq. 2.31), tan 21 deg")                           \
+  X(double, mu2, 0.6494075931975106, "1", inclusive(0.0), exclusive(inf),                                \
+    "mu_2, dynamic friction limit of mu(I) (Eq. 2.31), tan 33 deg; >= mu1")                              \
+  X(double, inertial_number_i0, 0.279, "1", exclusive(0.0), exclusive(inf),                              \
+    "I_0 of mu(I) (Eq. 2.31; Jop, Forterre & Pouliquen 2006)")                                           \
+  X(double, bulk_stiffness, 28000.0, "Pa", exclusive(0.0), exclusive(inf),                               \
+    "kappa, stiffness of the EOS (Eq. 2.30)")                                                            \
+  X(double, eos_exponent, 7.0, "1", inclusive(1.0), exclusive(inf),                                      \
+    "gamma, exponent of the EOS (Eq. 2.30)")                                                             \
+  X(double, water_content, 0.0, "1", inclusive(0.0), exclusive(1.0),                                     \
+    "w, gravimetric water content (kg water per kg grains); 0 = dry")                                    \
+  X(double, packing_fraction, 0.6, "1", exclusive(0.0), inclusive(1.0),                                  \
+    "nu, solid packing fraction in the cohesion of Eq. 2.33")                                            \
+  X(double, bridges_per_grain, 6.0, "1", exclusive(0.0), exclusive(inf),                                 \
+    "k, liquid bridges per grain in Eq. 2.33")                                                           \
+  X(double, surface_tension, 0.0725, "N/m", inclusive(0.0), exclusive(inf),                              \
+    "gamma_s, surface tension of the liquid (water) in Eq. 2.34")                                        \
+  X(double, filling_angle, 0.2617993877991494, "rad", inclusive(0.0), exclusive(1.5707963267948966),     \
+    "phi, filling angle of a liquid bridge in Eq. 2.34 (15 deg)")                                        \
+  X(ConstitutiveModel, model, ConstitutiveModel::mu_i_hypoelastic, "1", exclusive(-inf),                 \
+    exclusive(inf), "mu_i_rate: Eq. 2.29 everywhere; mu_i_hypoelastic: deviatoric stress as state, "     \
+    "Jaumann rate, capped at mu(I)P + c")                                                                \
+  X(double, shear_modulus, 0.0, "Pa", inclusive(0.0), exclusive(inf),                                    \
+    "G of mu_i_hypoelastic; 0 = 3K(1-2nu)/(2(1+nu)) with K = kappa*gamma*(1+w), nu = 0.3")
+
+#define TERRASPH_NUMERICS_PARAMETERS(X)                                                                  \
+  X(double, spacing, 0.0026, "m", exclusive(0.0), exclusive(inf),                                        \
+    "dx, lattice spacing; a particle's volume is dx^D")                                                  \
+  X(double, h_factor, 1.3, "1", inclusive(1.0), inclusive(2.0),                                          \
+    "smoothing length h = h_factor*dx (Wendland C2, support 2h; ~21 neighbours in 2D at 1.3)")           \
+  X(double, cfl, 0.25, "1", exclusive(0.0), inclusive(0.5),                                              \
+    "C in the adaptive step dt = C*min(h/(c + |v|), sqrt(h/|a|))")                                       \
+  X(double, fixed_dt, 0.0, "s", inclusive(0.0), exclusive(inf),                                          \
+    "fixed time step, checked against the stable bound every step; 0 = adaptive")                        \
+  X(double, sound_speed, 0.0, "m/s", inclusive(0.0), exclusive(inf),                                     \
+    "c_0 of the artificial viscosity and the step; 0 = Eq. 2.44 from the material")                      \
+  X(double, artificial_viscosity, 0.1, "1", inclusive(0.0), exclusive(inf),                              \
+    "alpha_Pi (Eq. 2.46) between grains, beta_Pi = 0 (docs/design_decisions.md)")                        \
+  X(double, wall_artificial_viscosity, 1.0, "1", inclusive(0.0), exclusive(inf),                         \
+    "alpha_Pi for granular-wall pairs, which keeps grains out of walls")                                 \
+  X(double, wall_barrier, 1.0, "1", inclusive(0.0), exclusive(inf),                                      \
+    "strength of the contact barrier inside walls (r < dx/2), 1 = K = c^2/h; 0 = off")                   \
+  X(double, delta_sph, 0.1, "1", inclusive(0.0), inclusive(1.0),                                         \
+    "delta of the density diffusion (Eq. 2.42-2.43); 0 = off")                                           \
+  X(double, xsph, 0.2, "1", inclusive(0.0), inclusive(1.0), "chi of XSPH (Eq. 2.49); 0 = off")           \
+  X(int, shepard_interval, 0, "steps", inclusive(0.0), exclusive(inf),                                   \
+    "Shepard density filter every N steps (Eq. 2.41); 0 = off")                                          \
+  X(bool, kernel_gradient_correction, false, "1", exclusive(-inf), exclusive(inf),                       \
+    "renormalise grad v so that linear velocity fields are exact")                                       \
+  X(double, strain_rate_epsilon, -1.0, "1/s", exclusive(-inf), exclusive(inf),                           \
+    "epsilon of |D'| + epsilon in Eq. 2.29; < 0 = 0.01*h^2 as in the dissertation")                      \
+  X(double, neighbour_skin, 0.15, "1", inclusive(0.0), inclusive(1.0),                                   \
+    "Verlet skin of the neighbour lists as a fraction of h")                                             \
+  X(double, density_floor, 0.0, "1", inclusive(0.0), inclusive(1.0),                                     \
+    "rho >= density_floor*rho_0 after every kick; 0 = off")                                              \
+  X(double, density_ratio_min, 0.5, "1", exclusive(0.0), exclusive(1.0),                                 \
+    "the run stops if rho/rho_0 falls below this")                                                       \
+  X(double, density_ratio_max, 1.5, "1", exclusive(1.0), exclusive(inf),                                 \
+    "the run stops if rho/rho_0 rises above this")
+
+// Granular material: μ(I) rheology (Eq. 2.29–2.32), the EOS of Eq. 2.30 and wet cohesion
+// (Eq. 2.33–2.34).
 struct MaterialParams {
-  double grain_density = 2532.0;      // ρ_s, density of the grains' solid (kg/m³)
-  double reference_density = 2507.0;  // ρ0, bulk reference density of the EOS (kg/m³)
-  double grain_diameter = 0.002;      // d (m)
-  double mu1 = 0.3838640350354158;    // μ1, quasi-static friction, tan 21°
-  double mu2 = 0.6494075931975106;    // μ2, dynamic friction limit, tan 33°
-  double inertial_number_i0 = 0.279;  // I0 (Jop, Forterre & Pouliquen 2006)
-  double bulk_stiffness = 28000.0;    // κ (Pa)
-  double eos_exponent = 7.0;          // γ
-  double water_content = 0.0;         // w, gravimetric
-  double cohesion = 0.0;              // c (Pa), Eq. 2.33–2.34, computed by the Python layer
-  // Quasi-static branch: false → the rate form of Eq. 2.29 everywhere; true → the deviatoric
-  // stress is state, loaded elastically (Jaumann rate, shear modulus G) and capped at μ(I)P + c
-  // (radial return), so a bed at rest holds shear stress below yield (the aim of Eq. 3.6).
-  bool elastic_quasi_static = false;
-  double shear_modulus = 0.0;         // G (Pa); 0 → 3K(1−2ν)/(2(1+ν)), K = κγ(1+w), ν = 0.3
+  TERRASPH_PARAMETER_GROUP(MaterialParams, "material", TERRASPH_MATERIAL_PARAMETERS)
+
+  // Capillary cohesion c (Pa) of a pendular wet material, 0 when dry.
+  // c = ν k F / (π d²) (Rumpf; Eq. 2.33) with the mean bridge force
+  // F = 2π r γ_s / (1 + tan(φ/2)) (Eq. 2.34), r = d/2.
+  double cohesion() const {
+    if (water_content == 0.0) return 0.0;
+    constexpr double pi = 3.141592653589793;
+    const double radius = 0.5 * grain_diameter;
+    const double bridge_force = 2.0 * pi * radius * surface_tension / (1.0 + std::tan(0.5 * filling_angle));
+    return packing_fraction * bridges_per_grain * bridge_force / (pi * grain_diameter * grain_diameter);
+  }
+
+  // Each parameter in its range, then the rules that link parameters.
+  void validate() const {
+    check_ranges(*this);
+    if (!(mu2 >= mu1)) throw parameter_error("material.mu2", mu2, "mu2 >= mu1 = " + format_number(mu1));
+    // A packing is less dense than its grains (ρ0 ≈ νρ_s); Eq. 2.44 needs it too.
+    if (!(grain_density > reference_density))
+      throw parameter_error("material.grain_density", grain_density,
+                            "grain_density > reference_density = " + format_number(reference_density));
+  }
 };
 
 // Discretisation and the optional numerical terms; a term with 0 is switched off.
 struct NumericsParams {
-  double spacing = 0.0026;                  // Δx (m): lattice spacing, particle volume Δx^D
-  double h_factor = 1.3;                    // h = h_factor·Δx
-  double cfl = 0.25;                        // C in dt = C·min(h/(c+|v|), √(h/|a|))
-  double fixed_dt = 0.0;                    // 0: adaptive step; > 0: fixed, checked every step
-  double sound_speed = 0.0;                 // c0; 0: Eq. 2.44 from the material
-  double artificial_viscosity = 0.1;        // α_Π (Eq. 2.46) between grains; β_Π = 0; see docs/design_decisions.md
-  double wall_artificial_viscosity = 1.0;   // α_Π for granular–wall pairs: keeps grains out of walls
-  double wall_barrier = 1.0;                // strength of the contact barrier inside walls (r < Δx/2); 0: off
-  double delta_sph = 0.1;                   // δ of the density diffusion (Eq. 2.42–2.43)
-  double xsph = 0.2;                        // χ (Eq. 2.49)
-  int shepard_interval = 0;                 // Shepard filter every N steps (Eq. 2.41); 0: off
-  bool kernel_gradient_correction = false;  // renormalise ∇v so linear fields are exact
-  double strain_rate_epsilon = -1.0;        // ε of |D′|+ε (1/s); < 0: 0.01·h² (dissertation)
-  double neighbour_skin = 0.15;             // Verlet skin as a fraction of h
-  double density_floor = 0.0;               // ρ ≥ density_floor·ρ0 after each kick; 0: no floor
-  double density_ratio_min = 0.5;           // sane band for ρ/ρ0; outside it the run stops
-  double density_ratio_max = 1.5;
+  TERRASPH_PARAMETER_GROUP(NumericsParams, "numerics", TERRASPH_NUMERICS_PARAMETERS)
+
+  void validate() const { check_ranges(*this); }
 };
 
 template <int D> struct DomainParams {
@@ -84,61 +164,13 @@ template <int D> struct ModelParams {
   }
 
   void validate() const {
-    const MaterialParams& m = material;
-    const NumericsParams& n = numerics;
-    require_positive("material.grain_density", m.grain_density);
-    require_positive("material.reference_density", m.reference_density);
-    require_positive("material.grain_diameter", m.grain_diameter);
-    if (!(m.mu1 >= 0.0)) throw parameter_error("material.mu1", m.mu1, "mu1 >= 0");
-    if (!(m.mu2 >= m.mu1))
-      throw parameter_error("material.mu2", m.mu2, "mu2 >= mu1 = " + format_number(m.mu1));
-    require_positive("material.inertial_number_i0", m.inertial_number_i0);
-    require_positive("material.bulk_stiffness", m.bulk_stiffness);
-    if (!(m.eos_exponent >= 1.0))
-      throw parameter_error("material.eos_exponent", m.eos_exponent, "gamma >= 1");
-    if (!(m.water_content >= 0.0 && m.water_content < 1.0))
-      throw parameter_error("material.water_content", m.water_content, "0 <= w < 1");
-    if (!(m.cohesion >= 0.0)) throw parameter_error("material.cohesion", m.cohesion, "c >= 0");
-    if (!(m.shear_modulus >= 0.0))
-      throw parameter_error("material.shear_modulus", m.shear_modulus, ">= 0 (0 = from the EOS)");
-    if (n.sound_speed <= 0.0 && !(m.grain_density > m.reference_density))
-      throw parameter_error("material.grain_density", m.grain_density,
-                            "grain_density > reference_density when c0 comes from Eq. 2.44");
-    require_positive("numerics.spacing", n.spacing);
-    if (!(n.h_factor >= 1.0 && n.h_factor <= 2.0))
-      throw parameter_error("numerics.h_factor", n.h_factor, "1.0 <= h_factor <= 2.0");
-    if (!(n.cfl > 0.0 && n.cfl <= 0.5))
-      throw parameter_error("numerics.cfl", n.cfl, "0 < cfl <= 0.5");
-    if (!(n.fixed_dt >= 0.0)) throw parameter_error("numerics.fixed_dt", n.fixed_dt, ">= 0");
-    if (!(n.artificial_viscosity >= 0.0))
-      throw parameter_error("numerics.artificial_viscosity", n.artificial_viscosity, ">= 0");
-    if (!(n.wall_artificial_viscosity >= 0.0))
-      throw parameter_error("numerics.wall_artificial_viscosity", n.wall_artificial_viscosity, ">= 0");
-    if (!(n.wall_barrier >= 0.0)) throw parameter_error("numerics.wall_barrier", n.wall_barrier, ">= 0");
-    if (!(n.density_floor >= 0.0 && n.density_floor <= 1.0))
-      throw parameter_error("numerics.density_floor", n.density_floor, "0 <= density_floor <= 1");
-    if (!(n.delta_sph >= 0.0 && n.delta_sph <= 1.0))
-      throw parameter_error("numerics.delta_sph", n.delta_sph, "0 <= delta <= 1");
-    if (!(n.xsph >= 0.0 && n.xsph <= 1.0))
-      throw parameter_error("numerics.xsph", n.xsph, "0 <= chi <= 1");
-    if (n.shepard_interval < 0)
-      throw parameter_error("numerics.shepard_interval", n.shepard_interval, ">= 0");
-    if (!(n.neighbour_skin >= 0.0 && n.neighbour_skin <= 1.0))
-      throw parameter_error("numerics.neighbour_skin", n.neighbour_skin, "0 <= skin <= 1");
-    if (!(n.density_ratio_min > 0.0 && n.density_ratio_min < 1.0))
-      throw parameter_error("numerics.density_ratio_min", n.density_ratio_min, "(0, 1)");
-    if (!(n.density_ratio_max > 1.0))
-      throw parameter_error("numerics.density_ratio_max", n.density_ratio_max, "> 1");
+    material.validate();
+    numerics.validate();
     for (int k = 0; k < D; ++k) {
       if (!(domain.upper[k] > domain.lower[k]))
         throw parameter_error("domain.upper[" + std::to_string(k) + "]", domain.upper[k],
                               "> domain.lower");
     }
-  }
-
- private:
-  static void require_positive(const std::string& name, double value) {
-    if (!(value > 0.0) || !std::isfinite(value)) throw parameter_error(name, value, "> 0 and finite");
   }
 };
 

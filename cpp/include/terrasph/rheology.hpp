@@ -46,7 +46,7 @@ template <int D> class MuIRheology {
  public:
   MuIRheology(const MaterialParams& m, double epsilon)
       : mu1_(m.mu1), dmu_(m.mu2 - m.mu1), i0_(m.inertial_number_i0), d_(m.grain_diameter),
-        rho_s_(m.grain_density), cohesion_(m.cohesion), epsilon_(epsilon) {}
+        rho_s_(m.grain_density), cohesion_(m.cohesion()), epsilon_(epsilon) {}
 
   // Cauchy stress from the velocity gradient L = ∇v and the pressure P.
   Mat<D> stress(const Mat<D>& velocity_gradient, double p) const {
