@@ -14,7 +14,6 @@ namespace py = pybind11;
 using namespace terrasph;
 
 namespace {
-constexpr int Dim = 2;
 
 // A number or bool is a plain attribute; a choice is a str attribute that refuses unknown names.
 template <class Group, class T>
@@ -66,6 +65,24 @@ py::list exported_table() {
   for (const auto& info : parameter_table<NumericsParams>()) table.append(as_dict(info));
   return table;
 }
+// DomainParams<D> and ModelParams<D> as DomainParams2D/3D and ModelParams2D/3D.
+template <int D> void bind_model_params(py::module_& m, const std::string& suffix) {
+  py::class_<DomainParams<D>>(m, ("DomainParams" + suffix).c_str())
+      .def(py::init<>())
+      .def_readwrite("lower", &DomainParams<D>::lower)
+      .def_readwrite("upper", &DomainParams<D>::upper)
+      .def_readwrite("gravity", &DomainParams<D>::gravity);
+
+  py::class_<ModelParams<D>>(m, ("ModelParams" + suffix).c_str())
+      .def(py::init<>())
+      .def_readwrite("material", &ModelParams<D>::material)
+      .def_readwrite("numerics", &ModelParams<D>::numerics)
+      .def_readwrite("domain", &ModelParams<D>::domain)
+      .def("validate", &ModelParams<D>::validate)
+      .def_property_readonly("smoothing_length", &ModelParams<D>::smoothing_length)
+      .def_property_readonly("artificial_sound_speed", &ModelParams<D>::artificial_sound_speed)
+      .def_property_readonly("eos_sound_speed", &ModelParams<D>::eos_sound_speed);
+}
 }  // namespace
 
 void bind_params(py::module_& m) {
@@ -76,19 +93,6 @@ void bind_params(py::module_& m) {
         "Every material and numerics parameter as a dict: group, name, kind ('double', 'int', 'bool', "
         "'choice'), default, unit, lower, lower_inclusive, upper, upper_inclusive, choices, allowed, doc.");
 
-  py::class_<DomainParams<Dim>>(m, "DomainParams2D")
-      .def(py::init<>())
-      .def_readwrite("lower", &DomainParams<Dim>::lower)
-      .def_readwrite("upper", &DomainParams<Dim>::upper)
-      .def_readwrite("gravity", &DomainParams<Dim>::gravity);
-
-  py::class_<ModelParams<Dim>>(m, "ModelParams2D")
-      .def(py::init<>())
-      .def_readwrite("material", &ModelParams<Dim>::material)
-      .def_readwrite("numerics", &ModelParams<Dim>::numerics)
-      .def_readwrite("domain", &ModelParams<Dim>::domain)
-      .def("validate", &ModelParams<Dim>::validate)
-      .def_property_readonly("smoothing_length", &ModelParams<Dim>::smoothing_length)
-      .def_property_readonly("artificial_sound_speed", &ModelParams<Dim>::artificial_sound_speed)
-      .def_property_readonly("eos_sound_speed", &ModelParams<Dim>::eos_sound_speed);
+  bind_model_params<2>(m, "2D");
+  bind_model_params<3>(m, "3D");
 }
