@@ -1,8 +1,15 @@
-"""Shared fixtures and the ``--runslow`` switch.
+"""Shared fixtures and the ``--runslow`` / ``--runlong`` switches.
 
-Tests marked ``@pytest.mark.slow`` (validation runs of tens of seconds or more) run only with
-``pytest --runslow`` or with the environment variable ``TERRASPH_RUN_SLOW=1``; otherwise they
-are skipped with a reason that says how to run them.
+Three tiers (README, ``.ci/run``):
+
+* unmarked tests: the default ``pytest -q tests``, a few minutes;
+* ``@pytest.mark.slow`` (validation runs of tens of seconds to minutes): run only with
+  ``pytest --runslow`` or ``TERRASPH_RUN_SLOW=1``; ``.ci/run`` runs them;
+* ``@pytest.mark.long`` (studies of tens of minutes, e.g. the five-leg sweep at 0.2 rad/s): run only
+  with ``pytest --runlong`` or ``TERRASPH_RUN_LONG=1``, an explicit opt-in that CI does not make;
+  their figures are recorded in docs/benchmarks.md with the command that produces them.
+
+Skipped tests say how to run them.
 """
 
 from __future__ import annotations
@@ -12,33 +19,38 @@ import os
 import numpy as np
 import pytest
 
-# Idle OpenMP threads sleep instead of spinning. On this 2-core machine a spinning team loses
-# badly to any other busy process (a 300-step test took 27 s instead of 0.2 s while a compiler
-# ran); set before the extension (and its OpenMP runtime) is loaded by any test module.
-os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+pytest_plugins = ("pytester",)  # test_test_tiers.py runs the tier switches on a throw-away suite
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption("--runslow", action="store_true", default=False,
                      help="also run tests marked slow (or set TERRASPH_RUN_SLOW=1)")
+    parser.addoption("--runlong", action="store_true", default=False,
+                     help="also run tests marked long, studies of tens of minutes (or set TERRASPH_RUN_LONG=1)")
 
 
 def _run_slow(config: pytest.Config) -> bool:
     return bool(config.getoption("--runslow")) or os.environ.get("TERRASPH_RUN_SLOW", "") == "1"
 
 
+def _run_long(config: pytest.Config) -> bool:
+    return bool(config.getoption("--runlong")) or os.environ.get("TERRASPH_RUN_LONG", "") == "1"
+
+
 def pytest_configure(config: pytest.Config) -> None:
-    # also declared in pyproject.toml; repeated so the marker is known when run from elsewhere
-    config.addinivalue_line("markers", "slow: long validation runs; need --runslow or TERRASPH_RUN_SLOW=1")
+    # also declared in pyproject.toml; repeated so the markers are known when run from elsewhere
+    config.addinivalue_line("markers", "slow: validation runs of minutes; need --runslow or TERRASPH_RUN_SLOW=1")
+    config.addinivalue_line("markers", "long: studies of tens of minutes; need --runlong or TERRASPH_RUN_LONG=1")
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    if _run_slow(config):
-        return
-    skip = pytest.mark.skip(reason="slow validation run: use --runslow or TERRASPH_RUN_SLOW=1")
+    skip_slow = pytest.mark.skip(reason="slow validation run: use --runslow or TERRASPH_RUN_SLOW=1")
+    skip_long = pytest.mark.skip(reason="long study (tens of minutes): use --runlong or TERRASPH_RUN_LONG=1")
     for item in items:
-        if "slow" in item.keywords:
-            item.add_marker(skip)
+        if "long" in item.keywords and not _run_long(config):
+            item.add_marker(skip_long)
+        elif "slow" in item.keywords and not (_run_slow(config) or _run_long(config)):
+            item.add_marker(skip_slow)
 
 
 @pytest.fixture

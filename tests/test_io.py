@@ -166,9 +166,12 @@ def test_xdmf_parses_and_references_existing_datasets(tmp_path: pathlib.Path) ->
     xdmf = io.write_xdmf(path)
     assert xdmf == tmp_path / "run.xdmf"
     root = ET.parse(xdmf).getroot()
-    grids = root.findall("./Domain/Grid/Grid")
-    assert len(grids) == 4
-    assert [float(grid.find("Time").get("Value")) for grid in grids] == pytest.approx([0.0, 0.05, 0.1, 0.15])
+    assert root.get("Version") == "3.0"  # meshio refused XDMF 2 ("Unknown XDMF version 2.0")
+    steps = root.findall("./Domain/Grid/Grid")
+    assert len(steps) == 4
+    assert [float(step.find("Time").get("Value")) for step in steps] == pytest.approx([0.0, 0.05, 0.1, 0.15])
+    assert [grid.get("Name") for grid in steps[0].findall("Grid")] == ["grains", "walls"]
+    grids = steps[0].findall("Grid")
     assert grids[0].find("Geometry").get("GeometryType") == "XY"
     names = {attribute.get("Name") for attribute in grids[0].findall("Attribute")}
     assert names == {"density", "pressure", "velocity_x", "velocity_z", "stress_xx", "stress_xz", "stress_zx", "stress_zz"}
@@ -188,7 +191,7 @@ def test_xdmf_slab_selects_the_right_values(tmp_path: pathlib.Path) -> None:
     write_run(path)
     (tmp_path / "sub").mkdir()
     root = ET.parse(io.write_xdmf(path, tmp_path / "sub" / "view.xmf")).getroot()
-    grid = root.findall("./Domain/Grid/Grid")[2]
+    grid = root.findall("./Domain/Grid/Grid")[2].find("Grid[@Name='grains']")
     attribute = next(a for a in grid.findall("Attribute") if a.get("Name") == "velocity_z")
     selection, source = attribute.find("DataItem").findall("DataItem")
     start, stride, count = (np.array(row.split(), dtype=int) for row in selection.text.strip().splitlines())
@@ -198,3 +201,26 @@ def test_xdmf_slab_selects_the_right_values(tmp_path: pathlib.Path) -> None:
         data = file[dataset][...]
     index = tuple(slice(b, b + c * s, s) for b, s, c in zip(start, stride, count))
     np.testing.assert_array_equal(data[index].ravel(), frame_fields(2)["velocity"][:, 1])
+
+
+def test_xdmf_shows_bodies_with_their_index_and_the_walls(tmp_path: pathlib.Path) -> None:
+    """Issue 15, item 4: a body (leg, plate) is a particle set of its own in every frame of the
+    sidecar, with its particles' body index; the fixed walls are shown at every time."""
+    path = tmp_path / "run.h5"
+    with io.RunWriter(path, CONFIG) as writer:
+        writer.write_static("walls/position", np.zeros((4, 2)))
+        writer.write_static("bodies/index", np.array([0, 0, 1], dtype=np.int32))
+        for k in range(2):
+            writer.write_frame(0.1 * k, k, {**frame_fields(k), "body_position": np.full((3, 2), float(k)),
+                                            "body_velocity": np.ones((3, 2))})
+    root = ET.parse(io.write_xdmf(path)).getroot()
+    for k, step in enumerate(root.findall("./Domain/Grid/Grid")):
+        bodies = step.find("Grid[@Name='bodies']")
+        assert bodies.find("Topology").get("NumberOfElements") == "3"
+        names = {a.get("Name") for a in bodies.findall("Attribute")}
+        assert names == {"velocity_x", "velocity_z", "body_index"}
+        selection = bodies.find("Geometry/DataItem/DataItem").text.split()
+        assert selection[0] == str(k)  # frame k's slab of /frames/body_position
+        grains = step.find("Grid[@Name='grains']")
+        assert "body_index" not in {a.get("Name") for a in grains.findall("Attribute")}
+        assert step.find("Grid[@Name='walls']/Geometry/DataItem").text.endswith(":/static/walls/position")

@@ -6,7 +6,13 @@ the surface) and bed material (3 mm glass beads, ρ_s = 2600 kg/m³ at packing 0
 leg still holds the three wall layers the kernel needs (Δx = t/3 = 2.13 mm). To fit CI the bed
 is 8 cm deep instead of 15 cm (the toe reaches 5.6 cm; 2.4 cm of beads stay below it) and the
 settling pause is 0.3 s instead of 2 s (the bed starts at its hydrostatic density and is at rest
-by then). Each slow run takes 2–8 min with 2 threads.
+by then). A run takes ~2.5 min at 0.8 rad/s and 9–20 min at 0.2 rad/s with 2 threads.
+
+Tiers (tests/conftest.py): CI (``--runslow``) runs the chapter 3 trio (flat, C-leg, reversed C-leg)
+at the fast ω = 0.8 rad/s only, ~7 min in all: no leaks, resolved loads, the lift ordering. The
+full study — all five shapes at 0.2 rad/s, the rate dependence and the α_Π = 1 variant, ~75 min —
+is marked ``long`` and runs with ``pytest -q --runlong tests/test_leg_rotation.py``; its figures are
+in docs/benchmarks.md ("Leg rotation, CI variant").
 
 Loads are the time averages over each 1/100 rad of the sweep (the box filter of Simulation.run).
 
@@ -16,7 +22,8 @@ What is checked, and against what
   particle) stays 0 for every shape at ω = 0.2 rad/s.
 * The force curves are resolved: the step-to-step noise (deviation of a sample from the mean of
   its neighbours) is below 5 % of the peak, after the first 0.1 rad where the load builds up.
-* The ordering of chapter 3 (Fig. 3.2): peak lift of the C-leg > flat leg > reversed C-leg.
+* The ordering of chapter 3 (Fig. 3.2): peak lift of the C-leg > flat leg > reversed C-leg, at
+  both speeds.
 * Faster lifts more (Fig. 3.5): peak lift at ω = 0.8 rad/s exceeds that at 0.2 rad/s. Peak thrust
   is rate-independent within 10 % (I ≪ I0) with terrasph's artificial viscosity α_Π = 0.1; with
   the dissertation's α_Π = 1 both lift and thrust of the C-leg grow with speed, as chapter 3
@@ -45,23 +52,38 @@ def ci_config(leg: str, omega: float) -> LegRotation:
     return LegRotation(leg=leg, omega=omega, **CI_BED)
 
 
+CHAPTER_3_TRIO = ("flat", "c-leg", "reversed-c-leg")
+#: (leg, ω) cases: the fast trio runs in CI, the slow sweep of every shape is a long study
+CASES = [pytest.param(leg, 0.8, marks=pytest.mark.slow) for leg in CHAPTER_3_TRIO] + \
+        [pytest.param(leg, 0.2, marks=pytest.mark.long) for leg in LEGS]
+
+
+class LegRuns:
+    """Runs each (leg, ω) case once, when a test first asks for it, and keeps the result."""
+
+    def __init__(self, directory) -> None:
+        self.directory = directory
+        self.results: dict[tuple[str, float], LegResult] = {}
+
+    def __getitem__(self, case: tuple[str, float]) -> LegResult:
+        if case not in self.results:
+            leg, omega = case
+            result = run_leg_rotation(ci_config(leg, omega), output=self.directory / f"{leg}_{omega}.h5",
+                                      progress=False)
+            print(result.summary())
+            self.results[case] = result
+        return self.results[case]
+
+
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory) -> dict[tuple[str, float], LegResult]:
-    """Every shape at ω = 0.2 rad/s and the chapter 3 trio at 0.8 rad/s, each run once."""
-    out = tmp_path_factory.mktemp("legs")
-    cases = [(leg, 0.2) for leg in LEGS] + [(leg, 0.8) for leg in ("flat", "c-leg", "reversed-c-leg")]
-    results = {}
-    for leg, omega in cases:
-        result = run_leg_rotation(ci_config(leg, omega), output=out / f"{leg}_{omega}.h5", progress=False)
-        print(result.summary())
-        results[(leg, omega)] = result
-    return results
+def runs(tmp_path_factory) -> LegRuns:
+    """The leg runs of this module, each run once on first use."""
+    return LegRuns(tmp_path_factory.mktemp("legs"))
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("leg", LEGS)
-def test_no_grain_passes_through_the_leg_and_loads_are_resolved(runs, leg: str) -> None:
-    result = runs[(leg, 0.2)]
+@pytest.mark.parametrize("leg, omega", CASES)
+def test_no_grain_passes_through_the_leg_and_loads_are_resolved(runs, leg: str, omega: float) -> None:
+    result = runs[(leg, omega)]
     assert result.run.status == "completed"
     assert result.leaked_particles == 0
     assert result.theta[0] == pytest.approx(-math.pi / 4, abs=0.02)
@@ -71,14 +93,15 @@ def test_no_grain_passes_through_the_leg_and_loads_are_resolved(runs, leg: str) 
     assert result.peak_thrust > 0  # the leg pushes beads backward: the reaction drives it forward
 
 
-@pytest.mark.slow
-def test_peak_lift_ordering_of_chapter_3(runs) -> None:
-    c_leg, flat, reversed_c = (runs[(leg, 0.2)].peak_lift for leg in ("c-leg", "flat", "reversed-c-leg"))
+@pytest.mark.parametrize("omega", [pytest.param(0.8, marks=pytest.mark.slow),
+                                   pytest.param(0.2, marks=pytest.mark.long)])
+def test_peak_lift_ordering_of_chapter_3(runs, omega: float) -> None:
+    c_leg, flat, reversed_c = (runs[(leg, omega)].peak_lift for leg in ("c-leg", "flat", "reversed-c-leg"))
     assert c_leg > flat > reversed_c
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("leg", ["flat", "c-leg", "reversed-c-leg"])
+@pytest.mark.long
+@pytest.mark.parametrize("leg", CHAPTER_3_TRIO)
 def test_faster_rotation_lifts_more_and_thrust_is_rate_independent(runs, leg: str) -> None:
     """Peak lift grows from 0.2 to 0.8 rad/s (Fig. 3.5). Peak thrust does not, within 10 %: at toe
     speeds of 1.5–6 cm/s (shear rates ~1.5–6 /s over ~1 cm, P ~ 1 kPa) the inertial number is
@@ -92,7 +115,7 @@ def test_faster_rotation_lifts_more_and_thrust_is_rate_independent(runs, leg: st
     assert fast.peak_thrust == pytest.approx(slow.peak_thrust, rel=0.10)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_chapter_3_rate_dependence_returns_with_the_dissertations_artificial_viscosity(tmp_path) -> None:
     """With the dissertation's α_Π = 1 between grains (terrasph's default is 0.1, chosen on the
     column collapse: docs/design_decisions.md) both peak lift and peak thrust of the C-leg grow from

@@ -1,46 +1,113 @@
-"""Command line: ``terrasph run SCENE``, ``terrasph train``, ``terrasph predict``."""
+"""Command line: ``terrasph run SCENE``, ``info``, ``plot``, ``train``, ``predict``, ``make-synthetic-dataset``.
+
+Every expected error — bad configuration (:class:`terrasph.config.ConfigError`), a malformed file
+or model file (``ValueError`` and its subclasses ``ModelFileError``/``LstmFormatError``), a missing
+key in a file (``KeyError``), and I/O (``OSError``: missing, existing or unreadable files) — ends in
+:func:`main` with one line ``terrasph: error: …`` and exit status 2, as argparse reports a bad option.
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
+
+from terrasph import __version__
+
+#: errors a user can cause with their input; anything else is a bug and keeps its traceback
+EXPECTED_ERRORS = (ValueError, KeyError, OSError)
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose sub-commands report their own usage on an unknown option."""
+
+    def parse_args(self, args=None, namespace=None):  # type: ignore[override]
+        namespace, extras = self.parse_known_args(args, namespace)
+        if extras:
+            failing = getattr(namespace, "parser_of_command", self)
+            failing.error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the top-level parser with one sub-command per job."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="terrasph",
         description="SPH simulation of robots on granular terrain and LSTM surrogates.",
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    from terrasph import scenes_cli
+    parser.add_argument("--version", action="version", version=f"terrasph {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
+    from terrasph import run_files, scenes_cli
     from terrasph.surrogate import cli as surrogate_cli
 
     scenes_cli.register(sub)
+    run_files.register(sub)
     surrogate_cli.register(sub)
+    _remember_leaf_parsers(parser)
     return parser
+
+
+def _remember_leaf_parsers(parser: argparse.ArgumentParser) -> None:
+    """Every (sub-)command stores its own parser, so errors found after parsing print its usage."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                child.set_defaults(parser_of_command=child)
+                _remember_leaf_parsers(child)
+
+
+def error_message(error: BaseException) -> str:
+    """The one line shown for an expected error."""
+    if isinstance(error, KeyError) and error.args:
+        return str(error.args[0])
+    if isinstance(error, OSError) and error.filename is not None and error.strerror:
+        return f"{error.filename}: {error.strerror}"
+    return str(error) or type(error).__name__
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``terrasph`` command.
 
     Bad input ends with a one-line message and exit status 2 (as argparse does); a run that goes
-    unstable ends with its step, time and particle and status 3. Output written so far stays readable.
+    unstable ends with its step, time and particle and status 3; Ctrl-C with status 130. Output
+    written so far stays readable.
     """
     from terrasph import InstabilityError
-    from terrasph.config import ConfigError
 
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return int(args.handler(args) or 0)
-    except ConfigError as error:
-        parser.exit(2, f"terrasph: error: {error}\n")
     except InstabilityError as error:
-        parser.exit(3, f"terrasph: the run went unstable: {error}\n")
+        figures = _figures_of_unfinished_run(args)
+        _exit(parser, 3, f"terrasph: the run went unstable: {error}{figures}")
+    except EXPECTED_ERRORS as error:
+        _exit(parser, 2, f"terrasph: error: {error_message(error)}")
     except KeyboardInterrupt:
-        parser.exit(130, "terrasph: interrupted; the output file is closed and readable\n")
+        figures = _figures_of_unfinished_run(args)
+        _exit(parser, 130, f"terrasph: interrupted; the output file is closed and readable{figures} "
+                           "(`terrasph info FILE` shows how far it got)")
+
+
+def _figures_of_unfinished_run(args: argparse.Namespace) -> str:
+    """Writes the PNG (and XDMF) of a scene run that stopped early; a note for the exit message."""
+    from pathlib import Path
+
+    from terrasph.run_files import plot_run
+
+    out = getattr(args, "out", None)
+    if getattr(args, "command", None) != "run" or out is None or not Path(out).is_file():
+        return ""
+    try:
+        png, _ = plot_run(out)
+    except EXPECTED_ERRORS as error:  # e.g. no frame yet: the exit message says why there is no figure
+        return f"; no figure ({error_message(error)})"
+    return f"; wrote {png}"
+
+
+def _exit(parser: argparse.ArgumentParser, status: int, message: str) -> NoReturn:
+    parser.exit(status, " ".join(message.split("\n")[0:1]) + "\n")
 
 
 if __name__ == "__main__":

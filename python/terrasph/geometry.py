@@ -11,7 +11,11 @@ import math
 
 import numpy as np
 
-__all__ = ["lattice_block", "polyline_wall", "wall_layers_needed"]
+__all__ = ["MIN_PARTICLES_ACROSS", "lattice_block", "polyline_wall", "wall_layers_needed"]
+
+
+#: Fewest lattice particles across a granular block's width and height (lattice_block).
+MIN_PARTICLES_ACROSS = 2
 
 
 def wall_layers_needed(h_factor: float) -> int:
@@ -25,14 +29,20 @@ def lattice_block(x0: float, z0: float, width: float, height: float, spacing: fl
     """Particles at cell centres of a square lattice filling [x0, x0+width] × [z0, z0+height].
 
     The number of columns and rows is the nearest integer to width/Δx and height/Δx, so the block's
-    extent may differ from the request by up to Δx/2 on each axis.
+    extent may differ from the request by up to Δx/2 on each axis. A block less than
+    MIN_PARTICLES_ACROSS spacings wide or tall is refused: the lattice cannot resolve it (a single
+    row would stick out of the requested rectangle by up to Δx/2 on both sides).
     """
     if spacing <= 0:
         raise ValueError(f"spacing = {spacing} must be > 0")
     if width <= 0 or height <= 0:
         raise ValueError(f"block width and height must be > 0, got {width}, {height}")
-    nx = max(1, round(width / spacing))
-    nz = max(1, round(height / spacing))
+    nx = round(width / spacing)
+    nz = round(height / spacing)
+    if min(nx, nz) < MIN_PARTICLES_ACROSS:
+        raise ValueError(f"spacing = {spacing:g} m cannot resolve a {width:g} × {height:g} m block: allowed "
+                         f"spacing <= {min(width, height) / MIN_PARTICLES_ACROSS:g} m "
+                         f"(at least {MIN_PARTICLES_ACROSS} particles across each side)")
     xs = x0 + (np.arange(nx) + 0.5) * spacing
     zs = z0 + (np.arange(nz) + 0.5) * spacing
     grid_x, grid_z = np.meshgrid(xs, zs)  # row-major: z rows, x fastest

@@ -525,20 +525,22 @@ def _hyperslab(
 
 
 def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str] | None = None) -> pathlib.Path:
-    """Write an XDMF 2 sidecar so ParaView can open the frames of a run file; return its path.
+    """Write an XDMF 3 sidecar so ParaView can open the frames of a run file; return its path.
 
-    The sidecar is a Temporal collection of Polyvertex grids, one per frame, whose geometry is a
-    hyperslab of ``/frames/position``. 2D positions are exposed as XY, so the simulation's z (up)
-    is ParaView's Y. Every other numeric frame field becomes node-centred scalars: scalar fields
-    as themselves, vector and tensor fields one scalar per component (``velocity_x``,
-    ``velocity_z``, ``stress_xx``, ``stress_xz``, ``stress_zx``, ``stress_zz``). The HDF5 file is
-    referenced by its path relative to the sidecar (default: ``h5_path`` with suffix ``.xdmf``),
-    so keep the two files together.
+    The sidecar is a Temporal collection with one Spatial collection per frame holding up to three
+    Polyvertex grids: ``grains`` (geometry a hyperslab of ``/frames/position``), ``bodies`` (of
+    ``/frames/body_position``, in scenes with bodies, with their ``body_index``) and ``walls`` (the
+    fixed walls of ``/static/walls/position``, the same at every time). 2D positions are exposed as
+    XY, so the simulation's z (up) is ParaView's Y. Every other numeric per-particle field of a set
+    becomes node-centred scalars: scalar fields as themselves, vector and tensor fields one scalar
+    per component (``velocity_x``, ``velocity_z``, ``stress_xx``, …; a body field's ``body_`` prefix
+    is dropped). The HDF5 file is referenced by its path relative to the sidecar (default:
+    ``h5_path`` with suffix ``.xdmf``), so keep the two files together.
     """
     h5_path = pathlib.Path(h5_path)
     out = pathlib.Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
     h5_ref = os.path.relpath(h5_path.resolve(), out.resolve().parent)
-    root = ET.Element("Xdmf", Version="2.0")
+    root = ET.Element("Xdmf", Version="3.0")
     collection = ET.SubElement(
         ET.SubElement(root, "Domain"), "Grid", Name="particles", GridType="Collection", CollectionType="Temporal"
     )
@@ -550,34 +552,65 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
         if position.ndim != 3 or position.shape[2] != 2:
             raise ValueError(f"/frames/position must be shaped (n_frames, N, 2), got {position.shape}")
         n_frames = min(dataset.shape[0] for dataset in frames.values())
-        n_particles = position.shape[1]
-        fields = [
-            dataset
-            for name, dataset in sorted(frames.items())
-            if name not in (*_RESERVED_FRAME_NAMES, "position")
-            and dataset.ndim >= 2
-            and dataset.shape[1] == n_particles
-            and dataset.dtype.kind in "iuf"
-        ]
+        sets = [("grains", position, _set_fields(frames, position, prefix=""))]
+        if "body_position" in frames:
+            body_position = frames["body_position"]
+            sets.append(("bodies", body_position, _set_fields(frames, body_position, prefix="body_")))
+        static = file.get("static")
+        walls = static["walls/position"] if static is not None and "walls/position" in static else None
         times = frames["time"][:n_frames]
         for k in range(n_frames):
-            grid = ET.SubElement(collection, "Grid", Name=f"frame_{k}", GridType="Uniform")
-            ET.SubElement(grid, "Time", Value=repr(float(times[k])))
-            ET.SubElement(
-                grid, "Topology", TopologyType="Polyvertex", NumberOfElements=str(n_particles), NodesPerElement="1"
-            )
-            geometry = ET.SubElement(grid, "Geometry", GeometryType="XY")
-            _hyperslab(geometry, h5_ref, position, (k, 0, 0), (1, n_particles, 2))
-            for dataset in fields:
-                name = dataset.name.rsplit("/", 1)[1]
-                trailing = dataset.shape[2:]
-                for suffix, index in _component_suffixes(trailing) if trailing else [("", ())]:
-                    attribute = ET.SubElement(
-                        grid, "Attribute", Name=name + suffix, AttributeType="Scalar", Center="Node"
-                    )
-                    start = (k, 0, *index)
-                    count = (1, n_particles, *(1 for _ in index))
-                    _hyperslab(attribute, h5_ref, dataset, start, count)
+            step = ET.SubElement(collection, "Grid", Name=f"frame_{k}", GridType="Collection",
+                                 CollectionType="Spatial")
+            ET.SubElement(step, "Time", Value=repr(float(times[k])))
+            for name, geometry_data, fields in sets:
+                count = geometry_data.shape[1]
+                grid = _polyvertex_grid(step, name, count)
+                _hyperslab(ET.SubElement(grid, "Geometry", GeometryType="XY"), h5_ref, geometry_data,
+                           (k, 0, 0), (1, count, 2))
+                for label, dataset in fields:
+                    trailing = dataset.shape[2:]
+                    for suffix, index in _component_suffixes(trailing) if trailing else [("", ())]:
+                        attribute = ET.SubElement(grid, "Attribute", Name=label + suffix, AttributeType="Scalar",
+                                                  Center="Node")
+                        _hyperslab(attribute, h5_ref, dataset, (k, 0, *index), (1, count, *(1 for _ in index)))
+                if name == "bodies" and "bodies/index" in static:
+                    _whole(ET.SubElement(grid, "Attribute", Name="body_index", AttributeType="Scalar",
+                                         Center="Node"), h5_ref, static["bodies/index"])
+            if walls is not None and walls.shape[0] > 0:
+                grid = _polyvertex_grid(step, "walls", walls.shape[0])
+                _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), h5_ref, walls)
     ET.indent(root)
-    out.write_text('<?xml version="1.0" ?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n' + ET.tostring(root, encoding="unicode") + "\n")
+    out.write_text('<?xml version="1.0" ?>\n' + ET.tostring(root, encoding="unicode") + "\n")
     return out
+
+
+def _set_fields(frames: h5py.Group, geometry: h5py.Dataset, prefix: str) -> list[tuple[str, h5py.Dataset]]:
+    """(label, dataset) of the numeric per-particle frame fields of one particle set: the fields named
+    with `prefix` (grains: no prefix, and not a body field) with as many particles as its geometry."""
+    fields = []
+    for name, dataset in sorted(frames.items()):
+        if name in _RESERVED_FRAME_NAMES or dataset.name == geometry.name or dataset.dtype.kind not in "iuf":
+            continue
+        if dataset.ndim < 2 or dataset.shape[1] != geometry.shape[1]:
+            continue
+        if prefix and name.startswith(prefix):
+            fields.append((name[len(prefix):], dataset))
+        elif not prefix and not name.startswith("body_"):
+            fields.append((name, dataset))
+    return fields
+
+
+def _polyvertex_grid(parent: ET.Element, name: str, count: int) -> ET.Element:
+    """A Uniform grid of `count` unconnected points."""
+    grid = ET.SubElement(parent, "Grid", Name=name, GridType="Uniform")
+    ET.SubElement(grid, "Topology", TopologyType="Polyvertex", NumberOfElements=str(count), NodesPerElement="1")
+    return grid
+
+
+def _whole(parent: ET.Element, h5_ref: str, dataset: h5py.Dataset) -> None:
+    """Append a DataItem holding a whole HDF5 dataset."""
+    number_type, precision = _number_type(dataset.dtype)
+    item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, dataset.shape)), NumberType=number_type,
+                         Precision=precision, Format="HDF")
+    item.text = f"{h5_ref}:{dataset.name}"

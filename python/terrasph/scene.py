@@ -100,8 +100,16 @@ class Scene:
 
     # -- building -------------------------------------------------------------------------
     def add_block(self, x0: float, z0: float, width: float, height: float) -> np.ndarray:
-        """Adds a lattice block of granular particles; returns its positions."""
-        block = lattice_block(x0, z0, width, height, self.spacing)
+        """Adds a lattice block of granular particles; returns its positions.
+
+        Raises:
+            ConfigError: naming 'spacing' when the lattice cannot resolve the block (fewer than
+                geometry.MIN_PARTICLES_ACROSS particles across it).
+        """
+        try:
+            block = lattice_block(x0, z0, width, height, self.spacing)
+        except ValueError as error:
+            raise ConfigError(f"parameter 'spacing': {error}") from None
         self.granular.append(block)
         return block
 

@@ -6,8 +6,9 @@ import argparse
 import json
 from typing import Any
 
+from terrasph.cli_common import add_force_option, add_threads_option, check_output_file
 from terrasph.config import parameter
-from terrasph.scenes import leg_rotation
+from terrasph.scenes import leg_rotation, plate_intrusion
 from terrasph.scenes.column_collapse import (
     RESOLUTIONS,
     ColumnCollapse,
@@ -33,7 +34,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                         help=f"friction angle atan(mu2) in degrees (default 33); {parameter('material.mu2').doc}")
     water = parameter("material.water_content")
     column.add_argument("--water-content", type=float, default=water.default, help=water.help())
-    column.add_argument("--t-end", type=float, default=1.0, help="simulated time limit (s)")
+    column.add_argument("--t-end", type=float, default=1.0,
+                        help="simulated time limit in s; the run stops earlier once at rest (default %(default)s)")
     _add_run_options(column, default_output="column_collapse.h5")
     column.set_defaults(handler=_run_column)
     _register_plate(scenes)
@@ -42,13 +44,21 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def _add_run_options(parser: argparse.ArgumentParser, default_output: str) -> None:
-    """Adds the options every scene shares: ``--out``, ``--threads``, ``--no-progress``."""
-    parser.add_argument("--out", default=default_output, help="HDF5 output file (a PNG is written beside it)")
-    parser.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
+    """Adds the options every scene shares: ``--out``, ``--force``, ``--threads``, ``--no-progress``."""
+    parser.add_argument("--out", default=default_output,
+                        help="HDF5 output file; an XDMF sidecar and a PNG are written beside it (default %(default)s)")
+    add_force_option(parser)
+    add_threads_option(parser)
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
-def _use_threads(args: argparse.Namespace) -> None:
+def _prepare(args: argparse.Namespace) -> None:
+    """Checks ``--out`` and applies ``--threads`` before any work."""
+    check_output_file(args.out, args.force)
+    _apply_threads(args)
+
+
+def _apply_threads(args: argparse.Namespace) -> None:
     """Applies ``--threads`` (process-wide OpenMP setting) when given."""
     if args.threads is not None:
         from terrasph import _core
@@ -63,10 +73,10 @@ def _print_summary(summary: dict[str, Any], output: str, plot: str | None) -> in
 
 
 def _run_column(args: argparse.Namespace) -> int:
-    _use_threads(args)
     config = ColumnCollapse(resolution=args.resolution, spacing=args.spacing,
                             friction_angles_deg=(args.mu1_deg, args.mu2_deg),
                             water_content=args.water_content, t_end=args.t_end)
+    _prepare(args)
     result = run_column_collapse(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
 
@@ -77,10 +87,15 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
     plate = scenes.add_parser("plate-intrusion", help="horizontal plate pushed into a bed and pulled out",
                               description="A horizontal plate pushed down into a settled bed of glass beads at "
                                           "constant speed, then pulled up; vertical force against depth.")
-    plate.add_argument("--spacing", type=float, default=default.spacing,
-                       help=f"particle spacing in m (default {default.spacing:g})")
+    plate.add_argument("--resolution", choices=list(plate_intrusion.RESOLUTIONS), default="coarse",
+                       help="dx = " + "/".join(f"{dx * 1e3:g}" for dx in plate_intrusion.RESOLUTIONS.values())
+                            + " mm (default coarse)")
+    plate.add_argument("--spacing", type=float, default=None,
+                       help=f"particle spacing in m (overrides --resolution; default {default.spacing:g})")
     plate.add_argument("--speed", type=float, default=default.speed,
                        help=f"plate speed in m/s, down then up (default {default.speed:g})")
+    plate.add_argument("--settle", type=float, default=default.settle_time,
+                       help=f"settling pause before the plate moves, in s (default {default.settle_time:g})")
     plate.add_argument("--depth", type=float, default=default.max_depth,
                        help=f"deepest depth of the plate underside below the surface in m (default {default.max_depth:g})")
     _add_run_options(plate, default_output="plate_intrusion.h5")
@@ -88,8 +103,9 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
 
 
 def _run_plate(args: argparse.Namespace) -> int:
-    _use_threads(args)
-    config = PlateIntrusion(spacing=args.spacing, speed=args.speed, max_depth=args.depth)
+    spacing = args.spacing if args.spacing is not None else plate_intrusion.RESOLUTIONS[args.resolution]
+    config = PlateIntrusion(spacing=spacing, speed=args.speed, max_depth=args.depth, settle_time=args.settle)
+    _prepare(args)
     result = run_plate_intrusion(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
 
@@ -114,9 +130,9 @@ def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
 
 
 def _run_leg(args: argparse.Namespace) -> int:
-    _use_threads(args)
     config = leg_rotation.LegRotation(leg=args.leg, omega=args.omega, foot_ratio=args.foot_ratio,
                                       resolution=args.resolution, settle_time=args.settle, bed_depth=args.bed_depth)
+    _prepare(args)
     result = leg_rotation.run_leg_rotation(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
 
@@ -132,7 +148,7 @@ def _register_resume(subparsers: argparse._SubParsersAction[argparse.ArgumentPar
     resume.add_argument("run_file", metavar="RUN.h5", help="the run's HDF5 file")
     resume.add_argument("--until", type=float, default=None,
                         help="simulated end time in s (default: the scene's own end time)")
-    resume.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all cores)")
+    add_threads_option(resume)
     resume.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     resume.set_defaults(handler=_resume)
 
@@ -143,7 +159,7 @@ def _resume(args: argparse.Namespace) -> int:
     from terrasph.config import ConfigError
     from terrasph.scenes import scene_of_run
 
-    _use_threads(args)
+    _apply_threads(args)
     try:
         with h5py.File(args.run_file, "r") as file:
             config_json = str(file.attrs["config_json"])

@@ -23,7 +23,10 @@ from terrasph.scene import Scene, geostatic_stress, hydrostatic_density
 
 __all__ = ["RunResult", "Simulation", "checkpoint_path", "versions"]
 
-STEPS_PER_CHUNK = 500
+#: Wall time (s) one call into the core may take, so Ctrl-C and the progress bar stay responsive
+#: however slow a step is; the steps per call follow from the last call's seconds per step.
+CHUNK_SECONDS = 0.2
+MAX_STEPS_PER_CHUNK = 500
 
 
 def checkpoint_path(output: str | os.PathLike[str]) -> pathlib.Path:
@@ -341,7 +344,10 @@ class Simulation:
             raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
         if resume and output is None:
             raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
-        from tqdm.auto import tqdm
+        if progress:
+            from tqdm.auto import tqdm
+        else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
+            from tqdm import tqdm
 
         from terrasph.io import RunWriter, read_run, write_xdmf
 
@@ -354,8 +360,13 @@ class Simulation:
             writer = RunWriter(output, config or self.describe(), versions=versions()) if output else None
             if writer:
                 writer.write_static("granular/mass", np.array(self.mass))
-                writer.write_static("walls/position", np.array(self.core.wall_position))
-                writer.write_static("walls/group", np.array(self.core.wall_group))
+                writer.write_static("granular/id", np.array(self.core.id))
+                body = np.asarray(self.core.wall_body)  # body index of each wall particle, -1: a fixed wall
+                for name in ("position", "group", "id"):
+                    writer.write_static(f"walls/{name}", np.array(np.asarray(getattr(self.core, f"wall_{name}"))[body < 0]))
+                if self.bodies:  # ids and body index of each particle of the frames' body_* fields
+                    writer.write_static("bodies/id", np.array(np.asarray(self.core.wall_id)[body >= 0]))
+                    writer.write_static("bodies/index", np.array(body[body >= 0], dtype=np.int32))
         diagnostics: dict[str, list[float]] = {k: [] for k in ("time", "step", "dt", "kinetic_energy",
                                                                  "max_speed", "neighbour_builds", "wall_time",
                                                                  "leaked_particles")}
@@ -401,8 +412,31 @@ class Simulation:
                     "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
                     "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start})
 
-        bar = tqdm(total=round(t_end - self.time, 9), unit="s", disable=not progress, mininterval=0.5,
+        t_start = self.time
+        bar = tqdm(total=round(t_end - t_start, 9), unit="s", disable=not progress, mininterval=0.5,
                    bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
+        chunk_steps = 1  # steps per call into the core, adapted to CHUNK_SECONDS of wall time
+
+        def advance_chunk(target: float) -> None:
+            nonlocal chunk_steps
+            started, steps_before = wallclock.perf_counter(), self.step_count
+            self.advance(target, max_steps=chunk_steps)
+            per_step = (wallclock.perf_counter() - started) / max(1, self.step_count - steps_before)
+            chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
+            # the bar shows simulated time, never past its total (float sums of dt overshoot)
+            bar.update(min(bar.total, round(self.time - t_start, 9)) - bar.n)
+
+        def close_bar(finished: bool) -> None:
+            if finished:  # a run that stops early (at rest) ends its bar at 100 %
+                bar.total = bar.n
+            bar.refresh()
+            bar.close()
+
+        def record_end(end_status: str, **extra: Any) -> None:
+            """The final /run attributes, for every way a run ends."""
+            writer.set_attrs("/run", {"status": end_status, "wall_time": wallclock.perf_counter() - start,
+                                      "steps": self.step_count, "time": self.time, **extra})
+
         if resume:
             next_frame, next_sample = saved["next_frame"], saved["next_sample"]
         else:
@@ -417,13 +451,11 @@ class Simulation:
                         record_bodies()
                 last_checkpoint = wallclock.perf_counter()
                 while self.time < t_end * (1 - 1e-14):
-                    before = self.time
                     # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
-                    self.advance(min(next_frame, next_sample, t_end), max_steps=STEPS_PER_CHUNK)
+                    advance_chunk(min(next_frame, next_sample, t_end))
                     if self.time >= next_sample * (1 - 1e-12) or (self.bodies and self.time >= t_end * (1 - 1e-14)):
                         record_bodies()
                         next_sample += body_interval
-                    bar.update(self.time - before)
                     bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
                     if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
                         record()
@@ -438,24 +470,23 @@ class Simulation:
                         save_checkpoint()
                         last_checkpoint = wallclock.perf_counter()
         except KeyboardInterrupt:
-            status = "interrupted"
+            close_bar(finished=False)
             if writer:
                 save_checkpoint()  # before the extra frame below, which a resumed run drops
                 writer.write_frame(self.time, self.step_count, self.frame_fields())
-                writer.set_attrs("/run", {"status": status, "time": self.time, "steps": self.step_count,
-                                          "checkpoint": checkpoint_path(output).name})
+                record_end("interrupted", checkpoint=checkpoint_path(output).name)
                 writer.close()
-            bar.close()
+                write_xdmf(output)
             raise
         except _core.InstabilityError as error:
-            status = "unstable"
+            close_bar(finished=False)
             if writer:
-                writer.set_attrs("/run", {"status": status, "message": str(error), "step": error.step,
-                                          "time": error.time, "particle": error.particle})
+                record_end("unstable", message=str(error), step=error.step, particle=error.particle)
+                writer.set_attrs("/run", {"time": error.time})
                 writer.close()
-            bar.close()
+                write_xdmf(output)
             raise
-        bar.close()
+        close_bar(finished=True)
         wall_time = wallclock.perf_counter() - start
         bodies = {name: {key: np.asarray(values) for key, values in series.items()}
                   for name, series in body_series.items()}
@@ -475,10 +506,17 @@ class Simulation:
                          status, diagnostics, bodies)
 
     def frame_fields(self) -> dict[str, np.ndarray]:
-        """Copies of the per-particle fields written to each frame."""
-        return {"position": np.array(self.position), "velocity": np.array(self.velocity),
-                "density": np.array(self.density), "pressure": np.array(self.pressure),
-                "stress": np.array(self.stress)}
+        """Copies of the per-particle fields written to each frame: the grains' fields and, in a
+        scene with bodies, ``body_position`` and ``body_velocity`` of every body particle (which
+        body each belongs to is ``/static/bodies/index``)."""
+        fields = {"position": np.array(self.position), "velocity": np.array(self.velocity),
+                  "density": np.array(self.density), "pressure": np.array(self.pressure),
+                  "stress": np.array(self.stress)}
+        if self.bodies:
+            on_body = np.asarray(self.core.wall_body) >= 0
+            fields["body_position"] = np.array(np.asarray(self.core.wall_position)[on_body])
+            fields["body_velocity"] = np.array(np.asarray(self.core.wall_velocity)[on_body])
+        return fields
 
     def describe(self) -> dict[str, Any]:
         """Configuration of this simulation as plain data (saved with the output)."""

@@ -40,10 +40,18 @@ from terrasph.simulation import RunResult, Simulation
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["PlateIntrusion", "PlateResult", "build_plate_intrusion", "plot_intrusion", "run_plate_intrusion"]
+__all__ = ["RESOLUTIONS", "PlateIntrusion", "PlateResult", "build_plate_intrusion", "plot_intrusion", "run_plate_intrusion"]
 
 #: Wall height above the free surface (m): room for the plate above the bed and for heaped grains.
 WALL_FREEBOARD = 0.05
+
+#: Depth (m) from which the summary's line F_z = k·depth + b is fitted: past the first contact,
+#: where the load builds up (docs/benchmarks.md, tests/test_plate_intrusion.py); a stroke shallower
+#: than 4 cm is fitted from a quarter of its depth.
+FIT_FROM_DEPTH = 0.01
+
+#: Particle spacing Δx (m) per named resolution; "coarse" is the default PlateIntrusion.spacing.
+RESOLUTIONS: dict[str, float] = {"coarse": 0.0025, "fine": 0.002, "finer": 0.0016}
 
 
 @dataclass(frozen=True)
@@ -211,11 +219,13 @@ class PlateResult:
         return np.interp(depths, down_d, down_f) - np.interp(depths, up_d, up_f)
 
     def summary(self) -> dict[str, Any]:
-        """Flat dict for tables and HDF5 attributes."""
-        slope, intercept, r_squared = self.fit()
+        """Flat dict for tables and HDF5 attributes; the fit starts at `fit_from` (FIT_FROM_DEPTH)."""
+        fit_from = min(FIT_FROM_DEPTH, 0.25 * self.config.max_depth)
+        slope, intercept, r_squared = self.fit(fit_from)
         _, down_force = self.stroke("down")
         return {"speed": self.config.speed, "max_depth": self.config.max_depth, "spacing": self.config.spacing,
-                "plate_thickness": self.config.plate_thickness, "slope": slope, "intercept": intercept,
+                "plate_thickness": self.config.plate_thickness, "fit_from": fit_from,
+                "slope": slope, "intercept": intercept,
                 "r_squared": r_squared, "alpha": slope / self.reference_slope,
                 "peak_force": float(down_force.max()), "samples": len(self.depth),
                 "granular_particles": self.granular_particles, "leaked_particles": self.leaked_particles,

@@ -9,6 +9,14 @@ from typing import Any
 
 import numpy as np
 
+from terrasph.cli_common import (
+    add_force_option,
+    check_output_dir,
+    check_output_file,
+    positive_float,
+    positive_int,
+)
+
 
 def register(subparsers: Any) -> None:
     """Add the surrogate sub-commands to the ``terrasph`` parser."""
@@ -20,22 +28,32 @@ def register(subparsers: Any) -> None:
                     "DATASET_DIR (split by run), then write the model file (docs/lstm_format.md) "
                     "and a JSON report next to it.")
     p.add_argument("dataset_dir", metavar="DATASET_DIR", type=Path)
-    p.add_argument("--out", required=True, type=Path, help="model file to write (.tslstm)")
+    p.add_argument("--out", required=True, type=Path,
+                   help="model file to write (.tslstm), with a JSON report beside it")
     p.add_argument("--features", nargs="+", default=list(DEFAULT_FEATURES),
                    help="input series or run parameters (default: %(default)s)")
     p.add_argument("--targets", nargs="+", default=list(DEFAULT_TARGETS),
                    help="target series (default: %(default)s)")
-    p.add_argument("--body", default=None, help="body group in /bodies (default: the only one)")
-    p.add_argument("--cell", choices=("standard", "peephole"), default="standard")
-    p.add_argument("--hidden", type=int, default=32, help="hidden units per layer")
-    p.add_argument("--layers", type=int, default=1, help="stacked LSTM layers")
-    p.add_argument("--epochs", type=int, default=300, help="maximum epochs")
-    p.add_argument("--patience", type=int, default=30, help="early-stopping patience (epochs)")
-    p.add_argument("--lr", type=float, default=5e-3, help="Adam learning rate")
-    p.add_argument("--batch-size", type=int, default=16, help="runs per optimisation step")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--threads", type=int, default=1,
-                   help="torch CPU threads (results are reproducible per thread count)")
+    p.add_argument("--body", default=None,
+                   help="body group in /series/bodies (default: the only one)")
+    p.add_argument("--cell", choices=("standard", "peephole"), default="standard",
+                   help="LSTM cell, Eq. 4.9-4.13 for peephole (default: %(default)s)")
+    p.add_argument("--hidden", type=positive_int, default=32,
+                   help="hidden units per layer, 1-1024 (default: %(default)s)")
+    p.add_argument("--layers", type=positive_int, default=1,
+                   help="stacked LSTM layers, 1-8 (default: %(default)s)")
+    p.add_argument("--epochs", type=positive_int, default=300, help="maximum epochs (default: %(default)s)")
+    p.add_argument("--patience", type=positive_int, default=30,
+                   help="early-stopping patience in epochs (default: %(default)s)")
+    p.add_argument("--lr", type=positive_float, default=5e-3, help="Adam learning rate (default: %(default)s)")
+    p.add_argument("--batch-size", type=positive_int, default=16,
+                   help="runs per optimisation step (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the split, initial weights and batches (default: %(default)s)")
+    p.add_argument("--threads", type=positive_int, default=1,
+                   help="torch CPU threads, >= 1 (default: %(default)s; results are reproducible "
+                        "per thread count)")
+    add_force_option(p)
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(handler=_cmd_train)
 
@@ -48,8 +66,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("input", metavar="INPUT", type=Path)
     p.add_argument("--out", type=Path, default=None,
                    help="write predictions to .npy (B, T, O) or .csv (default: CSV on stdout)")
-    p.add_argument("--dtype", choices=("float32", "float64"), default="float64")
-    p.add_argument("--body", default=None, help="body group for HDF5 input")
+    p.add_argument("--dtype", choices=("float32", "float64"), default="float64",
+                   help="precision of the C++ engine (default: %(default)s)")
+    p.add_argument("--body", default=None,
+                   help="body group in /series/bodies for HDF5 input (default: the only one)")
+    add_force_option(p)
     p.set_defaults(handler=_cmd_predict)
 
     p = subparsers.add_parser(
@@ -57,10 +78,15 @@ def register(subparsers: Any) -> None:
         description="Simulate the synthetic driven wheel (terrasph.surrogate.synthetic) and "
                     "write one HDF5 run file per run into OUT_DIR.")
     p.add_argument("out_dir", metavar="OUT_DIR", type=Path)
-    p.add_argument("--runs", type=int, default=120)
-    p.add_argument("--duration", type=float, default=3.0, help="seconds per run")
-    p.add_argument("--dt", type=float, default=0.02, help="sampling interval [s]")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--runs", type=positive_int, default=120,
+                   help="number of runs (files wheel_0000.h5, …) (default: %(default)s)")
+    p.add_argument("--duration", type=positive_float, default=3.0,
+                   help="simulated seconds per run (default: %(default)s)")
+    p.add_argument("--dt", type=positive_float, default=0.02,
+                   help="sampling interval in s, at most duration/2 (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the random drive, load and soil of each run (default: %(default)s)")
+    add_force_option(p)
     p.set_defaults(handler=_cmd_synthetic)
 
 
@@ -69,8 +95,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     from terrasph.surrogate.train import TrainConfig, format_report, train_directory
 
-    if args.threads < 1:
-        raise SystemExit(f"--threads must be >= 1, got {args.threads}")
+    check_output_file(args.out, args.force)
+    check_output_file(str(args.out) + ".json", args.force)
     torch.set_num_threads(args.threads)
     config = TrainConfig(
         features=tuple(args.features), targets=tuple(args.targets), cell=args.cell,
@@ -91,6 +117,10 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         read_sequences,
     )
 
+    if args.out is not None:
+        if args.out.suffix not in (".npy", ".csv"):
+            raise ValueError(f"--out {args.out}: use a .npy or .csv file")
+        check_output_file(args.out, args.force)
     model = load_model(args.model, args.dtype)
     results = predict_sequences(model, read_sequences(args.input, model.feature_names,
                                                       body=args.body))
@@ -98,7 +128,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     if args.out is not None and args.out.suffix == ".npy":
         lengths = {y.shape[0] for _, y in results}
         if len(lengths) != 1:
-            raise SystemExit("sequences differ in length; use a .csv output")
+            raise ValueError("--out: the sequences differ in length; use a .csv output")
         np.save(args.out, np.stack([y for _, y in results]))
         return 0
     lines = [",".join(["sequence", "step"] + targets)]
@@ -116,6 +146,12 @@ def _cmd_predict(args: argparse.Namespace) -> int:
 def _cmd_synthetic(args: argparse.Namespace) -> int:
     from terrasph.surrogate.synthetic import make_dataset
 
+    if args.dt > args.duration / 2:
+        raise ValueError(f"--dt {args.dt:g} is invalid: allowed at most --duration/2 = "
+                         f"{args.duration / 2:g} s (a run needs at least 3 samples)")
+    check_output_dir(args.out_dir, args.force)
+    for stale in sorted(args.out_dir.glob("wheel_*.h5")) if args.force else ():
+        stale.unlink()  # --force: the directory then holds exactly this dataset, no runs of an earlier one
     paths = make_dataset(args.out_dir, n_runs=args.runs, seed=args.seed,
                          duration=args.duration, dt=args.dt)
     print(f"wrote {len(paths)} runs to {args.out_dir}")

@@ -73,9 +73,11 @@ class Run:
             return self.series[name]
         if name in self.params:
             return np.full(self.length, float(self.params[name]))
+        params = sorted(self.params)
         raise KeyError(
-            f"run {self.name!r} has no series or numeric parameter {name!r}; available series: "
-            f"{sorted(self.series)}, parameters: {sorted(self.params)}"
+            f"run {self.name!r} has no series or numeric parameter {name!r}; series: "
+            f"{sorted(self.series)}; {len(params)} parameters"
+            + (f" ({', '.join(params[:5])}, …)" if len(params) > 5 else f" {params}")
         )
 
     def matrix(self, names: Sequence[str]) -> np.ndarray:

@@ -1,0 +1,86 @@
+"""Thread count on a shared machine (issue 15, item 1): 2 threads against 1, idle and with a
+competing CPU-bound process, under terrasph's wait policy (passive) and a spinning one (active,
+what the OpenMP runtime did before terrasph set the policy).
+
+    python benchmarks/bench_threads.py [--size 8000] [--steps 300] [--repeats 3]
+
+Each case runs in a fresh process (the OpenMP runtime reads its wait policy once): a bed of dry
+glass beads at rest (benchmarks/bench_sph.py) stepped `--steps` steps after a warm-up; the figure
+is the median wall time of `--repeats`. The competitor is a Python busy loop pinned to nothing.
+Also printed: the thread count terrasph picks by default in each situation.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+CHILD = """
+import sys, time
+sys.path.insert(0, {bench_dir!r})
+import terrasph
+from terrasph import _core
+from terrasph.threads import default_threads
+from terrasph.config import Material, Numerics
+import bench_sph
+picked = _core.get_max_threads()
+_core.set_num_threads({threads})
+sim = bench_sph.bed({size}, Material(), Numerics(spacing=bench_sph.SPACING))
+sim.advance(1e9, max_steps=20)
+start = time.perf_counter()
+sim.advance(1e9, max_steps={steps})
+print(time.perf_counter() - start, picked)
+"""
+
+BUSY_LOOP = "while True:\n    pass\n"
+
+
+def run_case(threads: int, policy: str, size: int, steps: int) -> tuple[float, int]:
+    """(seconds for `steps` steps, default thread count picked at import) in a fresh process."""
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OMP_WAIT_POLICY")}
+    env["OMP_WAIT_POLICY"] = policy
+    code = CHILD.format(bench_dir=str(Path(__file__).parent), threads=threads, size=size, steps=steps)
+    out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
+    seconds, picked = out.stdout.split()
+    return float(seconds), int(picked)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--size", type=int, default=8000, help="granular particles")
+    parser.add_argument("--steps", type=int, default=300)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    print(f"{os.cpu_count()} cores; {args.size} particles, {args.steps} steps, median of {args.repeats}")
+    print("| machine | wait policy | 1 thread (s) | 2 threads (s) | speed-up 2 vs 1 | default threads picked |")
+    print("|---|---|---|---|---|---|")
+    for machine in ("idle", "one competing CPU-bound process"):
+        competitor = None
+        if machine != "idle":
+            competitor = subprocess.Popen([sys.executable, "-c", BUSY_LOOP])
+            time.sleep(0.5)
+        try:
+            for policy in ("passive", "active"):
+                timings: dict[int, list[float]] = {1: [], 2: []}
+                picked = []
+                for _ in range(args.repeats):
+                    for threads in (1, 2):  # interleaved, so drifts in machine load hit both
+                        seconds, default = run_case(threads, policy, args.size, args.steps)
+                        timings[threads].append(seconds)
+                        picked.append(default)
+                one, two = (statistics.median(timings[n]) for n in (1, 2))
+                print(f"| {machine} | {policy} | {one:.2f} | {two:.2f} | {one / two:.2f}× | "
+                      f"{statistics.median(picked):g} |", flush=True)
+        finally:
+            if competitor is not None:
+                competitor.kill()
+                competitor.wait()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,88 @@
+"""What every ``terrasph`` sub-command shares: validated option types, the ``--threads`` and
+``--force`` options and the check of an output path before any work starts.
+
+Bad option values are argparse errors (one line, exit status 2) that name the option, so no
+library default or internal parameter name leaks into the message.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from pathlib import Path
+
+__all__ = ["add_force_option", "add_threads_option", "check_output_dir", "check_output_file",
+           "nonnegative_int", "positive_float", "positive_int"]
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer ≥ 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
+    return value
+
+
+def nonnegative_int(text: str) -> int:
+    """argparse type: an integer ≥ 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {value}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def add_threads_option(parser: argparse.ArgumentParser, what: str = "OpenMP threads of the SPH core") -> None:
+    """Adds ``--threads N`` (N ≥ 1; default: terrasph.threads.default_threads())."""
+    parser.add_argument("--threads", type=positive_int, default=None, metavar="N",
+                        help=f"{what}, >= 1 (default: the cores not busy with other work, "
+                             "see terrasph.threads.default_threads; results do not depend on it)")
+
+
+def add_force_option(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--force``: replace existing output instead of refusing."""
+    parser.add_argument("--force", action="store_true", help="replace existing output (default: refuse)")
+
+
+def check_output_file(path: str | os.PathLike, force: bool, option: str = "--out") -> Path:
+    """Refuses an output file whose directory is missing, or that exists without ``force``.
+
+    Raises:
+        FileNotFoundError / FileExistsError naming the option (the CLI reports them in one line).
+    """
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise FileNotFoundError(f"{option} {path}: directory {parent} does not exist")
+    if path.is_dir():
+        raise IsADirectoryError(f"{option} {path}: is a directory, expected a file")
+    if path.exists() and not force:
+        raise FileExistsError(f"{option} {path}: file exists (use --force to replace it)")
+    return path
+
+
+def check_output_dir(path: str | os.PathLike, force: bool, option: str = "OUT_DIR") -> Path:
+    """Refuses an output directory that is a file, or that holds files, without ``force``."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise NotADirectoryError(f"{option} {path}: is a file, expected a directory")
+    if path.is_dir() and any(path.iterdir()) and not force:
+        raise FileExistsError(f"{option} {path}: directory is not empty (use --force to write into it)")
+    return path

@@ -1,0 +1,143 @@
+"""``terrasph info RUN.h5`` and ``terrasph plot RUN.h5``: what a run file holds, and its figures
+and ParaView sidecar regenerated from it — for finished, interrupted and unstable runs alike."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from terrasph.io import RunData, read_run, write_xdmf
+
+__all__ = ["describe_run", "plot_run", "register"]
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Adds the ``info`` and ``plot`` commands."""
+    info = subparsers.add_parser("info", help="configuration, status, time reached and results of a run file",
+                                 description="Print what a run file holds: scene, status (completed, at_rest, "
+                                             "interrupted, unstable), time and steps reached, frames, results.")
+    info.add_argument("run", metavar="RUN.h5", type=Path)
+    info.add_argument("--json", action="store_true", help="print the same as JSON")
+    info.set_defaults(handler=_cmd_info)
+    plot = subparsers.add_parser("plot", help="write a run's figure (PNG) and XDMF sidecar from its file",
+                                 description="Write RUN.png (the scene's figure: the surface profile of a collapse, "
+                                             "body loads of a leg or plate, else the last frame) and RUN.xdmf "
+                                             "beside RUN.h5, replacing them; works for interrupted and unstable "
+                                             "runs too.")
+    plot.add_argument("run", metavar="RUN.h5", type=Path)
+    plot.set_defaults(handler=_cmd_plot)
+
+
+def _read(path: str | os.PathLike[str]) -> RunData:
+    """The run file at `path`; FileNotFoundError naming it if there is none."""
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"{os.fspath(path)}: no such run file")
+    try:
+        return read_run(path)
+    except OSError as error:  # h5py names neither the file nor the problem in terms a user knows
+        raise OSError(f"{os.fspath(path)}: not a readable terrasph run file ({error})") from None
+
+
+def describe_run(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """A run file's scene, status, time and steps reached, frames, bodies and results (plain data)."""
+    run = _read(path)
+    status = run.group_attrs.get("/run", {})
+    reached_time = float(run.times[-1]) if run.n_frames else 0.0
+    reached_step = int(run.steps[-1]) if run.n_frames else 0
+    info = {
+        "file": os.fspath(path),
+        "scene": run.config.get("scene", "custom"),
+        "status": status.get("status", "running or killed (no status written)"),
+        "time": float(status.get("time", reached_time)),
+        "steps": int(status.get("steps", status.get("step", reached_step))),
+        "frames": run.n_frames,
+        "granular_particles": int(run.fields["position"].shape[1]) if "position" in run.fields else 0,
+        "bodies": sorted(name.split("/", 1)[1] for name in run.series if name.startswith("bodies/")),
+        "results": {k: _plain(v) for k, v in run.group_attrs.get("/results", {}).items()},
+        "versions": {k: v for k, v in run.attrs.items() if k.startswith("version")},
+    }
+    for key in ("message", "checkpoint"):
+        if key in status:
+            info[key] = str(status[key])
+    return info
+
+
+def _plain(value: Any) -> Any:
+    """A JSON-able form of an HDF5 attribute value."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    info = describe_run(args.run)
+    if args.json:
+        print(json.dumps(info, indent=2, default=str))
+        return 0
+    print(f"{info['file']}: {info['scene']} run, status {info['status']}")
+    print(f"  reached t = {info['time']:.6g} s after {info['steps']} steps; {info['frames']} frames of "
+          f"{info['granular_particles']} grains")
+    if "message" in info:
+        print(f"  message: {info['message']}")
+    if info["bodies"]:
+        print(f"  bodies: {', '.join(info['bodies'])} (series in /series/bodies/<name>)")
+    for key, value in info["results"].items():
+        print(f"  {key} = {value}")
+    if info["status"] not in ("completed", "at_rest"):
+        next_step = (f"`terrasph resume {info['file']}` continues it from {info['checkpoint']}"
+                     if "checkpoint" in info else "to go further, run the scene again")
+        print(f"  the run did not finish: its frames up to the time reached are readable and "
+              f"`terrasph plot {info['file']}` draws them; {next_step}")
+    return 0
+
+
+def plot_run(path: str | os.PathLike[str]) -> tuple[Path, Path]:
+    """Writes the scene's figure (PNG) and the XDMF sidecar beside the run file; returns both paths."""
+    from terrasph import analysis, plotting
+
+    path = Path(path)
+    run = _read(path)
+    if run.n_frames == 0:
+        raise ValueError(f"{path}: no frame written, nothing to plot")
+    png = path.with_suffix(".png")
+    scene = run.config.get("scene")
+    bodies = [name for name in run.series if name.startswith("bodies/")]
+    final = run.frame(-1)["position"]
+    title = f"{scene or 'run'}, {_status(run)} at t = {run.times[-1]:.3g} s"
+    if scene == "column-collapse":
+        dx = float(run.config["spacing"])
+        initial = run.frame(0)["position"]
+        plotting.plot_profiles([(*analysis.surface_profile(final, dx), f"t = {run.times[-1]:.2f} s")],
+                               initial=analysis.surface_profile(initial, dx), path=png)
+    elif scene == "leg-rotation" and "bodies/leg" in run.series:
+        series = run.series["bodies/leg"]
+        settle = float(run.config["leg_rotation"]["settle_time"])
+        turning = series["time"] > settle + 1e-9
+        plotting.plot_leg_loads([(series["angle"][turning], series["force"][turning, 1],
+                                  series["force"][turning, 0], run.config["leg_rotation"]["leg"])],
+                                path=png, title=title)
+    elif bodies:
+        series = run.series[bodies[0]]
+        plotting.plot_series(series["time"], {"F_x (N)": series["force"][:, 0], "F_z (N)": series["force"][:, 1]},
+                             path=png)
+    else:
+        plotting.plot_particles(final, run.frame(-1).get("pressure"), label="pressure (Pa)",
+                                walls=run.static.get("walls/position"), path=png)
+    return png, write_xdmf(path)
+
+
+def _status(run: RunData) -> str:
+    return str(run.group_attrs.get("/run", {}).get("status", "running"))
+
+
+def _cmd_plot(args: argparse.Namespace) -> int:
+    png, xdmf = plot_run(args.run)
+    print(f"wrote {png} and {xdmf}")
+    return 0

@@ -1,0 +1,214 @@
+"""Bad input to every command ends in one line and exit status 2, before any work (issue 15,
+items 2, 3 and 11).
+
+The table below is every CLI command × every kind of bad input a user met: broken model files,
+inputs a model cannot read, output paths in missing directories or onto existing files, counts
+and intervals out of range, thread counts < 1, and geometry the spacing cannot resolve. Each
+row must exit with status 2 and print exactly one ``error:`` line naming the offending item,
+without a traceback, and leave no output behind.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from terrasph.cli import main
+
+FEATURES = ["omega_cmd", "load", "soil_k", "mu"]
+TARGETS = ["slip", "sinkage"]
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> dict[str, Path]:
+    """A valid model, broken copies of it, a small dataset, a text file and an existing output."""
+    torch = pytest.importorskip("torch")
+    from terrasph.surrogate.export import from_torch, model_to_bytes
+    from terrasph.surrogate.model import ModelConfig, SurrogateNet
+    from terrasph.surrogate.synthetic import make_dataset
+
+    root = tmp_path_factory.mktemp("cli_errors")
+    torch.manual_seed(0)
+    good = model_to_bytes(from_torch(SurrogateNet(ModelConfig("standard", 4, 4, 1, 2)), FEATURES, TARGETS, {}))
+    other = model_to_bytes(from_torch(SurrogateNet(ModelConfig("standard", 3, 4, 1, 2)),
+                                      ["x0", "x1", "x2"], TARGETS, {}))
+    paths = {name: root / f"{name}.tslstm" for name in ("good", "truncated", "flipped", "empty", "other")}
+    paths["good"].write_bytes(good)
+    paths["truncated"].write_bytes(good[: len(good) // 2])
+    flipped = bytearray(good)
+    flipped[len(good) // 2] ^= 0x10
+    paths["flipped"].write_bytes(bytes(flipped))
+    paths["empty"].write_bytes(b"")
+    paths["other"].write_bytes(other)
+    paths["dataset"] = root / "dataset"
+    make_dataset(paths["dataset"], n_runs=3, duration=0.2, dt=0.02)
+    paths["run"] = paths["dataset"] / "wheel_0000.h5"
+    paths["text"] = root / "notes.txt"
+    paths["text"].write_text("not a run\n")
+    paths["empty_dir"] = root / "empty_dir"
+    paths["empty_dir"].mkdir()
+    paths["existing"] = root / "existing.h5"
+    paths["existing"].write_bytes(b"precious")
+    paths["existing_csv"] = root / "existing.csv"
+    paths["existing_csv"].write_text("precious")
+    paths["root"] = root
+    return paths
+
+
+# (id, argv with {placeholders} from `files`, text the error line must contain)
+BAD_INPUT = [
+    # predict: broken or missing model files
+    ("predict-truncated-model", ["predict", "{truncated}", "{run}"], "truncated"),
+    ("predict-bit-flipped-model", ["predict", "{flipped}", "{run}"], "CRC"),
+    ("predict-empty-model", ["predict", "{empty}", "{run}"], "empty.tslstm"),
+    ("predict-missing-model", ["predict", "{root}/missing.tslstm", "{run}"], "missing.tslstm"),
+    # predict: inputs the model cannot read
+    ("predict-text-input", ["predict", "{good}", "{text}"], "notes.txt"),
+    ("predict-run-without-the-inputs", ["predict", "{other}", "{run}"], "'x0'"),
+    ("predict-missing-input", ["predict", "{good}", "{root}/nothing.h5"], "nothing.h5"),
+    # predict: output
+    ("predict-out-in-missing-dir", ["predict", "{good}", "{run}", "--out", "{root}/no/dir/y.csv"], "does not exist"),
+    ("predict-out-exists", ["predict", "{good}", "{run}", "--out", "{existing_csv}"], "--force"),
+    # train
+    ("train-empty-dir", ["train", "{empty_dir}", "--out", "{root}/m.tslstm", "--no-progress"], "no run files"),
+    ("train-missing-dir", ["train", "{root}/nowhere", "--out", "{root}/m.tslstm", "--no-progress"], "nowhere"),
+    ("train-epochs-0", ["train", "{dataset}", "--out", "{root}/m.tslstm", "--epochs", "0"], "--epochs"),
+    ("train-hidden-0", ["train", "{dataset}", "--out", "{root}/m.tslstm", "--hidden", "0"], "--hidden"),
+    ("train-threads-0", ["train", "{dataset}", "--out", "{root}/m.tslstm", "--threads", "0"], "--threads"),
+    ("train-out-in-missing-dir", ["train", "{dataset}", "--out", "{root}/no/dir/m.tslstm"], "does not exist"),
+    ("train-out-exists", ["train", "{dataset}", "--out", "{good}"], "--force"),
+    # make-synthetic-dataset
+    ("synthetic-runs-0", ["make-synthetic-dataset", "{root}/new0", "--runs", "0"], "--runs"),
+    ("synthetic-dt-0", ["make-synthetic-dataset", "{root}/new1", "--dt", "0"], "--dt"),
+    ("synthetic-dt-above-duration", ["make-synthetic-dataset", "{root}/new2", "--dt", "5", "--duration", "3"], "--dt"),
+    ("synthetic-negative-duration", ["make-synthetic-dataset", "{root}/new3", "--duration", "-1"], "--duration"),
+    ("synthetic-into-non-empty-dir", ["make-synthetic-dataset", "{dataset}", "--runs", "3"], "--force"),
+    # run: threads, output, geometry
+    *[(f"run-{scene}-threads-{n}", ["run", scene, "--threads", n, "--out", "{root}/r.h5"], "--threads")
+      for scene in ("column-collapse", "leg-rotation", "plate-intrusion") for n in ("0", "-1")],
+    *[(f"run-{scene}-out-in-missing-dir", ["run", scene, "--out", "{root}/no/dir/r.h5", "--no-progress"],
+       "does not exist") for scene in ("column-collapse", "leg-rotation", "plate-intrusion")],
+    *[(f"run-{scene}-out-exists", ["run", scene, "--out", "{existing}", "--no-progress"], "--force")
+      for scene in ("column-collapse", "leg-rotation", "plate-intrusion")],
+    ("run-column-spacing-beyond-the-column", ["run", "column-collapse", "--spacing", "1.0", "--out", "{root}/r.h5"],
+     "'spacing'"),
+    ("run-plate-spacing-beyond-the-plate", ["run", "plate-intrusion", "--spacing", "0.5", "--out", "{root}/r.h5"],
+     "spacing"),
+    ("run-unknown-option", ["run", "column-collapse", "--spacingg", "0.01"], "--spacingg"),
+    # info and plot
+    ("info-missing-file", ["info", "{root}/nothing.h5"], "nothing.h5"),
+    ("info-text-file", ["info", "{text}"], "notes.txt"),
+    ("plot-missing-file", ["plot", "{root}/nothing.h5"], "nothing.h5"),
+]
+
+
+@pytest.mark.parametrize("argv, names", [pytest.param(argv, names, id=case) for case, argv, names in BAD_INPUT])
+def test_bad_input_is_one_line_and_status_2(files, capsys, argv: list[str], names: str) -> None:
+    before = sorted(p.name for p in files["root"].rglob("*"))
+    existing = files["existing"].read_bytes(), files["existing_csv"].read_text()
+    with pytest.raises(SystemExit) as exit_info:
+        main([arg.format(**{k: str(v) for k, v in files.items()}) for arg in argv])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2, err
+    assert "Traceback" not in err
+    errors = [line for line in err.splitlines() if "error:" in line]
+    assert len(errors) == 1, err
+    assert names in errors[0], err
+    assert sorted(p.name for p in files["root"].rglob("*")) == before, "output left behind"
+    assert (files["existing"].read_bytes(), files["existing_csv"].read_text()) == existing
+
+
+def test_force_replaces_an_existing_output(files, tmp_path, capsys) -> None:
+    out = tmp_path / "y.csv"
+    out.write_text("old")
+    assert main(["predict", str(files["good"]), str(files["run"]), "--out", str(out), "--force"]) == 0
+    header = out.read_text().splitlines()[0]
+    assert header == "sequence,step," + ",".join(TARGETS)
+
+
+def test_force_into_a_dataset_directory_leaves_exactly_the_new_runs(tmp_path) -> None:
+    """--force removes the runs of an earlier, larger dataset instead of mixing the two."""
+    out = tmp_path / "data"
+    assert main(["make-synthetic-dataset", str(out), "--runs", "4", "--duration", "0.2"]) == 0
+    assert main(["make-synthetic-dataset", str(out), "--runs", "2", "--duration", "0.2", "--force"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["wheel_0000.h5", "wheel_0001.h5"]
+
+
+def test_lattice_refuses_a_block_it_cannot_resolve() -> None:
+    """From Python too: Scene(spacing=0.1).add_block of a 7 × 8 cm column used to place one grain
+    whose cell reaches outside it; a block needs at least two particles across each side."""
+    from terrasph.config import ConfigError
+    from terrasph.geometry import MIN_PARTICLES_ACROSS, lattice_block
+    from terrasph.scene import Scene
+
+    with pytest.raises(ConfigError, match=r"'spacing'.*allowed spacing <= 0\.035"):
+        Scene(spacing=0.1).add_block(0.0, 0.0, 0.07, 0.08)
+    block = lattice_block(0.0, 0.0, 0.07, 0.08, 0.035)
+    assert len(block) == MIN_PARTICLES_ACROSS**2
+    # every particle's cell lies inside the requested rectangle, up to the Δx/2 rounding
+    assert np.all(block - 0.0175 >= -1e-12) and np.all(block[:, 0] + 0.0175 <= 0.07 + 1e-12)
+
+
+# -- help and options (item 9) ---------------------------------------------------------------------
+def _leaf_parsers():
+    """Every (sub-)command's parser."""
+    from terrasph.cli import build_parser
+
+    def leaves(parser):
+        for action in parser._actions:
+            if isinstance(action.choices, dict):
+                for child in action.choices.values():
+                    yield from leaves(child)
+        yield parser
+
+    return list(leaves(build_parser()))
+
+
+def test_every_option_has_help_that_states_its_default() -> None:
+    """Every option has help, and every option with a default value says it in its help text."""
+    checked = 0
+    for parser in _leaf_parsers():
+        formatter = parser._get_formatter()
+        for action in parser._actions:
+            if not action.option_strings or action.default in (None, False, "==SUPPRESS=="):
+                continue
+            assert action.help, f"{parser.prog} {action.option_strings[0]} has no help"
+            assert "default" in formatter._expand_help(action), f"{parser.prog} {action.option_strings[0]}"
+            checked += 1
+    assert checked >= 30  # the scenes' and the surrogate commands' options
+
+
+def test_unknown_option_prints_the_sub_command_usage(capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["run", "leg-rotation", "--omegaa", "1"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: terrasph run leg-rotation")
+    assert "--omegaa" in err
+
+
+def test_version(capsys) -> None:
+    from terrasph import __version__
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"terrasph {__version__}"
+
+
+def test_plate_resolution_sets_the_spacing(monkeypatch) -> None:
+    """--resolution fine runs the plate scene at RESOLUTIONS['fine'] (the run itself is replaced)."""
+    from terrasph import scenes_cli
+    from terrasph.scenes.plate_intrusion import RESOLUTIONS
+
+    seen = {}
+
+    def fake_run(config, output, progress):
+        seen["spacing"] = config.spacing
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(scenes_cli, "run_plate_intrusion", fake_run)
+    with pytest.raises(SystemExit):
+        main(["run", "plate-intrusion", "--resolution", "fine", "--out", "unused.h5"])
+    assert seen["spacing"] == RESOLUTIONS["fine"] != RESOLUTIONS["coarse"]
