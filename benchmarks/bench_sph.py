@@ -77,6 +77,7 @@ FEATURES: dict[str, tuple[dict, dict]] = {
     "+ kernel gradient correction": ({"model": "mu_i_rate"}, {"delta_sph": 0.0, "xsph": 0.0,
                                                                "kernel_gradient_correction": True}),
     "+ hypoelastic μ(I) (mu_i_hypoelastic)": ({"model": "mu_i_hypoelastic"}, {"delta_sph": 0.0, "xsph": 0.0}),
+    "Drucker–Prager instead of μ(I) (drucker_prager)": ({"model": "drucker_prager"}, {"delta_sph": 0.0, "xsph": 0.0}),
     "default (hypoelastic, δ, XSPH)": ({}, {}),
 }
 
