@@ -1,0 +1,132 @@
+"""Two-way coupling of a MuJoCo robot with the SPH terrain (DESIGN §3.6, dissertation Eq. 4.1–4.7).
+
+The coupled step from t_n to t_{n+1} = t_n + dt (docs/robots.md):
+
+1. dt is the SPH step bound at t_n (``numerics.fixed_dt`` if set): both sides take the same dt.
+2. The granular load of each coupled body at t_n — force and torque (N, N·m for its real width)
+   from the SPH rate evaluation that ended the previous step (Eq. 3.24–3.25 / 4.6–4.7) — is put
+   in MuJoCo's ``xfrc_applied`` (world frame, at the centre of mass, torque about +y = clockwise).
+3. MuJoCo advances by dt (its integrator, default semi-implicit Euler): q_{n+1}, q̇_{n+1}, with the
+   load held constant over the step (Eq. 4.4–4.5 done by MuJoCo, with joints, motors and gravity).
+4. Each coupled body's pose and velocity at t_{n+1} and its acceleration over the step,
+   a = (v_{n+1} − v_n)/dt and α = (ω_{n+1} − ω_n)/dt of the frame origin (for a body on its own
+   slide–slide–hinge joints this is MuJoCo's q̈ of the step exactly), are given to
+   :meth:`Simulation.set_body_kinematics` as the body's state at the end of the next SPH step.
+5. The SPH takes one step of dt: the body particles move to the pose at t_{n+1} with velocity
+   v_c + ω J r and wall acceleration a_c + α J r − ω² r (Eq. 4.1–4.3); its rate evaluation at
+   t_{n+1} gives the load used in step 2 of the next coupled step.
+
+The scheme is explicit (the load lags the body by one step), deterministic (MuJoCo runs
+serially, the SPH is bitwise thread-count independent) and keeps the two clocks equal.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from terrasph.config import ConfigError
+from terrasph.robots.mjcf import CoupledBody, PlanarRobot
+from terrasph.simulation import Simulation
+
+__all__ = ["CoupledSimulation"]
+
+
+def _unwrapped(previous: float, wrapped: float) -> float:
+    """The angle equal to `wrapped` modulo 2π nearest to `previous` (a step turns far less than π)."""
+    return previous + math.remainder(wrapped - previous, 2.0 * math.pi)
+
+
+class CoupledSimulation:
+    """A :class:`PlanarRobot` two-way coupled with a :class:`Simulation` whose scene holds its coupled
+    bodies as driven bodies (add them with :meth:`PlanarRobot.add_to_scene`)."""
+
+    def __init__(self, robot: PlanarRobot, sim: Simulation) -> None:
+        names = {b.name: b for b in sim.bodies}
+        for body in robot.coupled:
+            if body.name not in names or not names[body.name].driven:
+                raise ConfigError(f"coupled body '{body.name}' is not a driven body of the simulation's scene; "
+                                  "add it with PlanarRobot.add_to_scene before building the Simulation")
+        self.robot = robot
+        self.sim = sim
+        self.robot.data.time = sim.time
+        self._angle = {b.name: robot.wrapped_angle(b) for b in robot.coupled}
+        self._velocity = {b.name: robot.velocity(b) for b in robot.coupled}
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s), the same on both sides."""
+        return self.sim.time
+
+    def time_step(self) -> float:
+        """The next step's dt (s): the SPH's fixed step if set, else its stable bound."""
+        fixed = self.sim.numerics.fixed_dt
+        return fixed if fixed > 0 else float(self.sim.core.stable_time_step())
+
+    def step(self) -> float:
+        """One coupled step (module docstring); returns its dt."""
+        dt = self.time_step()
+        robot, model, data = self.robot, self.robot.model, self.robot.data
+        for body in robot.coupled:
+            load = self.sim.body_state(body.name)
+            robot.apply_load(body, load["force_now"], load["torque_now"])
+        model.opt.timestep = dt
+        mujoco.mj_step(model, data)
+        # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_comVel(model, data)
+        for body in robot.coupled:
+            self._drive(body, dt)
+        t_end = self.sim.time + dt
+        self.sim.advance(t_end, max_steps=1)
+        if self.sim.core.last_dt != dt:
+            raise RuntimeError(f"the SPH step was {self.sim.core.last_dt} s, MuJoCo's {dt} s; a scheduled wall "
+                               "removal cut the step (not supported beside a coupled robot)")
+        return dt
+
+    def _drive(self, body: CoupledBody, dt: float) -> None:
+        """Hands MuJoCo's state of `body` at t_{n+1} to the SPH (step 4)."""
+        velocity, omega = self.robot.velocity(body)
+        old_velocity, old_omega = self._velocity[body.name]
+        angle = _unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
+        self.sim.set_body_kinematics(body.name, self.robot.reference(body), angle, velocity, omega,
+                                     (velocity - old_velocity) / dt, (omega - old_omega) / dt)
+        self._angle[body.name] = angle
+        self._velocity[body.name] = (velocity, omega)
+
+    def advance(self, t_end: float) -> int:
+        """Coupled steps until `t_end` (s) is reached or passed; returns the number taken."""
+        taken = 0
+        while self.sim.time < t_end * (1 - 1e-14):
+            self.step()
+            taken += 1
+        return taken
+
+    def angle(self, name: str) -> float:
+        """Clockwise angle (rad) of a coupled body, continuous over turns."""
+        return self._angle[name]
+
+    # -- checkpoint support ---------------------------------------------------------------
+    def state(self) -> dict[str, Any]:
+        """MuJoCo's state and the coupling's own memory as plain data (JSON floats round-trip
+        exactly), for the ``progress`` of :meth:`Simulation.checkpoint`."""
+        data = self.robot.data
+        return {"time": data.time, "qpos": data.qpos.tolist(), "qvel": data.qvel.tolist(), "act": data.act.tolist(),
+                "qacc_warmstart": data.qacc_warmstart.tolist(), "ctrl": data.ctrl.tolist(),
+                "angle": dict(self._angle),
+                "velocity": {k: [v.tolist(), w] for k, (v, w) in self._velocity.items()}}
+
+    def restore_state(self, saved: dict[str, Any]) -> None:
+        """Puts back a :meth:`state` (after :meth:`Simulation.restore` of the same checkpoint)."""
+        data = self.robot.data
+        data.time = saved["time"]
+        for key in ("qpos", "qvel", "act", "ctrl"):
+            getattr(data, key)[:] = saved[key]
+        mujoco.mj_forward(self.robot.model, data)
+        data.qacc_warmstart[:] = saved["qacc_warmstart"]
+        self._angle = {k: float(v) for k, v in saved["angle"].items()}
+        self._velocity = {k: (np.array(v), float(w)) for k, (v, w) in saved["velocity"].items()}
