@@ -5,15 +5,20 @@ References, independent of the code under test:
   z_n = z0 − g dt² n(n+1)/2, which is z0 − ½gt² − ½g t dt (the integrator's first-order offset);
 * a body that meets no grain feels exactly zero load, so the coupled MuJoCo trajectory is that of
   MuJoCo alone with the same steps, bit for bit;
-* slip (Eq. 4.8) is 1 when the axle cannot move and ≈ 0 when a wheel rolls on a rigid floor.
+* slip (Eq. 4.8) is 1 when the axle cannot move and ≈ 0 when a wheel rolls on a rigid floor;
+* a body at rest on grains: mean lift = weight (momentum balance of the body);
+* determinism: 1 and 2 threads, and a run restarted from a checkpoint, are bitwise equal.
 """
 
 from __future__ import annotations
+
+import pathlib
 
 import mujoco
 import numpy as np
 import pytest
 from robot_helpers import BEADS, DX, couple, far_grains_scene, mjcf
+from terrasph import _core
 from terrasph.bodies import plate, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
@@ -135,3 +140,48 @@ def test_a_coupling_needs_driven_bodies_in_the_scene() -> None:
     sim = Simulation(far_grains_scene(), BEADS, Numerics(spacing=DX))
     with pytest.raises(ConfigError, match="coupled body 'plate'"):
         CoupledSimulation(robot, sim)
+
+
+def rolling_on_the_bed(steps: int, threads: int, *, restart_at: int | None = None,
+                       folder: pathlib.Path | None = None) -> CoupledSimulation:
+    """A 0.3 kg wheel driven at 2 rad/s on a small bed for `steps` coupled steps; with `restart_at`,
+    checkpointed there and continued by a fresh coupled simulation restored from the file."""
+    _core.set_num_threads(threads)
+
+    def build() -> CoupledSimulation:
+        scene = Scene(spacing=DX)
+        surface, _ = scene.add_bed_in_container(0.2, 0.04, 0.05, layers=wall_layers_needed(1.3))
+        rim = wheel(0.03, 3 * DX, 0.05, DX)
+        body = (f'<body name="wheel" pos="0.06 0 {surface + 0.03 + 0.5 * DX!r}">{{joints}}'
+                '<geom type="cylinder" size="0.03 0.025" euler="90 0 0" mass="0.3"/></body>')
+        coupled = couple(mjcf(body, actuators=SERVO), {"wheel": rim}, scene)
+        coupled.robot.data.ctrl[0] = 2.0
+        return coupled
+
+    coupled = build()
+    for _ in range(steps if restart_at is None else restart_at):
+        coupled.step()
+    if restart_at is not None:
+        path = coupled.checkpoint(folder / "coupled.h5")
+        coupled = build()
+        coupled.robot.data.ctrl[0] = 0.0  # the motor command comes back from the checkpoint
+        coupled.restore(path)
+        for _ in range(steps - restart_at):
+            coupled.step()
+    return coupled
+
+
+def assert_same_run(a: CoupledSimulation, b: CoupledSimulation) -> None:
+    for key in ("qpos", "qvel", "qacc_warmstart", "actuator_force"):
+        assert np.array_equal(getattr(a.robot.data, key), getattr(b.robot.data, key)), key
+    assert np.array_equal(a.sim.position, b.sim.position)
+    assert np.array_equal(a.sim.velocity, b.sim.velocity)
+    assert np.array_equal(a.sim.body_state("wheel")["force_now"], b.sim.body_state("wheel")["force_now"])
+    assert a.time == b.time
+
+
+def test_coupled_run_is_bitwise_equal_for_one_and_two_threads_and_after_a_restart(tmp_path, restore_threads) -> None:
+    one = rolling_on_the_bed(300, 1)
+    assert np.abs(one.sim.body_state("wheel")["force_now"]).max() > 0.1  # it does touch the grains
+    assert_same_run(one, rolling_on_the_bed(300, 2))
+    assert_same_run(one, rolling_on_the_bed(300, 2, restart_at=170, folder=tmp_path))

@@ -23,6 +23,8 @@ serially, the SPH is bitwise thread-count independent) and keeps the two clocks 
 from __future__ import annotations
 
 import math
+import os
+import pathlib
 from typing import Any
 
 import mujoco
@@ -110,7 +112,19 @@ class CoupledSimulation:
         """Clockwise angle (rad) of a coupled body, continuous over turns."""
         return self._angle[name]
 
-    # -- checkpoint support ---------------------------------------------------------------
+    # -- checkpoints ----------------------------------------------------------------------
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
+        """Writes the SPH State with MuJoCo's state (under ``progress["robot"]``) to `path`."""
+        return self.sim.checkpoint(path, {**(progress or {}), "robot": self.state()})
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        """Continues from a :meth:`checkpoint` bit for bit; returns the rest of its progress."""
+        progress = self.sim.restore(path)
+        if "robot" not in progress:
+            raise ConfigError(f"checkpoint {path} holds no robot state; it was not written by a coupled run")
+        self.restore_state(progress.pop("robot"))
+        return progress
+
     def state(self) -> dict[str, Any]:
         """MuJoCo's state and the coupling's own memory as plain data (JSON floats round-trip
         exactly), for the ``progress`` of :meth:`Simulation.checkpoint`."""
