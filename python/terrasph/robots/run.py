@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import time as wallclock
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
@@ -47,9 +48,11 @@ def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
 
 def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.PathLike[str] | None = None,
                 frame_interval: float = 0.05, series_interval: float = 0.01,
-                config: dict[str, Any] | None = None) -> dict[str, dict[str, np.ndarray]]:
+                config: dict[str, Any] | None = None, control: Callable[[CoupledSimulation], None] | None = None,
+                progress: bool = False) -> dict[str, dict[str, np.ndarray]]:
     """Runs `coupled` to `t_end` (s); writes frames every `frame_interval` and robot samples every
-    `series_interval` (s) to `output` (HDF5) if given. Returns the robot series by group name."""
+    `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
+    step (to set MuJoCo's ``data.ctrl`` from the time, say). Returns the robot series by group name."""
     for name, value in (("frame_interval", frame_interval), ("series_interval", series_interval)):
         if not value > 0:
             raise ConfigError(f"parameter '{name}' = {value} is invalid: allowed > 0 s")
@@ -90,13 +93,19 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
             writer.write_frame(sim.time, sim.step_count, {**sim.frame_fields(),
                                                           "wall_position": np.array(sim.core.wall_position)})
 
+    from tqdm.auto import tqdm
+
     sim.reset_body_means()
     sample()
     frame()
     next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
+    bar = tqdm(total=round(t_end - coupled.time, 9), unit="s", disable=not progress, mininterval=0.5,
+               bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]")
     try:
         while coupled.time < t_end * (1 - 1e-14):
-            coupled.step()
+            if control:
+                control(coupled)
+            bar.update(coupled.step())
             if coupled.time >= next_sample * (1 - 1e-12):
                 sample()
                 next_sample += series_interval
@@ -108,6 +117,7 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
                                       "leaked_particles": sim.leaked_particles,
                                       "wall_time": wallclock.perf_counter() - start})
     finally:
+        bar.close()
         if writer:
             writer.close()
     return {group: {key: np.asarray(values) for key, values in rows.items()} for group, rows in series.items()}
