@@ -30,6 +30,7 @@ from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots.coupling import CoupledSimulation
+from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
@@ -155,12 +156,17 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                          series_interval=config.series_interval, control=motor, progress=progress,
                          config={"scene": "leg-wheel", **dataclasses.asdict(config), **coupled.sim.describe()})
     wheel = series["robot/wheel"]
-    driving = wheel["time"] > config.settle_time
+    # the driven phase: after the pause, once the servo has brought ω to half the command
+    driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.omega)
+    speed = float(np.mean(wheel["velocity"][driving, 0])) if driving.any() else math.nan
+    spin = float(np.mean(wheel["omega"][driving])) if driving.any() else math.nan
     summary = {"wheel": config.wheel, "legs": config.legs, "steps": coupled.sim.step_count,
                "leaked_particles": coupled.sim.leaked_particles,
                "final_sinkage": float(wheel["sinkage"][-1]), "max_sinkage": float(np.max(wheel["sinkage"])),
-               "mean_forward_speed": float(np.mean(wheel["velocity"][driving, 0])) if driving.any() else math.nan,
-               "mean_slip": float(np.nanmean(wheel["slip"][driving])) if driving.any() else math.nan}
+               "mean_forward_speed": speed, "mean_omega": spin,
+               # Eq. 4.8 of the phase's mean speed and spin (a mean of the samples would be dominated
+               # by the spin-up, where Rω is near 0)
+               "mean_slip": float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any() else math.nan}
     return {"summary": summary, "series": series}
 
 

@@ -14,9 +14,11 @@ def slip(forward_speed: np.ndarray | float, omega: np.ndarray | float, radius: f
         s = 1 − v_x/(Rω)   if v_x < Rω   (spinning: s > 0; s = 1 when the axle stands still)
         s = Rω/v_x − 1     if v_x ≥ Rω   (skidding: s < 0)
 
-    s lies in [−1, 1] when v_x and Rω are ≥ 0; it is NaN where both are 0 (no motion) and outside
-    the metric's domain (Rω ≤ 0 with v_x ≤ 0 otherwise, or v_x < 0 while driving forward gives s > 1).
-    For a leg-wheel, R is the radius of the circle through its leg tips (the shape's ``radius``).
+    s lies in [−1, 1] when v_x ≥ 0 and Rω ≥ 0 (a wheel sliding forward without turning has s = −1);
+    it is NaN where both are 0. Eq. 4.8 is meant for a wheel driven forward: when v_x and Rω have
+    opposite signs (an axle pushed back while the wheel turns forward) it gives |s| > 1, unbounded
+    as Rω → 0. For a leg-wheel, R is the radius of the circle through its leg tips (the shape's
+    ``radius``).
     """
     v = np.asarray(forward_speed, dtype=float)
     rolling = radius * np.asarray(omega, dtype=float)
