@@ -1,5 +1,6 @@
 """Planar MJCF robots (DESIGN §3.6, issue 11 item 1): MuJoCo's hinge sign against terrasph's
-clockwise angle, the planar checks and their errors, the shape inertia helper, the slip metric.
+clockwise angle, the planar checks and their errors (also a body overlapping the bed or a wall at
+start), the shape inertia helper, the slip metric.
 
 References: terrasph.bodies.rotation_matrix (the clockwise rotation, x right, z up); the inertia
 of a full rectangle of Lx × Lz, m(Lx² + Lz²)/12 (exact for a lattice of square cells); Eq. 4.8.
@@ -12,10 +13,13 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from robot_helpers import DX, mjcf
+from robot_helpers import BEADS, DX, mjcf
 from terrasph.bodies import plate, rotation_matrix, wheel
-from terrasph.config import ConfigError
+from terrasph.config import ConfigError, Numerics
+from terrasph.geometry import wall_layers_needed
 from terrasph.robots import PlanarRobot, shape_inertial, slip
+from terrasph.scene import Scene
+from terrasph.simulation import Simulation
 
 PLATE = plate(0.04, 3 * DX, 0.05, DX)
 ARM = '<body name="arm" pos="0.1 0 0.2">{joints}<geom type="box" size="0.02 0.01 0.005" mass="1"/>' \
@@ -128,3 +132,19 @@ def test_slip_follows_eq_4_8() -> None:
 def test_bad_density_is_refused() -> None:
     with pytest.raises(ConfigError, match="density"):
         shape_inertial(PLATE, -1.0)
+
+
+def test_a_coupled_body_overlapping_the_bed_or_a_wall_is_refused() -> None:
+    def bed() -> Scene:
+        scene = Scene(spacing=DX)
+        scene.add_bed_in_container(0.2, 0.04, 0.05, layers=wall_layers_needed(1.3))
+        return scene
+
+    sunk = ARM.replace('pos="0.1 0 0.2"', 'pos="0.1 0 0.03"')
+    with pytest.raises(ConfigError, match="coupled body 'arm' overlaps the bed"):
+        PlanarRobot(mjcf(sunk), {"arm": PLATE}).add_to_scene(bed())
+    in_the_wall = ARM.replace('pos="0.1 0 0.2"', 'pos="0.0 0 0.07"')
+    scene = bed()
+    PlanarRobot(mjcf(in_the_wall), {"arm": PLATE}).add_to_scene(scene)
+    with pytest.raises(ConfigError, match="body 'arm' intersects another wall"):
+        Simulation(scene, BEADS, Numerics(spacing=DX))

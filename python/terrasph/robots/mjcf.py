@@ -205,7 +205,27 @@ class PlanarRobot:
         self.data.xfrc_applied[body.body_id] = (force[0], 0.0, force[1], 0.0, moved, 0.0)
 
     def add_to_scene(self, scene: Scene) -> None:
-        """Adds each coupled body to `scene` as a driven body at MuJoCo's initial pose."""
+        """Adds each coupled body to `scene` as a driven body at MuJoCo's initial pose. A body whose
+        particles come closer than Δx to a grain is refused (place the robot above the bed; a body
+        overlapping a wall is refused when the Simulation is built)."""
         for body in self.coupled:
-            scene.add_body(body.name, body.shape, reference=tuple(self.reference(body)),
-                           angle=self.wrapped_angle(body), driven=True, width=body.width)
+            reference, angle = tuple(self.reference(body)), self.wrapped_angle(body)
+            position, _ = body.shape.transformed(angle, reference)
+            grain = _closest_grain(position, scene.granular_position, scene.spacing)
+            if grain is not None:
+                raise ConfigError(f"coupled body '{body.name}' overlaps the bed at start (grain at "
+                                  f"{np.round(grain, 6).tolist()} closer than Δx = {scene.spacing} to it); "
+                                  "place it above the surface in the MJCF")
+            scene.add_body(body.name, body.shape, reference=reference, angle=angle, driven=True, width=body.width,
+                           clear_granular=False)
+
+
+def _closest_grain(points: np.ndarray, grains: np.ndarray, distance: float) -> np.ndarray | None:
+    """A grain closer than `distance` to any of `points`, or None (brute force in chunks)."""
+    for start in range(0, len(points), 64):
+        chunk = points[start:start + 64]
+        gaps = np.linalg.norm(grains[None, :, :] - chunk[:, None, :], axis=2)
+        close = np.argwhere(gaps < distance)
+        if len(close):
+            return grains[close[0, 1]]
+    return None
