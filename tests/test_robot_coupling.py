@@ -201,3 +201,12 @@ def test_coupled_run_is_bitwise_equal_for_one_and_two_threads_and_after_a_restar
     assert np.abs(one.sim.body_state("wheel")["force_now"]).max() > 0.1  # it does touch the grains
     assert_same_run(one, rolling_on_the_bed(300, 2))
     assert_same_run(one, rolling_on_the_bed(300, 2, restart_at=170, folder=tmp_path))
+
+
+def test_the_load_applied_is_the_simulations_body_load() -> None:
+    coupled = rolling_on_the_bed(50, _core.get_max_threads())
+    body = coupled.robot.coupled[0]
+    force, torque = coupled.granular_load(body)
+    state = coupled.sim.body_state("wheel")
+    assert np.array_equal(force, state["force_now"]) and torque == state["torque_now"]
+    assert np.abs(force).max() > 0

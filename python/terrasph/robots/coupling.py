@@ -54,6 +54,8 @@ class CoupledSimulation:
                                   "add it with PlanarRobot.add_to_scene before building the Simulation")
         self.robot = robot
         self.sim = sim
+        #: the core's index of each coupled body (Simulation.bodies is in the core's order)
+        self._core_index = {body.name: [b.name for b in sim.bodies].index(body.name) for body in robot.coupled}
         self.robot.data.time = sim.time
         self._angle = {b.name: robot.wrapped_angle(b) for b in robot.coupled}
         self._velocity = {b.name: robot.velocity(b) for b in robot.coupled}
@@ -73,8 +75,8 @@ class CoupledSimulation:
         dt = self.time_step()
         robot, model, data = self.robot, self.robot.model, self.robot.data
         for body in robot.coupled:
-            load = self.sim.body_state(body.name)
-            robot.apply_load(body, load["force_now"], load["torque_now"])
+            force, torque = self.granular_load(body)
+            robot.apply_load(body, force, torque)
         model.opt.timestep = dt
         mujoco.mj_step(model, data)
         # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
@@ -89,6 +91,13 @@ class CoupledSimulation:
             raise RuntimeError(f"the SPH step was {self.sim.core.last_dt} s, MuJoCo's {dt} s; a scheduled wall "
                                "removal cut the step (not supported beside a coupled robot)")
         return dt
+
+    def granular_load(self, body: CoupledBody) -> tuple[np.ndarray, float]:
+        """Force (N) and clockwise torque (N·m, about the body origin) of the grains on `body` from the
+        last rate evaluation, for its real width: ``force_now``/``torque_now`` of
+        :meth:`Simulation.body_state` without that method's copy of every wall particle."""
+        raw = self.sim.core.body_state(self._core_index[body.name])
+        return np.asarray(raw["force"]) * body.width, raw["torque"] * body.width
 
     def _drive(self, body: CoupledBody, dt: float) -> None:
         """Hands MuJoCo's state of `body` at t_{n+1} to the SPH (step 4)."""
