@@ -210,3 +210,24 @@ def test_the_load_applied_is_the_simulations_body_load() -> None:
     state = coupled.sim.body_state("wheel")
     assert np.array_equal(force, state["force_now"]) and torque == state["torque_now"]
     assert np.abs(force).max() > 0
+
+
+def test_the_robots_momentum_changes_by_the_impulse_of_gravity_and_the_granular_load() -> None:
+    """A free foot landing on the bed: m Δv = Σ (F_n − m g) dt_n and I Δω = Σ τ_n dt_n over 400 steps,
+    with F_n, τ_n the granular load handed to MuJoCo at each step (the centre of mass is the body
+    origin, so τ needs no moving), to MuJoCo's round-off (1e-9 of the impulse)."""
+    coupled = resting_foot(0.2)
+    body = coupled.robot.coupled[0]
+    mass = coupled.robot.model.body_mass[body.body_id]
+    inertia = coupled.robot.model.body_inertia[body.body_id][1]
+    start_v, start_omega = coupled.robot.velocity(body)
+    impulse, angular_impulse = np.zeros(2), 0.0
+    for _ in range(400):
+        force, torque = coupled.granular_load(body)
+        dt = coupled.step()
+        impulse += (force - np.array([0.0, mass * G])) * dt
+        angular_impulse += torque * dt
+    velocity, omega = coupled.robot.velocity(body)
+    assert np.abs(impulse).max() > 1e-3  # the grains did push
+    assert np.abs(mass * (velocity - start_v) - impulse).max() < 1e-9 * np.abs(impulse).max()
+    assert abs(inertia * (omega - start_omega) - angular_impulse) < 1e-9 * max(abs(angular_impulse), 1e-12) + 1e-15

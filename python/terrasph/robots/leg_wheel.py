@@ -148,9 +148,16 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     """Runs the scene; returns a summary (mean forward speed and slip after the pause, final and
     maximum sinkage, leaks) and the series."""
     coupled = build_leg_wheel(config)
+    work = {"motor": 0.0, "start_x": math.nan}
 
     def motor(run: CoupledSimulation) -> None:
-        run.robot.data.ctrl[0] = config.omega if run.time >= config.settle_time else 0.0
+        data = run.robot.data
+        data.ctrl[0] = config.omega if run.time >= config.settle_time else 0.0
+        if run.time >= config.settle_time:
+            if math.isnan(work["start_x"]):
+                work["start_x"] = float(data.qpos[0])
+            # positive motor work, power at the step's start × dt (the motor cannot recover energy)
+            work["motor"] += max(float(np.dot(data.actuator_force, data.actuator_velocity)), 0.0) * run.time_step()
 
     series = run_coupled(coupled, config.duration, output=output, frame_interval=config.frame_interval,
                          series_interval=config.series_interval, control=motor, progress=progress,
@@ -163,11 +170,19 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     summary = {"wheel": config.wheel, "legs": config.legs, "steps": coupled.sim.step_count,
                "leaked_particles": coupled.sim.leaked_particles,
                "final_sinkage": float(wheel["sinkage"][-1]), "max_sinkage": float(np.max(wheel["sinkage"])),
-               "mean_forward_speed": speed, "mean_omega": spin,
+               "mean_forward_speed": speed, "mean_omega": spin, "motor_work": work["motor"],
+               "cost_of_transport": _cost_of_transport(work["motor"], coupled,
+                                                       float(coupled.robot.data.qpos[0]) - work["start_x"]),
                # Eq. 4.8 of the phase's mean speed and spin (a mean of the samples would be dominated
                # by the spin-up, where Rω is near 0)
                "mean_slip": float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any() else math.nan}
     return {"summary": summary, "series": series}
+
+
+def _cost_of_transport(work: float, coupled: CoupledSimulation, distance: float) -> float:
+    """Motor work / (robot weight × distance travelled after the pause); inf if it did not move."""
+    weight = float(coupled.robot.model.body_subtreemass[1]) * coupled.sim.scene.gravity
+    return work / (weight * abs(distance)) if distance != 0 else math.inf
 
 
 def plot_leg_wheel(series: dict[str, dict[str, np.ndarray]], path: str | os.PathLike[str] | None = None,
