@@ -156,6 +156,11 @@ def test_a_coupling_needs_driven_bodies_in_the_scene() -> None:
     sim = Simulation(far_grains_scene(), BEADS, Numerics(spacing=DX))
     with pytest.raises(ConfigError, match="coupled body 'plate'"):
         CoupledSimulation(robot, sim)
+    scene = far_grains_scene()
+    scene.add_wall("gate", [(0.06, 0.0), (0.06, 0.03)], layers=3, remove_at=0.1)
+    robot.add_to_scene(scene)
+    with pytest.raises(ConfigError, match="gate"):
+        CoupledSimulation(robot, Simulation(scene, BEADS, Numerics(spacing=DX)))
 
 
 def rolling_on_the_bed(steps: int, threads: int, *, restart_at: int | None = None,

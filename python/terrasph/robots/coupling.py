@@ -52,6 +52,10 @@ class CoupledSimulation:
             if body.name not in names or not names[body.name].driven:
                 raise ConfigError(f"coupled body '{body.name}' is not a driven body of the simulation's scene; "
                                   "add it with PlanarRobot.add_to_scene before building the Simulation")
+        removed = [w.name for w in sim.scene.walls if w.remove_at is not None]
+        if removed:
+            raise ConfigError(f"wall(s) {removed} have a 'remove_at' time; a removal would cut an SPH step short "
+                              "of MuJoCo's, which a coupled run does not support")
         self.robot = robot
         self.sim = sim
         #: the core's index of each coupled body (Simulation.bodies is in the core's order)
@@ -87,9 +91,8 @@ class CoupledSimulation:
             self._drive(body, dt)
         t_end = self.sim.time + dt
         self.sim.advance(t_end, max_steps=1)
-        if self.sim.core.last_dt != dt:
-            raise RuntimeError(f"the SPH step was {self.sim.core.last_dt} s, MuJoCo's {dt} s; a scheduled wall "
-                               "removal cut the step (not supported beside a coupled robot)")
+        if self.sim.core.last_dt != dt:  # cannot happen without wall removals, refused in __init__
+            raise RuntimeError(f"the SPH step was {self.sim.core.last_dt} s, MuJoCo's {dt} s")
         return dt
 
     def granular_load(self, body: CoupledBody) -> tuple[np.ndarray, float]:
