@@ -19,15 +19,15 @@ import time
 
 from terrasph import InstabilityError
 from terrasph.bodies import plate
-from terrasph.config import Material, Numerics
+from terrasph.config import Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots import CoupledSimulation, PlanarRobot
 from terrasph.scene import Scene
+from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import Simulation
 
 DX = 0.005
-BEADS = Material(grain_density=2600.0, reference_density=2600.0 * 0.63, grain_diameter=0.003,
-                 mu1=math.tan(math.radians(23.0)), mu2=math.tan(math.radians(33.0)), bulk_stiffness=30000.0)
+BEADS = glass_beads()
 
 
 def run(ratio: float, drop: float) -> dict[str, float | str]:

@@ -2,19 +2,17 @@
 
 from __future__ import annotations
 
-import math
-
 from terrasph.config import Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots import CoupledSimulation, PlanarRobot
 from terrasph.robots.mjcf import Coupling
 from terrasph.scene import Scene
+from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import Simulation
 
 DX = 0.005
 #: glass beads of the robot scenes (3 mm, ρ_s = 2600 kg/m³, packing 0.63, μ1 = tan 23°, μ2 = tan 33°)
-BEADS = Material(grain_density=2600.0, reference_density=2600.0 * 0.63, grain_diameter=0.003,
-                 mu1=math.tan(math.radians(23.0)), mu2=math.tan(math.radians(33.0)), bulk_stiffness=30000.0)
+BEADS = glass_beads()
 
 PLANAR_JOINTS = ('<joint name="x" type="slide" axis="1 0 0"/><joint name="z" type="slide" axis="0 0 1"/>'
                  '<joint name="pitch" type="hinge" axis="0 1 0"/>')

@@ -27,27 +27,20 @@ from typing import Any
 import numpy as np
 
 from terrasph import bodies
-from terrasph.config import ConfigError, Material, Numerics, from_mapping
+from terrasph.config import ConfigError, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
+from terrasph.scenes.leg_rotation import glass_beads  # the same 3 mm beads as chapter 3
 from terrasph.simulation import Simulation
 
 __all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
 
 #: the five morphologies of Fig. 4.2 and the plain wheel
 WHEELS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg", "wheel")
-
-
-def glass_beads() -> Material:
-    """3 mm glass beads of chapter 4: ρ_s = 2600 kg/m³ at packing 0.63, μ1 = tan 23°, μ2 = tan 33°,
-    κ = 30 000 Pa."""
-    return Material(grain_density=2600.0, reference_density=2600.0 * 0.63, grain_diameter=0.003,
-                    mu1=math.tan(math.radians(23.0)), mu2=math.tan(math.radians(33.0)),
-                    bulk_stiffness=30000.0, packing_fraction=0.63)
 
 
 @dataclass(frozen=True)
