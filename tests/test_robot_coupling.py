@@ -23,7 +23,7 @@ from terrasph.bodies import plate, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import read_run
-from terrasph.robots import CoupledSimulation, PlanarRobot
+from terrasph.robots import ROVER, CoupledSimulation, PlanarRobot
 from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
@@ -236,3 +236,29 @@ def test_the_robots_momentum_changes_by_the_impulse_of_gravity_and_the_granular_
     assert np.abs(impulse).max() > 1e-3  # the grains did push
     assert np.abs(mass * (velocity - start_v) - impulse).max() < 1e-9 * np.abs(impulse).max()
     assert abs(inertia * (omega - start_omega) - angular_impulse) < 1e-9 * max(abs(angular_impulse), 1e-12) + 1e-15
+
+
+def test_the_example_rover_rests_on_its_two_wheels() -> None:
+    """The shipped rover (chassis + two wheels on hinges) set down on a 25 × 4 cm bed: over 0.15–0.3 s
+    its two wheels' mean lift adds up to its whole weight within 3 %, and they share it about
+    equally (the chassis' centre of mass is over the middle; 10 %)."""
+    scene = Scene(spacing=DX)
+    surface, _ = scene.add_bed_in_container(0.25, 0.04, 0.06, layers=wall_layers_needed(1.3))
+    rim = wheel(RADIUS, 3 * DX, 0.05, DX)
+    robot = PlanarRobot(ROVER, {"rear_wheel": rim, "front_wheel": rim},
+                        initial={"x": 0.125, "z": surface + RADIUS + 0.5 * DX})
+    robot.add_to_scene(scene)
+    coupled = CoupledSimulation(robot, Simulation(scene, BEADS, Numerics(spacing=DX)))
+    coupled.advance(0.15)
+    coupled.sim.reset_body_means()
+    coupled.advance(0.3)
+    weight = float(robot.model.body_subtreemass[1]) * G
+    lifts = [coupled.sim.body_state(name)["force"][1] for name in ("rear_wheel", "front_wheel")]
+    assert sum(lifts) == pytest.approx(weight, rel=0.03)
+    assert lifts[0] == pytest.approx(lifts[1], rel=0.1)
+    assert coupled.sim.leaked_particles == 0
+
+
+def test_initial_joint_values_must_name_joints() -> None:
+    with pytest.raises(ConfigError, match="joint 'y'"):
+        PlanarRobot(ROVER, {"rear_wheel": RIM}, initial={"y": 0.1})

@@ -23,7 +23,10 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.scene import Scene
 
-__all__ = ["CoupledBody", "Coupling", "Inertial", "PlanarRobot", "shape_inertial"]
+__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "PlanarRobot", "shape_inertial"]
+
+#: the example planar rover shipped with the package (a chassis and two driven wheels; see the file)
+ROVER = pathlib.Path(__file__).with_name("models") / "rover.xml"
 
 #: tolerance of the planar checks on unit axes and rotation matrices
 _PLANAR_TOLERANCE = 1e-9
@@ -147,9 +150,11 @@ class PlanarRobot:
     """
 
     def __init__(self, mjcf: str | os.PathLike[str], couplings: Mapping[str, BodyShape | Coupling | None], *,
-                 gravity: float = 9.81) -> None:
+                 gravity: float = 9.81, initial: Mapping[str, float] | None = None) -> None:
         self.model = _load_model(mjcf)
         self.data = mujoco.MjData(self.model)
+        for joint, value in (initial or {}).items():
+            self._set_joint(joint, value)
         mujoco.mj_forward(self.model, self.data)
         _check_planar(self.model, self.data)
         expected = np.array([0.0, 0.0, -gravity])
@@ -159,6 +164,15 @@ class PlanarRobot:
         if not isinstance(couplings, Mapping) or not couplings:
             raise ConfigError("parameter 'couplings' must map at least one MuJoCo body name to a body shape")
         self.coupled = [self._pair(name, value) for name, value in couplings.items()]
+
+    def _set_joint(self, name: str, value: float) -> None:
+        """Initial value of a slide (m) or hinge (rad, clockwise) joint, from the model's qpos0."""
+        joint = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if joint < 0:
+            raise ConfigError(f"parameter 'initial' names joint '{name}', which the MJCF model does not have")
+        if not (isinstance(value, (int, float)) and math.isfinite(value)):
+            raise ConfigError(f"parameter 'initial' of joint '{name}' = {value!r} is invalid: allowed a finite number")
+        self.data.qpos[self.model.jnt_qposadr[joint]] = value
 
     def _pair(self, name: str, value: BodyShape | Coupling | None) -> CoupledBody:
         body_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
