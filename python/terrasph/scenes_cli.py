@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from terrasph.robots.cli import register_leg_wheel
+from terrasph.robots.cli import register_robot_scenes
 from terrasph.scenes import leg_rotation
 from terrasph.scenes.column_collapse import (
     RESOLUTIONS,
@@ -35,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     column.set_defaults(handler=_run_column)
     _register_plate(scenes)
     _register_leg(scenes)
-    register_leg_wheel(scenes)
+    register_robot_scenes(scenes)
     _register_resume(subparsers)
 
 

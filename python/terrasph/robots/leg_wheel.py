@@ -32,6 +32,7 @@ from terrasph.geometry import wall_layers_needed
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
+from terrasph.robots.plots import plot_robot
 from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
 from terrasph.scenes.leg_rotation import glass_beads  # the same 3 mm beads as chapter 3
@@ -180,27 +181,5 @@ def _cost_of_transport(work: float, coupled: CoupledSimulation, distance: float)
 
 def plot_leg_wheel(series: dict[str, dict[str, np.ndarray]], path: str | os.PathLike[str] | None = None,
                    label: str = "", settle_time: float | None = None) -> Any:
-    """Trajectory of the axle, slip and sinkage against time (like Fig. 4.3–4.4); a dotted line
-    marks the end of the pause (before it the wheel does not turn and Eq. 4.8 gives −1 or NaN)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    wheel = series["robot/wheel"]
-    figure, (trajectory, slip_ax, sink_ax) = plt.subplots(3, 1, figsize=(6.4, 7.5))
-    trajectory.plot(wheel["reference"][:, 0] * 100, wheel["reference"][:, 1] * 100, label=label or None)
-    trajectory.set(xlabel="axle x (cm)", ylabel="axle z (cm)", title="trajectory")
-    slip_ax.plot(wheel["time"], wheel["slip"])
-    slip_ax.set(xlabel="t (s)", ylabel="slip (Eq. 4.8)", ylim=(-1.05, 1.05))
-    sink_ax.plot(wheel["time"], wheel["sinkage"] * 100)
-    sink_ax.set(xlabel="t (s)", ylabel="sinkage (cm)")
-    if settle_time is not None:
-        for ax in (slip_ax, sink_ax):
-            ax.axvline(settle_time, color="0.5", linestyle=":", linewidth=1)
-    if label:
-        trajectory.legend()
-    figure.tight_layout()
-    if path is not None:
-        figure.savefig(path, dpi=120)
-    return figure
+    """Trajectory of the axle, slip and sinkage against time (:func:`terrasph.robots.plots.plot_robot`)."""
+    return plot_robot(series, ["wheel"], path, settle_time=settle_time, title=label)
