@@ -12,6 +12,7 @@ References, independent of the code under test:
 
 from __future__ import annotations
 
+import math
 import pathlib
 
 import mujoco
@@ -23,6 +24,7 @@ from terrasph.bodies import plate, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import read_run
+from terrasph.motion import Motion, Rotate
 from terrasph.robots import ROVER, CoupledSimulation, PlanarRobot
 from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
@@ -262,3 +264,18 @@ def test_the_example_rover_rests_on_its_two_wheels() -> None:
 def test_initial_joint_values_must_name_joints() -> None:
     with pytest.raises(ConfigError, match="joint 'y'"):
         PlanarRobot(ROVER, {"rear_wheel": RIM}, initial={"y": 0.1})
+
+
+def test_a_prescribed_body_keeps_its_schedule_beside_a_coupled_one() -> None:
+    """A paddle spinning at 2 rad/s by its schedule next to a coupled plate in free fall: the paddle
+    turns by ω t, the plate still falls as MuJoCo's integrator says (both far from the grains)."""
+    dt, steps, z0 = 5e-5, 400, 0.3
+    scene = far_grains_scene()
+    scene.add_body("paddle", PLATE, reference=(0.25, 0.3), motion=Motion((Rotate(math.inf, 2.0),)))
+    body = '<body name="plate" pos="0.4 0 0.3">{joints}<geom type="box" size="0.02 0.025 0.0075" mass="0.5"/></body>'
+    coupled = couple(mjcf(body), {"plate": PLATE}, scene, Numerics(spacing=DX, fixed_dt=dt))
+    for _ in range(steps):
+        coupled.step()
+    assert coupled.sim.body_state("paddle")["angle"] == pytest.approx(2.0 * steps * dt, rel=1e-9)
+    exact = z0 - G * dt * dt * steps * (steps + 1) / 2
+    assert abs(coupled.sim.body_state("plate")["reference"][1] - exact) < 1e-13
