@@ -8,6 +8,7 @@ from typing import Any
 
 from terrasph.cli_common import add_force_option, add_threads_option, check_output_file
 from terrasph.config import parameter
+from terrasph.robots.cli import register_robot_scenes
 from terrasph.scenes import leg_rotation, plate_intrusion
 from terrasph.scenes.column_collapse import (
     RESOLUTIONS,
@@ -40,6 +41,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     column.set_defaults(handler=_run_column)
     _register_plate(scenes)
     _register_leg(scenes)
+    register_robot_scenes(scenes)
     _register_resume(subparsers)
 
 

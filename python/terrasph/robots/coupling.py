@@ -1,0 +1,158 @@
+"""Two-way coupling of a MuJoCo robot with the SPH terrain (DESIGN §3.6, dissertation Eq. 4.1–4.7).
+
+The coupled step from t_n to t_{n+1} = t_n + dt (docs/robots.md):
+
+1. dt is the SPH step bound at t_n (``numerics.fixed_dt`` if set): both sides take the same dt.
+2. The granular load of each coupled body at t_n — force and torque (N, N·m for its real width)
+   from the SPH rate evaluation that ended the previous step (Eq. 3.24–3.25 / 4.6–4.7) — is put
+   in MuJoCo's ``xfrc_applied`` (world frame, at the centre of mass, torque about +y = clockwise).
+3. MuJoCo advances by dt (its integrator, default semi-implicit Euler): q_{n+1}, q̇_{n+1}, with the
+   load held constant over the step (Eq. 4.4–4.5 done by MuJoCo, with joints, motors and gravity).
+4. Each coupled body's pose and velocity at t_{n+1} and its acceleration over the step,
+   a = (v_{n+1} − v_n)/dt and α = (ω_{n+1} − ω_n)/dt of the frame origin (for a body on its own
+   slide–slide–hinge joints this is MuJoCo's q̈ of the step exactly), are given to
+   :meth:`Simulation.set_body_kinematics` as the body's state at the end of the next SPH step.
+5. The SPH takes one step of dt: the body particles move to the pose at t_{n+1} with velocity
+   v_c + ω J r and wall acceleration a_c + α J r − ω² r (Eq. 4.1–4.3); its rate evaluation at
+   t_{n+1} gives the load used in step 2 of the next coupled step.
+
+The scheme is explicit (the load lags the body by one step), deterministic (MuJoCo runs
+serially, the SPH is bitwise thread-count independent) and keeps the two clocks equal.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import pathlib
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from terrasph.config import ConfigError
+from terrasph.robots.mjcf import CoupledBody, PlanarRobot
+from terrasph.simulation import Simulation
+
+__all__ = ["CoupledSimulation"]
+
+
+def _unwrapped(previous: float, wrapped: float) -> float:
+    """The angle equal to `wrapped` modulo 2π nearest to `previous` (a step turns far less than π)."""
+    return previous + math.remainder(wrapped - previous, 2.0 * math.pi)
+
+
+class CoupledSimulation:
+    """A :class:`PlanarRobot` two-way coupled with a :class:`Simulation` whose scene holds its coupled
+    bodies as driven bodies (add them with :meth:`PlanarRobot.add_to_scene`)."""
+
+    def __init__(self, robot: PlanarRobot, sim: Simulation) -> None:
+        names = {b.name: b for b in sim.bodies}
+        for body in robot.coupled:
+            if body.name not in names or not names[body.name].driven:
+                raise ConfigError(f"coupled body '{body.name}' is not a driven body of the simulation's scene; "
+                                  "add it with PlanarRobot.add_to_scene before building the Simulation")
+        removed = [w.name for w in sim.scene.walls if w.remove_at is not None]
+        if removed:
+            raise ConfigError(f"wall(s) {removed} have a 'remove_at' time; a removal would cut an SPH step short "
+                              "of MuJoCo's, which a coupled run does not support")
+        self.robot = robot
+        self.sim = sim
+        #: the core's index of each coupled body (Simulation.bodies is in the core's order)
+        self._core_index = {body.name: [b.name for b in sim.bodies].index(body.name) for body in robot.coupled}
+        self.robot.data.time = sim.time
+        self._angle = {b.name: robot.wrapped_angle(b) for b in robot.coupled}
+        self._velocity = {b.name: robot.velocity(b) for b in robot.coupled}
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s), the same on both sides."""
+        return self.sim.time
+
+    def time_step(self) -> float:
+        """The next step's dt (s): the SPH's fixed step if set, else its stable bound."""
+        fixed = self.sim.numerics.fixed_dt
+        return fixed if fixed > 0 else float(self.sim.core.stable_time_step())
+
+    def step(self) -> float:
+        """One coupled step (module docstring); returns its dt."""
+        dt = self.time_step()
+        robot, model, data = self.robot, self.robot.model, self.robot.data
+        for body in robot.coupled:
+            force, torque = self.granular_load(body)
+            robot.apply_load(body, force, torque)
+        model.opt.timestep = dt
+        mujoco.mj_step(model, data)
+        # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_comVel(model, data)
+        for body in robot.coupled:
+            self._drive(body, dt)
+        t_end = self.sim.time + dt
+        self.sim.advance(t_end, max_steps=1)
+        if self.sim.core.last_dt != dt:  # cannot happen without wall removals, refused in __init__
+            raise RuntimeError(f"the SPH step was {self.sim.core.last_dt} s, MuJoCo's {dt} s")
+        return dt
+
+    def granular_load(self, body: CoupledBody) -> tuple[np.ndarray, float]:
+        """Force (N) and clockwise torque (N·m, about the body origin) of the grains on `body` from the
+        last rate evaluation, for its real width: ``force_now``/``torque_now`` of
+        :meth:`Simulation.body_state` without that method's copy of every wall particle."""
+        raw = self.sim.core.body_state(self._core_index[body.name])
+        return np.asarray(raw["force"]) * body.width, raw["torque"] * body.width
+
+    def _drive(self, body: CoupledBody, dt: float) -> None:
+        """Hands MuJoCo's state of `body` at t_{n+1} to the SPH (step 4)."""
+        velocity, omega = self.robot.velocity(body)
+        old_velocity, old_omega = self._velocity[body.name]
+        angle = _unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
+        self.sim.set_body_kinematics(body.name, self.robot.reference(body), angle, velocity, omega,
+                                     (velocity - old_velocity) / dt, (omega - old_omega) / dt)
+        self._angle[body.name] = angle
+        self._velocity[body.name] = (velocity, omega)
+
+    def advance(self, t_end: float) -> int:
+        """Coupled steps until `t_end` (s) is reached or passed; returns the number taken."""
+        taken = 0
+        while self.sim.time < t_end * (1 - 1e-14):
+            self.step()
+            taken += 1
+        return taken
+
+    def angle(self, name: str) -> float:
+        """Clockwise angle (rad) of a coupled body, continuous over turns."""
+        return self._angle[name]
+
+    # -- checkpoints ----------------------------------------------------------------------
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
+        """Writes the SPH State with MuJoCo's state (under ``progress["robot"]``) to `path`."""
+        return self.sim.checkpoint(path, {**(progress or {}), "robot": self.state()})
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        """Continues from a :meth:`checkpoint` bit for bit; returns the rest of its progress."""
+        progress = self.sim.restore(path)
+        if "robot" not in progress:
+            raise ConfigError(f"checkpoint {path} holds no robot state; it was not written by a coupled run")
+        self.restore_state(progress.pop("robot"))
+        return progress
+
+    def state(self) -> dict[str, Any]:
+        """MuJoCo's state and the coupling's own memory as plain data (JSON floats round-trip
+        exactly), for the ``progress`` of :meth:`Simulation.checkpoint`."""
+        data = self.robot.data
+        return {"time": data.time, "qpos": data.qpos.tolist(), "qvel": data.qvel.tolist(), "act": data.act.tolist(),
+                "qacc_warmstart": data.qacc_warmstart.tolist(), "ctrl": data.ctrl.tolist(),
+                "angle": dict(self._angle),
+                "velocity": {k: [v.tolist(), w] for k, (v, w) in self._velocity.items()}}
+
+    def restore_state(self, saved: dict[str, Any]) -> None:
+        """Puts back a :meth:`state` (after :meth:`Simulation.restore` of the same checkpoint)."""
+        data = self.robot.data
+        data.time = saved["time"]
+        for key in ("qpos", "qvel", "act", "ctrl"):
+            getattr(data, key)[:] = saved[key]
+        mujoco.mj_forward(self.robot.model, data)
+        data.qacc_warmstart[:] = saved["qacc_warmstart"]
+        self._angle = {k: float(v) for k, v in saved["angle"].items()}
+        self._velocity = {k: (np.array(v), float(w)) for k, (v, w) in saved["velocity"].items()}

@@ -1,0 +1,35 @@
+"""Robot metrics (DESIGN §3.8): slip (dissertation Eq. 4.8) and sinkage."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["sinkage", "slip"]
+
+
+def slip(forward_speed: np.ndarray | float, omega: np.ndarray | float, radius: float) -> np.ndarray:
+    """Slip of a wheel of `radius` R (m) turning clockwise at `omega` (rad/s) while its axle moves at
+    `forward_speed` v_x (m/s), Eq. 4.8:
+
+        s = 1 − v_x/(Rω)   if v_x < Rω   (spinning: s > 0; s = 1 when the axle stands still)
+        s = Rω/v_x − 1     if v_x ≥ Rω   (skidding: s < 0)
+
+    s lies in [−1, 1] when v_x ≥ 0 and Rω ≥ 0 (a wheel sliding forward without turning has s = −1);
+    it is NaN where both are 0. Eq. 4.8 is meant for a wheel driven forward: when v_x and Rω have
+    opposite signs (an axle pushed back while the wheel turns forward) it gives |s| > 1, unbounded
+    as Rω → 0. For a leg-wheel, R is the radius of the circle through its leg tips (the shape's
+    ``radius``).
+    """
+    v = np.asarray(forward_speed, dtype=float)
+    rolling = radius * np.asarray(omega, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        spinning = 1.0 - v / rolling
+        skidding = rolling / v - 1.0
+        result = np.where(v < rolling, spinning, skidding)
+    return np.where((v == 0) & (rolling == 0), np.nan, result)
+
+
+def sinkage(lowest_z: np.ndarray | float, surface_level: float) -> np.ndarray:
+    """Depth (m) of a body's lowest point below the undisturbed free surface z = `surface_level`
+    (measured on the settled bed); negative while the body is above it."""
+    return surface_level - np.asarray(lowest_z, dtype=float)

@@ -1,0 +1,130 @@
+"""Scene ``rover`` (issue 11 item 6): the example planar rover (``terrasph.robots.ROVER``: a chassis
+free in x, z and pitch, two wheels on hinges 12 cm apart, velocity-servo motors) crossing a bed of
+3 mm glass beads, both wheels the same leg-wheel (or plain wheel) shape, paused and then driven
+clockwise at ω. Masses and inertias are the MJCF's (chassis 0.3 kg, wheels 0.1 kg each)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from terrasph import bodies
+from terrasph.config import ConfigError, Numerics, from_mapping
+from terrasph.geometry import wall_layers_needed
+from terrasph.robots.coupling import CoupledSimulation
+from terrasph.robots.leg_wheel import WHEELS
+from terrasph.robots.metrics import slip
+from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
+from terrasph.robots.run import run_coupled
+from terrasph.scene import Scene
+from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.simulation import Simulation
+
+__all__ = ["WHEEL_BODIES", "Rover", "build_rover", "run_rover"]
+
+#: the rover's coupled bodies and their motors' indices in data.ctrl (the MJCF's order)
+WHEEL_BODIES = ("rear_wheel", "front_wheel")
+#: axle spacing of the shipped MJCF (m)
+AXLE_SPACING = 0.12
+
+
+@dataclass(frozen=True)
+class Rover:
+    """Configuration of a rover run. Lengths in m, times in s, angles in rad (clockwise)."""
+
+    wheel: str = "c-leg"  #: one of terrasph.robots.leg_wheel.WHEELS, for both wheels
+    legs: int = 3
+    omega: float = 1.5  #: commanded spin of both motors after the pause (rad/s, clockwise)
+    leg_length: float = 0.04  #: hip-to-toe length = tip radius (the wheels must clear each other)
+    thickness: float = 0.005
+    width: float = 0.05  #: each wheel's out-of-plane width
+    foot_ratio: float = 0.33
+    spacing: float = 0.005 / 3
+    bed_width: float = 0.5
+    bed_depth: float = 0.1
+    start_x: float = 0.12  #: chassis (axle-line middle) x at start
+    settle_time: float = 1.0
+    duration: float = 4.0
+    series_interval: float = 0.01
+    frame_interval: float = 0.05
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+
+    def __post_init__(self) -> None:
+        if self.wheel not in WHEELS:
+            raise ConfigError(f"parameter 'wheel' = {self.wheel!r} is invalid: allowed one of {', '.join(WHEELS)}")
+        if isinstance(self.legs, bool) or not isinstance(self.legs, int) or not 1 <= self.legs <= 12:
+            raise ConfigError(f"parameter 'legs' = {self.legs!r} is invalid: allowed an integer 1–12")
+        for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "duration",
+                     "series_interval", "frame_interval"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
+        for name in ("omega", "settle_time"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number >= 0")
+        if not 2 * self.leg_length < AXLE_SPACING:
+            raise ConfigError(f"parameter 'leg_length' = {self.leg_length!r} is invalid: allowed < "
+                              f"{AXLE_SPACING / 2} m (the wheels, {AXLE_SPACING} m apart, must not touch)")
+        reach = 0.5 * AXLE_SPACING + self.leg_length
+        if not reach < self.start_x < self.bed_width - reach:
+            raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between {reach:.4g} and "
+                              f"bed_width − {reach:.4g} m (both wheels clear of the container)")
+
+    def shape(self) -> bodies.BodyShape:
+        """One wheel in its own frame (axle at the origin)."""
+        args = (self.leg_length, self.thickness, self.width, self.spacing)
+        if self.wheel == "wheel":
+            return bodies.wheel(*args)
+        extra = {"foot_ratio": self.foot_ratio} if self.wheel in ("l-leg", "reversed-l-leg") else {}
+        return bodies.leg_wheel(self.wheel, self.legs, *args, **extra)
+
+
+def build_rover(config: Rover) -> CoupledSimulation:
+    """Bed, container and the rover standing on it (wheels Δx/2 above the surface)."""
+    numerics = from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
+                                       **config.numerics})
+    scene = Scene(spacing=config.spacing)
+    surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
+                                            layers=wall_layers_needed(numerics.h_factor))
+    try:
+        shape = config.shape()
+    except ValueError as error:
+        raise ConfigError(f"wheel '{config.wheel}': {error}") from None
+    axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
+    robot = PlanarRobot(ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
+                        gravity=scene.gravity, initial={"x": config.start_x, "z": axle_z})
+    robot.add_to_scene(scene)
+    return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
+
+
+def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False) -> dict[str, Any]:
+    """Runs the scene; returns a summary (distance, mean speed and slip of each wheel after the
+    pause, final sinkage of each wheel, pitch, leaks) and the series."""
+    coupled = build_rover(config)
+
+    def motors(run: CoupledSimulation) -> None:
+        run.robot.data.ctrl[:] = config.omega if run.time >= config.settle_time else 0.0
+
+    series = run_coupled(coupled, config.duration, output=output, frame_interval=config.frame_interval,
+                         series_interval=config.series_interval, control=motors, progress=progress,
+                         config={"scene": "rover", **dataclasses.asdict(config), **coupled.sim.describe()})
+    summary: dict[str, Any] = {"wheel": config.wheel, "steps": coupled.sim.step_count,
+                               "leaked_particles": coupled.sim.leaked_particles,
+                               "distance": float(coupled.robot.data.qpos[0] - config.start_x),
+                               "final_pitch": float(coupled.robot.data.qpos[2])}
+    radius = coupled.robot.coupled[0].shape.radius
+    for name in WHEEL_BODIES:
+        body = series[f"robot/{name}"]
+        driving = (body["time"] > config.settle_time) & (body["omega"] >= 0.5 * config.omega)
+        speed = float(np.mean(body["velocity"][driving, 0])) if driving.any() else math.nan
+        spin = float(np.mean(body["omega"][driving])) if driving.any() else math.nan
+        summary[f"{name}_mean_slip"] = float(slip(speed, spin, radius)) if driving.any() else math.nan
+        summary[f"{name}_final_sinkage"] = float(body["sinkage"][-1])
+        summary[f"{name}_mean_forward_speed"] = speed
+    return {"summary": summary, "series": series}

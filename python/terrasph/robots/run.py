@@ -1,0 +1,123 @@
+"""A small run loop for a coupled robot: coupled steps, HDF5 frames and robot time series.
+
+Layout of the file (terrasph.io.RunWriter): frames as for any run; ``/series/diagnostics``
+(time, step, dt, leaked_particles, wall_time); ``/series/robot/<body>`` per coupled body (time,
+reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s, force (F_x, F_z)
+N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
+the sampling interval, lowest_z m, sinkage m (if the scene has a surface level), slip (Eq. 4.8
+with the shape's radius)); ``/series/robot/actuators`` (time, qpos, qvel, actuator force — a
+motor's torque in N·m for a hinge — and the total actuator power in W).
+"""
+
+from __future__ import annotations
+
+import os
+import time as wallclock
+from collections.abc import Callable
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from terrasph.config import ConfigError
+from terrasph.robots.coupling import CoupledSimulation
+from terrasph.robots.metrics import sinkage, slip
+
+__all__ = ["body_row", "run_coupled"]
+
+
+def body_row(coupled: CoupledSimulation, name: str) -> dict[str, Any]:
+    """One sample of a coupled body's series (granular loads averaged since the last reset)."""
+    body = next(b for b in coupled.robot.coupled if b.name == name)
+    state = coupled.sim.body_state(name)
+    velocity, omega = coupled.robot.velocity(body)
+    row = {"time": coupled.time, "reference": coupled.robot.reference(body), "angle": coupled.angle(name),
+           "velocity": velocity, "omega": omega, "force": state["force"], "torque": state["torque"],
+           "lowest_z": state["lowest_z"], "slip": float(slip(velocity[0], omega, body.shape.radius))}
+    if coupled.sim.scene.surface_level is not None:
+        row["sinkage"] = float(sinkage(state["lowest_z"], coupled.sim.scene.surface_level))
+    return row
+
+
+def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
+    data = coupled.robot.data
+    return {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(),
+            "actuator_force": data.actuator_force.copy(),
+            "power": float(np.dot(data.actuator_force, data.actuator_velocity))}
+
+
+def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.PathLike[str] | None = None,
+                frame_interval: float = 0.05, series_interval: float = 0.01,
+                config: dict[str, Any] | None = None, control: Callable[[CoupledSimulation], None] | None = None,
+                progress: bool = False) -> dict[str, dict[str, np.ndarray]]:
+    """Runs `coupled` to `t_end` (s); writes frames every `frame_interval` and robot samples every
+    `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
+    step (to set MuJoCo's ``data.ctrl`` from the time, say). Returns the robot series by group name."""
+    for name, value in (("frame_interval", frame_interval), ("series_interval", series_interval)):
+        if not value > 0:
+            raise ConfigError(f"parameter '{name}' = {value} is invalid: allowed > 0 s")
+    if not t_end > coupled.time:
+        raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {coupled.time}")
+    from terrasph.io import RunWriter
+    from terrasph.simulation import versions
+
+    sim = coupled.sim
+    writer = None
+    if output is not None:
+        describe = {**sim.describe(), "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width}
+                                                              for b in coupled.robot.coupled},
+                                                "mujoco": mujoco.__version__}}
+        writer = RunWriter(output, config or describe, versions={**versions(), "mujoco": mujoco.__version__})
+        writer.write_static("granular/mass", np.array(sim.mass))
+        writer.write_static("walls/group", np.array(sim.core.wall_group))
+    series: dict[str, dict[str, list[Any]]] = {}
+    start = wallclock.perf_counter()
+
+    def append(group: str, row: dict[str, Any]) -> None:
+        for key, value in row.items():
+            series.setdefault(group, {}).setdefault(key, []).append(value)
+        if writer:
+            writer.append_series(group, row)
+
+    def sample() -> None:
+        for body in coupled.robot.coupled:
+            append(f"robot/{body.name}", body_row(coupled, body.name))
+        append("robot/actuators", _actuator_row(coupled))
+        append("diagnostics", {"time": coupled.time, "step": sim.step_count, "dt": sim.core.last_dt,
+                               "leaked_particles": sim.leaked_particles,
+                               "wall_time": wallclock.perf_counter() - start})
+        sim.reset_body_means()
+
+    def frame() -> None:
+        if writer:
+            writer.write_frame(sim.time, sim.step_count, {**sim.frame_fields(),
+                                                          "wall_position": np.array(sim.core.wall_position)})
+
+    from tqdm.auto import tqdm
+
+    sim.reset_body_means()
+    sample()
+    frame()
+    next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
+    bar = tqdm(total=round(t_end - coupled.time, 9), unit="s", disable=not progress, mininterval=0.5,
+               bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]")
+    try:
+        while coupled.time < t_end * (1 - 1e-14):
+            if control:
+                control(coupled)
+            bar.update(coupled.step())
+            if coupled.time >= next_sample * (1 - 1e-12):
+                sample()
+                next_sample += series_interval
+            if coupled.time >= next_frame * (1 - 1e-12):
+                frame()
+                next_frame += frame_interval
+        if writer:
+            writer.set_attrs("/run", {"status": "completed", "time": sim.time, "steps": sim.step_count,
+                                      "leaked_particles": sim.leaked_particles,
+                                      "wall_time": wallclock.perf_counter() - start})
+    finally:
+        bar.close()
+        if writer:
+            writer.close()
+    return {group: {key: np.asarray(values) for key, values in rows.items()} for group, rows in series.items()}

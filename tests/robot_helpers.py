@@ -1,0 +1,45 @@
+"""Shared builders of the robot tests: MJCF text of small planar robots and coarse scenes."""
+
+from __future__ import annotations
+
+from terrasph.config import Material, Numerics
+from terrasph.geometry import wall_layers_needed
+from terrasph.robots import CoupledSimulation, PlanarRobot
+from terrasph.robots.mjcf import Coupling
+from terrasph.scene import Scene
+from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.simulation import Simulation
+
+DX = 0.005
+#: glass beads of the robot scenes (3 mm, ρ_s = 2600 kg/m³, packing 0.63, μ1 = tan 23°, μ2 = tan 33°)
+BEADS = glass_beads()
+
+PLANAR_JOINTS = ('<joint name="x" type="slide" axis="1 0 0"/><joint name="z" type="slide" axis="0 0 1"/>'
+                 '<joint name="pitch" type="hinge" axis="0 1 0"/>')
+
+
+def mjcf(body: str, *, joints: str = PLANAR_JOINTS, actuators: str = "", floor: bool = False,
+         options: str = "") -> str:
+    """A model with one body ``body`` at the given pose and joints (the body's XML goes inside)."""
+    ground = '<geom name="floor" type="plane" size="1 1 0.1" friction="1 0.005 0.0001"/>' if floor else ""
+    return (f'<mujoco><option gravity="0 0 -9.81" {options}/><worldbody>{ground}{body.format(joints=joints)}'
+            f'</worldbody><actuator>{actuators}</actuator></mujoco>')
+
+
+def far_grains_scene(x_body: float = 0.4) -> Scene:
+    """A small bed on a floor at x ∈ [0, 0.05], far (≥ 0.2 m) from any body placed near `x_body`,
+    and a domain box that holds both: an empty domain for the bodies."""
+    scene = Scene(spacing=DX)
+    scene.add_block(0.0, 0.0, 0.05, 0.02)
+    scene.add_wall("floor", [(0.0, 0.04), (0.0, 0.0), (0.05, 0.0), (0.05, 0.04)], layers=wall_layers_needed(1.3))
+    scene.domain_lower, scene.domain_upper = (-0.1, -0.2), (x_body + 0.3, 0.5)
+    return scene
+
+
+def couple(xml: str, couplings: dict[str, object], scene: Scene, numerics: Numerics | None = None,
+           material: Material = BEADS) -> CoupledSimulation:
+    """Robot + scene + simulation, coupled."""
+    robot = PlanarRobot(xml, {k: v if v is None or isinstance(v, Coupling) else Coupling(v)
+                              for k, v in couplings.items()})
+    robot.add_to_scene(scene)
+    return CoupledSimulation(robot, Simulation(scene, material, numerics or Numerics(spacing=DX)))
