@@ -25,12 +25,25 @@ inline double eos_bulk_modulus(const MaterialParams& m) {
   return m.bulk_stiffness * m.eos_exponent * (1.0 + m.water_content);
 }
 
+// The tension-free EOS of the μ(I) models (Eq. 2.30) and what walls need from it: no tension, and
+// the density of a wall particle from its pressure (Eq. 3.32).
+class TensionFreeEos {
+ public:
+  explicit TensionFreeEos(const MaterialParams& m) : eos_(m) {}
+  double wall_pressure_floor() const { return 0.0; }
+  double density_for_pressure(double p) const { return eos_.density(p); }
+  double reference_density() const { return eos_.reference_density(); }
+
+ protected:
+  EquationOfState eos_;
+};
+
 // μ(I) visco-plasticity in rate form (Eq. 2.29–2.32) with the tension-free EOS (Eq. 2.30):
 // σ = −P I + (μ(I)P + c) D′/(|D′| + ε). No state.
-template <int D> class MuIRateModel {
+template <int D> class MuIRateModel : public TensionFreeEos {
  public:
   MuIRateModel(const MaterialParams& m, double epsilon)
-      : eos_(m), rheology_(m, epsilon), wave_speed_(std::sqrt(eos_bulk_modulus(m) / m.reference_density)) {}
+      : TensionFreeEos(m), rheology_(m, epsilon), wave_speed_(std::sqrt(eos_bulk_modulus(m) / m.reference_density)) {}
 
   void register_fields(FieldRegistry&) {}
 
@@ -41,12 +54,8 @@ template <int D> class MuIRateModel {
 
   // √(dP/dρ) of the EOS at ρ0: √(κγ(1+w)/ρ0).
   double wave_speed() const { return wave_speed_; }
-  double wall_pressure_floor() const { return 0.0; }  // no tension, as in the EOS
-  double density_for_pressure(double p) const { return eos_.density(p); }
-  double reference_density() const { return eos_.reference_density(); }
 
  private:
-  EquationOfState eos_;
   MuIRheology<D> rheology_;
   double wave_speed_;
 };
@@ -62,10 +71,10 @@ inline double elastic_shear_modulus(const MaterialParams& m) {
 // Hypoelastic–plastic μ(I): the deviatoric stress s is state, loaded elastically with the Jaumann
 // rate (shear modulus G) and returned radially onto |s| ≤ μ(I)P + c, so a bed at rest holds shear
 // stress below yield (the aim of the dissertation's Eq. 3.6, reached differently). σ = −P I + s.
-template <int D> class MuIHypoelasticModel {
+template <int D> class MuIHypoelasticModel : public TensionFreeEos {
  public:
   MuIHypoelasticModel(const MaterialParams& m, double epsilon)
-      : eos_(m), rheology_(m, epsilon), shear_modulus_(elastic_shear_modulus(m)),
+      : TensionFreeEos(m), rheology_(m, epsilon), shear_modulus_(elastic_shear_modulus(m)),
         // P-wave speed √((K + 4G/3)/ρ0), which exceeds the EOS sound speed
         wave_speed_(std::sqrt((eos_bulk_modulus(m) + 4.0 / 3.0 * shear_modulus_) / m.reference_density)) {}
 
@@ -81,12 +90,8 @@ template <int D> class MuIHypoelasticModel {
   }
 
   double wave_speed() const { return wave_speed_; }
-  double wall_pressure_floor() const { return 0.0; }
-  double density_for_pressure(double p) const { return eos_.density(p); }
-  double reference_density() const { return eos_.reference_density(); }
 
  private:
-  EquationOfState eos_;
   MuIRheology<D> rheology_;
   double shear_modulus_;
   double wave_speed_;
