@@ -8,7 +8,8 @@ README edit that breaks one fails this test instead of going unnoticed:
 
 * `pip install …` and `python -m pip install …` are skipped: the package under test is installed;
 * the `python -m pytest …` line is skipped: it is the command that runs this test;
-* `terrasph ARGS` runs as `python -m terrasph.cli ARGS` with this interpreter;
+* `terrasph ARGS` runs as `python -m terrasph.cli ARGS` with this interpreter (a line ending in a
+  backslash continues on the next);
 * SIZE shrinks the runs (simulated time, sweep speed, dataset size, epochs), in SIZE's order.
 """
 
@@ -34,6 +35,8 @@ SIZE = [
     ("terrasph run plate-intrusion --out plate.h5",
      "terrasph run plate-intrusion --out plate.h5 --depth 0.006 --speed 0.1 --settle 0.01"),
     ("--runs 120 --duration 3", "--runs 6 --duration 1"),
+    ("--settle-time 0.2 --t-end 1.0 --out lw.h5", "--settle-time 0.02 --t-end 0.04 --out lw.h5"),
+    ("--settle-time 0.2 --t-end 1.0 --out rover.h5", "--settle-time 0.02 --t-end 0.04 --out rover.h5"),
     ("--out wheel.tslstm", "--out wheel.tslstm --epochs 3 --no-progress"),
 ]
 
@@ -53,9 +56,10 @@ def shrink(blocks: list[tuple[str, str]]) -> list[tuple[str, str]]:
 
 
 def bash_commands(body: str) -> list[list[str]]:
-    """The commands of a bash block (lines, `&&` chains, comments dropped) minus install and pytest."""
+    """The commands of a bash block (lines joined at a trailing backslash, `&&` chains, comments
+    dropped) minus install and pytest."""
     commands = []
-    for line in body.splitlines():
+    for line in body.replace("\\\n", " ").splitlines():
         line = line.split(" #", 1)[0].strip()
         for command in filter(None, (c.strip() for c in line.split("&&"))):
             words = shlex.split(command)
@@ -83,5 +87,5 @@ def test_readme_blocks_run_as_written(tmp_path: Path) -> None:
     assert ran["python"] == 3 and ran["bash"] >= 6
     # the files the README says the commands write
     for name in ("column_collapse.h5", "column_collapse.xdmf", "column_collapse.png", "my_run.h5", "leg.h5",
-                 "c_leg.h5", "plate.h5", "wheel.tslstm"):
+                 "c_leg.h5", "plate.h5", "wheel.tslstm", "lw.h5", "rover.h5"):
         assert (tmp_path / name).is_file(), name
