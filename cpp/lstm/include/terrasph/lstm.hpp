@@ -99,7 +99,7 @@ class Model {
     }
     w_out_ = to_matrix(d.w_out, output_size_, in, "head weight");
     b_out_ = to_vector(d.b_out, output_size_, "head bias");
-    w_out_packed_ = detail::Packed<Scalar>::pack(w_out_);
+    for (double v : d.w_out) w_out_rows_.push_back(static_cast<Scalar>(v));  // row-major (O, H)
   }
 
   /// Load a model file; throws FormatError on any malformed content.
@@ -125,7 +125,8 @@ class Model {
   const Vector& output_scale() const { return out_scale_; }
   const Matrix& head_weight() const { return w_out_; }
   const Vector& head_bias() const { return b_out_; }
-  const detail::Packed<Scalar>& head_weight_packed() const { return w_out_packed_; }
+  /// The head weight row-major (O rows of H_last), as detail::head_dot reads it.
+  const std::vector<Scalar>& head_weight_rows() const { return w_out_rows_; }
   /// True if the kernels run the variant compiled for AVX2 + FMA, chosen at run time.
   bool uses_avx2() const { return use_avx2_; }
 
@@ -157,7 +158,7 @@ class Model {
   std::vector<Layer<Scalar>> layers_;
   Matrix w_out_;
   Vector b_out_;
-  detail::Packed<Scalar> w_out_packed_;
+  std::vector<Scalar> w_out_rows_;
   bool use_avx2_ = detail::default_use_avx2();
 };
 
@@ -237,10 +238,12 @@ TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, cons
   const Layer<S>& last = m.layers().back();
   const Index ldz = last.input_size + last.hidden_size;
   S* head = ws.head.data();
-  for (Index b = 0; b < B; ++b)
+  const S* h_last = ws.z.back().data() + last.input_size;
+  for (Index b = 0; b < B; ++b) {
     std::copy(m.head_bias().data(), m.head_bias().data() + no, head + b * no);
-  product(Isa{}, m.head_weight_packed(), B, ws.z.back().data() + last.input_size, ldz, head, no,
-          ws.scratch.data());
+    head_dot(m.head_weight_rows().data(), last.hidden_size, no, last.hidden_size,
+             h_last + b * ldz, head + b * no);
+  }
   const S *mean = m.output_mean().data(), *scale = m.output_scale().data();
   for (Index b = 0; b < B; ++b)
     for (Index k = 0; k < no; ++k) y[b * ldy + k] = head[b * no + k] * scale[k] + mean[k];

@@ -279,13 +279,12 @@ TERRASPH_LSTM_INLINE void store_part(S* p, const vec_t<S>& v, Index n) {
   std::copy(tmp, tmp + n, p);
 }
 
-/// tanh in float, lane-wise: Eigen's rational approximation (Eigen 3.4 MathFunctionsImpl.h,
-/// generic_fast_tanh_float; max error a few ulp), clamped where it reaches +-1, tanh(a) = a
-/// for |a| < 4e-4.
+/// Eigen's rational approximation of tanh in float (Eigen 3.4 MathFunctionsImpl.h,
+/// generic_fast_tanh_float; max error a few ulp), lane-wise, clamped where it reaches +-1.
+/// (Eigen also returns a itself for |a| < 4e-4, a relative refinement of < 2e-7 dropped here.)
 TERRASPH_LSTM_INLINE void tanh_v(vec_t<float>& a) {
   using V = vec_t<float>;
-  const V zero = {};
-  const V lim = zero + 7.90531110763549805f, tiny = zero + 0.0004f;
+  const V lim = V{} + 7.90531110763549805f;
   V x = a > lim ? lim : a;
   x = x < -lim ? -lim : x;
   const V x2 = x * x;
@@ -299,8 +298,7 @@ TERRASPH_LSTM_INLINE void tanh_v(vec_t<float>& a) {
   V q = x2 * 1.19825839466702e-06f + 1.18534705686654e-04f;
   q = x2 * q + 2.26843463243900e-03f;
   q = x2 * q + 4.89352518554385e-03f;
-  const V r = p / q;
-  a = ((a < tiny) & (a > -tiny)) ? a : r;
+  a = p / q;
 }
 /// Logistic sigma(a) = (1 + tanh(a/2)) / 2 in float, lane-wise (absolute error ~1e-7).
 TERRASPH_LSTM_INLINE void sigmoid_v(vec_t<float>& a) {
@@ -314,6 +312,36 @@ TERRASPH_LSTM_INLINE void tanh_v(vec_t<double>& a) {
 }
 TERRASPH_LSTM_INLINE void sigmoid_v(vec_t<double>& a) {
   for (int k = 0; k < lanes<double>(); ++k) a[k] = 1.0 / (1.0 + std::exp(-a[k]));
+}
+
+/// y[o] += sum_j w[o * ldw + j] h[j] for o < O (the dense head of one sequence): 4 vector
+/// accumulators over consecutive chunks of h (chunk c into accumulator c mod 4, the last chunk
+/// zero-padded), added as (a0 + a1) + (a2 + a3), then the lanes in order. A fixed order, the
+/// same for every sequence of a batch; short dependency chains instead of one of length H.
+template <typename S>
+TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, const S* h, S* y) {
+  constexpr int L = lanes<S>();
+  for (Index o = 0; o < O; ++o) {
+    const S* row = w + o * ldw;
+    vec_t<S> acc[4] = {};
+    Index c = 0;
+    for (Index j = 0; j < H; j += L, ++c) {
+      const Index n = std::min<Index>(L, H - j);
+      vec_t<S> wv, hv;
+      load_part<S>(wv, row + j, n);
+      load_part<S>(hv, h + j, n);
+      switch (c & 3) {  // a constant index per case keeps the accumulators in registers
+        case 0: acc[0] += wv * hv; break;
+        case 1: acc[1] += wv * hv; break;
+        case 2: acc[2] += wv * hv; break;
+        default: acc[3] += wv * hv; break;
+      }
+    }
+    const vec_t<S> sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    S total = y[o];
+    for (int k = 0; k < L; ++k) total += sum[k];
+    y[o] = total;
+  }
 }
 
 // Cell updates of one sequence; g holds the 4H gate pre-activations (blocks i, f, g, o).
