@@ -1,12 +1,13 @@
 // Compute kernels of the terrasph LSTM engine (included by terrasph/lstm.hpp): packed weight
 // panels, the register-tiled matrix products, the gate nonlinearities and the cell updates.
 //
-// One arithmetic for one sequence and for a batch. Every matrix product computes each output
-// element as  y = y0 + w_0 z_0 + w_1 z_1 + ... + w_{K-1} z_{K-1},  summed in that order, one
-// multiply-add per term, whatever the register tile (one sequence: 8 vectors of rows; a batch:
-// 2 vectors of rows times up to kBatchTile sequences). The element-wise code applies the same
-// scalar formula to every element (vector lanes compute exactly what the scalar loop tail
-// computes). A batch of B sequences therefore gives, bit for bit, the results of B single
+// One arithmetic for one sequence and for a batch. Every matrix product (gates, peepholes)
+// computes each output element as  y = y0 + w_0 z_0 + w_1 z_1 + ... + w_{K-1} z_{K-1},  summed
+// in that order, one multiply-add per term, whatever the register tile (one sequence: 8 vectors
+// of rows; a batch: 2 vectors of rows times up to kBatchTile sequences). The dense head
+// (head_dot) and the element-wise code run the same instructions on every sequence and every
+// element (vector lanes compute what any other lane computes; a row's last partial vector is
+// zero-padded). A batch of B sequences therefore gives, bit for bit, the results of B single
 // sequences (tests/test_lstm_batch.py).
 #pragma once
 
@@ -324,18 +325,25 @@ TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, cons
   for (Index o = 0; o < O; ++o) {
     const S* row = w + o * ldw;
     vec_t<S> acc[4] = {};
-    Index c = 0;
-    for (Index j = 0; j < H; j += L, ++c) {
+    Index j = 0;
+    for (; j + 4 * L <= H; j += 4 * L) {  // whole groups of 4 chunks
+      TERRASPH_LSTM_UNROLL
+      for (int a = 0; a < 4; ++a) {
+        vec_t<S> wv, hv;
+        vload<S>(wv, row + j + a * L);
+        vload<S>(hv, h + j + a * L);
+        acc[a] += wv * hv;
+      }
+    }
+    TERRASPH_LSTM_UNROLL
+    for (int a = 0; a < 3; ++a) {  // the last 1-3 chunks, the very last zero-padded
+      if (j >= H) break;
       const Index n = std::min<Index>(L, H - j);
       vec_t<S> wv, hv;
       load_part<S>(wv, row + j, n);
       load_part<S>(hv, h + j, n);
-      switch (c & 3) {  // a constant index per case keeps the accumulators in registers
-        case 0: acc[0] += wv * hv; break;
-        case 1: acc[1] += wv * hv; break;
-        case 2: acc[2] += wv * hv; break;
-        default: acc[3] += wv * hv; break;
-      }
+      acc[a] += wv * hv;
+      j += L;
     }
     const vec_t<S> sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
     S total = y[o];
