@@ -1,18 +1,22 @@
 """Benchmark of LSTM inference: C++ engine (terrasph._core.lstm) versus PyTorch eager.
 
-Same weights for both (a seeded SurrogateNet exported to the model file), float32, standard
-cell, hidden 16/32/64/128, batch 1 and 64, in one run. Reports
+Same weights for both (a seeded SurrogateNet exported to the model file), float32, hidden
+16/32/64/128, batch 1 and 64, same sequence length, in one run. PyTorch (a CPU build) runs
+once with ``torch.set_num_threads(1)`` (like the single-threaded C++ engine) and once with its
+default thread count; every repeat times C++, PyTorch 1-thread and PyTorch default in turn
+(interleaved A/B, so load from other processes hits all three alike). Reports
 
 * streaming latency per step: C++ timed inside C++ (what robot code pays), C++ called from
   Python once per step (``Stream.step_into``), and PyTorch eager (``nn.LSTM`` on one step with
-  the carried state + head + normalisation, under ``torch.no_grad``);
-* whole-sequence throughput in time steps per second (batch × T / wall time): C++
+  the carried state + head + normalisation, under ``torch.no_grad``); at batch > 1 the C++
+  step advances all sequences together (one matrix-matrix product per weight matrix);
+* whole-sequence throughput in time steps per second (batch x T / wall time): C++
   ``Model.predict`` versus the PyTorch forward pass.
 
 Each figure is the best of ``--repeats`` timings. Usage::
 
     python benchmarks/bench_lstm.py [--steps 2000] [--seq-len 1000] [--repeats 5]
-                                    [--torch-threads 1]
+                                    [--hidden 16 32 64 128] [--batch 1 64] [--cell standard]
 """
 
 from __future__ import annotations
@@ -30,11 +34,6 @@ from terrasph.surrogate.export import from_torch, model_to_bytes
 from terrasph.surrogate.model import ModelConfig, SurrogateNet
 
 N_IN, N_OUT = 4, 2
-
-
-def best_of(repeats: int, fn: Callable[..., float], *args: Any) -> float:
-    """Minimum over ``repeats`` calls of ``fn(*args)``, a function returning seconds."""
-    return min(fn(*args) for _ in range(repeats))
 
 
 def cpp_sequence_time(model: Any, x: np.ndarray) -> float:
@@ -91,6 +90,16 @@ def cpp_step_latency_python(model: Any, batch: int, steps: int) -> float:
     return (time.perf_counter() - t0) / steps
 
 
+def with_threads(n: int, fn: Callable[..., float], *args: Any) -> float:
+    """``fn(*args)`` with torch on ``n`` threads (the previous count restored)."""
+    old = torch.get_num_threads()
+    torch.set_num_threads(n)
+    try:
+        return fn(*args)
+    finally:
+        torch.set_num_threads(old)
+
+
 def main() -> None:
     """Run the benchmark and print the table."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -101,23 +110,24 @@ def main() -> None:
     ap.add_argument("--cell", choices=("standard", "peephole"), default="standard")
     ap.add_argument("--hidden", type=int, nargs="+", default=[16, 32, 64, 128])
     ap.add_argument("--batch", type=int, nargs="+", default=[1, 64])
-    ap.add_argument("--torch-threads", type=int, default=1,
-                    help="torch CPU threads (1: like the single-threaded C++ engine)")
     args = ap.parse_args()
-    torch.set_num_threads(args.torch_threads)
+    n_default = torch.get_num_threads()
+    settings = (1, n_default)
 
     print(f"# terrasph LSTM inference benchmark: {args.cell} cell, {args.layers} layer(s), "
           f"float32, {N_IN} inputs, {N_OUT} outputs")
     print(f"# {platform.processor() or platform.machine()}, torch {torch.__version__} "
-          f"({torch.get_num_threads()} threads), C++ engine single-threaded")
-    print(f"# streaming: {args.steps} steps/timing; throughput: T = {args.seq_len}; "
-          f"best of {args.repeats}")
-    head = (f"{'hidden':>6} {'batch':>5} | {'C++ step':>10} {'C++ via Py':>10} "
-            f"{'torch step':>10} {'speed-up':>8} | {'C++ seq':>11} {'torch seq':>11} "
-            f"{'speed-up':>8}")
+          f"(threads: 1 and default {n_default}), C++ engine single-threaded"
+          f"{', AVX2+FMA kernels' if make_models(4, 1, 'standard')[1].uses_avx2 else ''}")
+    print(f"# streaming: >= {args.steps} steps/timing; throughput: T = {args.seq_len}; "
+          f"best of {args.repeats}, C++ / torch 1 thread / torch {n_default} threads interleaved")
+    tn = f"t{n_default}"
+    head = (f"{'hidden':>6} {'batch':>5} | {'C++':>8} {'C++ Py':>8} {'torch t1':>9} "
+            f"{'torch ' + tn:>9} {'x t1':>6} {'x ' + tn:>6} | {'C++':>9} {'torch t1':>9} "
+            f"{'torch ' + tn:>9} {'x t1':>6} {'x ' + tn:>6}")
+    print(f"{'':>12} | {'streaming step [µs]; speed-up C++/torch':<55}| "
+          f"whole sequences [steps/s]; speed-up")
     print(head)
-    print(f"{'':>6} {'':>5} | {'[µs]':>10} {'[µs]':>10} {'[µs]':>10} {'C++/torch':>8} | "
-          f"{'[steps/s]':>11} {'[steps/s]':>11} {'C++/torch':>8}")
     print("-" * len(head))
     for hidden in args.hidden:
         net, model = make_models(hidden, args.layers, args.cell)
@@ -126,18 +136,25 @@ def main() -> None:
             stream = model.stream(batch)
             xin = x1[0] if batch == 1 else x1
             n_cpp = max(args.steps, 20000 // batch)
-            cpp_step = best_of(args.repeats, stream.time_steps, xin, n_cpp)
-            cpp_py = best_of(args.repeats, cpp_step_latency_python, model, batch, args.steps)
-            t_step = best_of(args.repeats, torch_step_latency, net, batch, args.steps)
-
             seq_len = args.seq_len if args.cell == "standard" else min(args.seq_len, 200)
             x = np.random.default_rng(2).normal(size=(batch, seq_len, N_IN)).astype(np.float32)
-            n = batch * seq_len
-            cpp_tp = n / best_of(args.repeats, cpp_sequence_time, model, x)
-            t_tp = n / best_of(args.repeats, torch_sequence_time, net, torch.from_numpy(x))
-            print(f"{hidden:>6} {batch:>5} | {cpp_step * 1e6:>10.3f} {cpp_py * 1e6:>10.3f} "
-                  f"{t_step * 1e6:>10.2f} {t_step / cpp_step:>8.1f} | {cpp_tp:>11.3g} "
-                  f"{t_tp:>11.3g} {cpp_tp / t_tp:>8.2f}")
+            xt = torch.from_numpy(x)
+            step = {"cpp": np.inf, "py": np.inf, **{n: np.inf for n in settings}}
+            seq = {"cpp": np.inf, **{n: np.inf for n in settings}}
+            for _ in range(args.repeats):
+                step["cpp"] = min(step["cpp"], stream.time_steps(xin, n_cpp))
+                step["py"] = min(step["py"], cpp_step_latency_python(model, batch, args.steps))
+                seq["cpp"] = min(seq["cpp"], cpp_sequence_time(model, x))
+                for n in settings:
+                    step[n] = min(step[n], with_threads(n, torch_step_latency, net, batch,
+                                                        args.steps))
+                    seq[n] = min(seq[n], with_threads(n, torch_sequence_time, net, xt))
+            tp = {k: batch * seq_len / v for k, v in seq.items()}
+            print(f"{hidden:>6} {batch:>5} | {step['cpp'] * 1e6:>8.3f} {step['py'] * 1e6:>8.3f} "
+                  f"{step[1] * 1e6:>9.1f} {step[n_default] * 1e6:>9.1f} "
+                  f"{step[1] / step['cpp']:>6.1f} {step[n_default] / step['cpp']:>6.1f} | "
+                  f"{tp['cpp']:>9.3g} {tp[1]:>9.3g} {tp[n_default]:>9.3g} "
+                  f"{tp['cpp'] / tp[1]:>6.2f} {tp['cpp'] / tp[n_default]:>6.2f}", flush=True)
 
 
 if __name__ == "__main__":

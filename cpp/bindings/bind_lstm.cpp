@@ -1,6 +1,6 @@
 // Bindings of the LSTM inference engine (cpp/lstm/include/terrasph/lstm.hpp) as the submodule
 // terrasph._core.lstm: Model32/Model64 (immutable weights) and Stream32/Stream64 (state of a
-// batch of sequences advanced one step at a time). numpy in, numpy out, C-contiguous rows.
+// batch of sequences advanced together one step at a time). numpy in, numpy out, C-contiguous rows.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -26,43 +26,38 @@ std::string shape_str(const py::array& a) {
   return s + (a.ndim() == 1 ? ",)" : ")");
 }
 
-/// A batch of independent streams sharing one model: the Python streaming object.
+/// A batch of independent streams sharing one model, advanced together (tl::Batch): the Python
+/// streaming object.
 template <typename Scalar>
 class BatchStream {
  public:
-  BatchStream(std::shared_ptr<const tl::Model<Scalar>> model, py::ssize_t batch) {
-    if (batch < 1 || batch > 1000000) {
-      throw py::value_error("batch must be in [1, 1000000], got " + std::to_string(batch));
-    }
-    for (py::ssize_t b = 0; b < batch; ++b) streams_.emplace_back(model);
-  }
+  BatchStream(std::shared_ptr<const tl::Model<Scalar>> model, py::ssize_t batch)
+      : batch_(std::move(model), checked_batch(batch)) {}
 
-  py::ssize_t batch() const { return static_cast<py::ssize_t>(streams_.size()); }
-  const tl::Model<Scalar>& model() const { return streams_.front().model(); }
+  py::ssize_t batch() const { return batch_.batch(); }
+  const tl::Model<Scalar>& model() const { return batch_.model(); }
 
-  void reset() {
-    for (auto& s : streams_) s.reset();
-  }
+  void reset() { batch_.reset(); }
 
   /// x: (I,) when batch == 1 or (B, I); returns (O,) or (B, O).
   py::array_t<Scalar> step(const CArray<Scalar>& x) {
-    const py::ssize_t ni = model().input_size(), no = model().output_size();
+    const py::ssize_t no = model().output_size();
     const bool flat = x.ndim() == 1;
-    check_input(x, ni);
+    check_input(x);
     py::array_t<Scalar> y = flat ? py::array_t<Scalar>({no}) : py::array_t<Scalar>({batch(), no});
-    step_raw(x.data(), y.mutable_data(), ni, no);
+    batch_.step(x.data(), y.mutable_data());
     return y;
   }
 
   /// Same as step() but writes into a preallocated C-contiguous out array (no allocation).
   void step_into(const CArray<Scalar>& x, py::array_t<Scalar, py::array::c_style> out) {
-    const py::ssize_t ni = model().input_size(), no = model().output_size();
-    check_input(x, ni);
+    const py::ssize_t no = model().output_size();
+    check_input(x);
     if (out.size() != batch() * no) {
       throw py::value_error("out must hold batch*output_size = " + std::to_string(batch() * no) +
                             " values, got shape " + shape_str(out));
     }
-    step_raw(x.data(), out.mutable_data(), ni, no);
+    batch_.step(x.data(), out.mutable_data());
   }
 
   /// Hidden state of layer l, shape (B, H_l).
@@ -72,19 +67,26 @@ class BatchStream {
 
   /// Mean wall time of one step over n steps (seconds), measured inside C++ (benchmarks).
   double time_steps(const CArray<Scalar>& x, py::ssize_t n) {
-    const py::ssize_t ni = model().input_size(), no = model().output_size();
-    check_input(x, ni);
+    check_input(x);
     if (n < 1) throw py::value_error("n must be >= 1, got " + std::to_string(n));
-    std::vector<Scalar> y(static_cast<std::size_t>(batch() * no));
+    std::vector<Scalar> y(static_cast<std::size_t>(batch() * model().output_size()));
     py::gil_scoped_release release;
     const auto t0 = std::chrono::steady_clock::now();
-    for (py::ssize_t k = 0; k < n; ++k) step_raw(x.data(), y.data(), ni, no);
+    for (py::ssize_t k = 0; k < n; ++k) batch_.step(x.data(), y.data());
     const auto t1 = std::chrono::steady_clock::now();
     return std::chrono::duration<double>(t1 - t0).count() / static_cast<double>(n);
   }
 
  private:
-  void check_input(const CArray<Scalar>& x, py::ssize_t ni) const {
+  static py::ssize_t checked_batch(py::ssize_t batch) {
+    if (batch < 1 || batch > tl::Batch<Scalar>::kMaxBatch) {
+      throw py::value_error("batch must be in [1, " + std::to_string(tl::Batch<Scalar>::kMaxBatch) +
+                            "], got " + std::to_string(batch));
+    }
+    return batch;
+  }
+  void check_input(const CArray<Scalar>& x) const {
+    const py::ssize_t ni = model().input_size();
     const bool ok = (x.ndim() == 1 && batch() == 1 && x.shape(0) == ni) ||
                     (x.ndim() == 2 && x.shape(0) == batch() && x.shape(1) == ni);
     if (!ok) {
@@ -102,12 +104,6 @@ class BatchStream {
       }
     }
   }
-  void step_raw(const Scalar* x, Scalar* y, py::ssize_t ni, py::ssize_t no) {
-    for (std::size_t b = 0; b < streams_.size(); ++b) {
-      const auto off = static_cast<py::ssize_t>(b);
-      streams_[b].step(x + off * ni, y + off * no);
-    }
-  }
   py::array_t<Scalar> state(py::ssize_t l, bool hidden_state) const {
     const auto& m = model();
     if (l < 0 || l >= m.num_layers()) {
@@ -118,18 +114,18 @@ class BatchStream {
     py::array_t<Scalar> out({batch(), H});
     auto o = out.template mutable_unchecked<2>();
     for (py::ssize_t b = 0; b < batch(); ++b) {
-      const auto& s = streams_[static_cast<std::size_t>(b)];
-      for (py::ssize_t k = 0; k < H; ++k)
-        o(b, k) = hidden_state ? s.hidden(l)[k] : s.cell(l)[k];
+      const Scalar* v = hidden_state ? batch_.hidden(b, l) : batch_.cell(b, l);
+      for (py::ssize_t k = 0; k < H; ++k) o(b, k) = v[k];
     }
     return out;
   }
 
-  std::vector<tl::Stream<Scalar>> streams_;
+  tl::Batch<Scalar> batch_;
 };
 
 /// Whole-sequence prediction: x (T, I) -> (T, O) or (B, T, I) -> (B, T, O), each sequence from a
-/// zero state with the same arithmetic as streaming. The GIL is released while computing.
+/// zero state; a batch is advanced together (tl::predict_batch), with results equal bit for bit
+/// to predicting each sequence alone. The GIL is released while computing.
 template <typename Scalar>
 py::array_t<Scalar> predict(const std::shared_ptr<const tl::Model<Scalar>>& model,
                             const CArray<Scalar>& x) {
@@ -155,11 +151,7 @@ py::array_t<Scalar> predict(const std::shared_ptr<const tl::Model<Scalar>>& mode
   }
   {
     py::gil_scoped_release release;
-    tl::Stream<Scalar> stream(model);
-    for (py::ssize_t b = 0; b < B; ++b) {
-      stream.reset();
-      stream.run(px + b * T * ni, T, py_out + b * T * no);
-    }
+    tl::predict_batch<Scalar>(model, px, B, T, py_out);
   }
   return y;
 }
@@ -201,6 +193,8 @@ void bind_precision(py::module_& m, const std::string& suffix) {
       .def_property_readonly("target_names", &ModelT::target_names)
       .def_property_readonly("metadata", &ModelT::metadata, "Metadata JSON text.")
       .def_property_readonly("dtype", [dtype](const ModelT&) { return dtype; })
+      .def_property_readonly("uses_avx2", &ModelT::uses_avx2,
+                             "True if the kernels run their AVX2+FMA variant, chosen at run time.")
       .def(
           "predict",
           [](const std::shared_ptr<ModelT>& self, const CArray<Scalar>& x) {

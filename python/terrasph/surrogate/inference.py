@@ -92,6 +92,25 @@ def _is_number(text: str) -> bool:
 
 def predict_sequences(model: Any, sequences: Sequence[tuple[str, np.ndarray]]
                       ) -> list[tuple[str, np.ndarray]]:
-    """Predict every (name, x) sequence with the C++ model; returns (name, y) pairs."""
+    """Predict every (name, x) sequence with the C++ model; returns (name, y) pairs in order.
+
+    Sequences of equal length are stacked and advanced together as one batch (the engine's
+    batched path, bit for bit equal to predicting them one by one).
+
+    Raises:
+        ValueError: if a sequence is not a (T, input_size) array (the message names it).
+    """
     dtype = np.float32 if model.dtype == "float32" else np.float64
-    return [(name, model.predict(np.ascontiguousarray(x, dtype=dtype))) for name, x in sequences]
+    n_in = model.input_size
+    by_length: dict[int, list[int]] = {}
+    for k, (name, x) in enumerate(sequences):
+        shape = np.shape(x)
+        if len(shape) != 2 or shape[1] != n_in:
+            raise ValueError(f"sequence {name!r}: x must have shape (T, {n_in}), got {shape}")
+        by_length.setdefault(shape[0], []).append(k)
+    out: list[tuple[str, np.ndarray]] = list(sequences)
+    for members in by_length.values():
+        batch = np.stack([np.asarray(sequences[k][1], dtype=dtype) for k in members])
+        for k, y in zip(members, model.predict(batch)):
+            out[k] = (sequences[k][0], y)
+    return out

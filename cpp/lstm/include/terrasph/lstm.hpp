@@ -8,15 +8,19 @@
 //   float x[NI], y[NO];
 //   stream.step(x, y);            // one time step: raw features in, raw targets out
 //   stream.reset();               // start a new sequence
+//   terrasph::lstm::Batch<float> batch(model, 64);   // 64 sequences advanced together
+//   batch.step(x64, y64);         // x64 (64, NI) row-major -> y64 (64, NO)
 //
-// Model holds the constants (weights, normalisation) and Stream the state (h, c and work
+// Model holds the constants (weights, normalisation) and Stream/Batch the state (h, c and work
 // buffers, allocated once), so one model can serve many independent streams. A step performs
 // no heap allocation. Whole-sequence prediction runs the very same step, so it is bit-for-bit
-// equal to streaming. The file format is documented in docs/lstm_format.md.
+// equal to streaming, and a batch is bit-for-bit equal to its sequences run one by one
+// (lstm_kernels.hpp says why). The file format is documented in docs/lstm_format.md.
 #pragma once
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <memory>
@@ -26,121 +30,10 @@
 #include <vector>
 
 #include "terrasph/lstm_format.hpp"
+#include "terrasph/lstm_kernels.hpp"
 
 namespace terrasph {
 namespace lstm {
-
-namespace detail {
-
-/// Rows per register block of the gate product: 8 AVX registers of accumulators.
-template <typename Scalar>
-constexpr int big_block() {
-  return 256 / static_cast<int>(sizeof(Scalar));
-}
-
-/// Copy the leading whole row blocks of big_block() rows into the layout the kernel streams
-/// through: block after block, within a block column after column (B values each).
-template <typename Scalar, typename Mat>
-std::vector<Scalar> pack_blocks(const Mat& w) {
-  constexpr Eigen::Index kBig = big_block<Scalar>();
-  std::vector<Scalar> out;
-  out.reserve(static_cast<std::size_t>(w.rows() / kBig * kBig * w.cols()));
-  for (Eigen::Index r = 0; r + kBig <= w.rows(); r += kBig)
-    for (Eigen::Index j = 0; j < w.cols(); ++j)
-      for (Eigen::Index k = 0; k < kBig; ++k) out.push_back(w(r + k, j));
-  return out;
-}
-
-// y[r0, r0+B) += W_block z: B accumulators stay in registers across all columns and the block's
-// weights are read once, sequentially.
-template <int B, typename Scalar>
-#if defined(__GNUC__)
-__attribute__((always_inline))
-#endif
-inline void gemv_rows(const Scalar* blk, Eigen::Index r0, Eigen::Index cols, const Scalar* z,
-                      Scalar* y) {
-  Scalar acc[B];
-  for (int k = 0; k < B; ++k) acc[k] = y[r0 + k];
-  for (Eigen::Index j = 0; j < cols; ++j) {
-    const Scalar zj = z[j];
-    const Scalar* col = blk + j * B;
-    for (int k = 0; k < B; ++k) acc[k] += col[k] * zj;
-  }
-  for (int k = 0; k < B; ++k) y[r0 + k] = acc[k];
-}
-
-// y[0, n_blocks * B) += W z for the packed leading row blocks of W (pack_blocks).
-template <typename Scalar>
-#if defined(__GNUC__)
-__attribute__((always_inline))
-#endif
-inline void gemv_body(const Scalar* packed, Eigen::Index n_blocks, Eigen::Index cols,
-                      const Scalar* z, Scalar* y) {
-  constexpr int kBig = big_block<Scalar>();
-  for (Eigen::Index b = 0; b < n_blocks; ++b)
-    gemv_rows<kBig>(packed + b * kBig * cols, b * kBig, cols, z, y);
-}
-
-template <typename Scalar>
-void gemv_generic(const Scalar* packed, Eigen::Index rows, Eigen::Index cols, const Scalar* z,
-                  Scalar* y) {
-  gemv_body(packed, rows, cols, z, y);
-}
-
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(__AVX2__) && \
-    !defined(TERRASPH_LSTM_NO_DISPATCH)
-#define TERRASPH_LSTM_AVX2_DISPATCH 1
-// Same kernel compiled for AVX2 + FMA, chosen at run time when the CPU has them, so a build
-// for baseline x86-64 (like a Python wheel) still uses 256-bit vectors.
-template <typename Scalar>
-__attribute__((target("avx2,fma"))) void gemv_avx2(const Scalar* packed, Eigen::Index rows,
-                                                   Eigen::Index cols, const Scalar* z,
-                                                   Scalar* y) {
-  gemv_body(packed, rows, cols, z, y);
-}
-inline bool cpu_has_avx2_fma() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
-#endif
-
-/// y += W z: the packed kernel (chosen for this CPU once per Model, so results are
-/// reproducible) for the leading whole blocks of rows, Eigen's product for the remaining rows
-/// (all rows when the matrix is smaller than one block).
-template <typename Scalar, typename Mat>
-inline void gemv(bool use_avx2, const std::vector<Scalar>& packed, const Mat& w,
-                 const Scalar* z, Scalar* y) {
-  using Vec = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
-  const Eigen::Index rows = w.rows(), cols = w.cols();
-  const Eigen::Index n_blocks = rows / big_block<Scalar>();
-  const Eigen::Index done = n_blocks * big_block<Scalar>();
-  if (n_blocks > 0) {
-#ifdef TERRASPH_LSTM_AVX2_DISPATCH
-    if (use_avx2) {
-      gemv_avx2(packed.data(), n_blocks, cols, z, y);
-    } else {
-      gemv_generic(packed.data(), n_blocks, cols, z, y);
-    }
-#else
-    (void)use_avx2;
-    gemv_generic(packed.data(), n_blocks, cols, z, y);
-#endif
-  }
-  if (done < rows) {
-    Eigen::Map<Vec> tail(y + done, rows - done);
-    tail.noalias() += w.bottomRows(rows - done) * Eigen::Map<const Vec>(z, cols);
-  }
-}
-
-inline bool default_use_avx2() {
-#ifdef TERRASPH_LSTM_AVX2_DISPATCH
-  return cpu_has_avx2_fma();
-#else
-  return false;
-#endif
-}
-
-}  // namespace detail
 
 /// One recurrent layer in the working precision.
 template <typename Scalar>
@@ -152,8 +45,9 @@ struct Layer {
   Matrix w;     // (4H, in + H) = [W_ih | W_hh], gate rows in PyTorch order i, f, g, o
   Vector bias;  // (4H,) = b_ih + b_hh
   Matrix w_ci, w_cf, w_co;  // (H, H) peephole matrices (Eq. 4.9, 4.10, 4.12); empty if standard
-  // The same matrices in the kernel's blocked layout (detail::pack_blocks).
-  std::vector<Scalar> w_packed, w_ci_packed, w_cf_packed, w_co_packed;
+  // The same matrices in the kernels' panel layout (detail::Packed): w, [W_ci; W_cf] stacked
+  // (both act on c_{t-1}), W_co.
+  detail::Packed<Scalar> w_packed, w_cif_packed, w_co_packed;
 };
 
 /// Immutable model: cell type, layer weights, dense head and normalisation.
@@ -194,16 +88,18 @@ class Model {
         L.w_ci = to_matrix(ld.w_ci, H, H, "weight_ci");
         L.w_cf = to_matrix(ld.w_cf, H, H, "weight_cf");
         L.w_co = to_matrix(ld.w_co, H, H, "weight_co");
-        L.w_ci_packed = detail::pack_blocks<Scalar>(L.w_ci);
-        L.w_cf_packed = detail::pack_blocks<Scalar>(L.w_cf);
-        L.w_co_packed = detail::pack_blocks<Scalar>(L.w_co);
+        Matrix cif(2 * H, H);
+        cif << L.w_ci, L.w_cf;
+        L.w_cif_packed = detail::Packed<Scalar>::pack(cif);
+        L.w_co_packed = detail::Packed<Scalar>::pack(L.w_co);
       }
-      L.w_packed = detail::pack_blocks<Scalar>(L.w);
+      L.w_packed = detail::Packed<Scalar>::pack(L.w);
       layers_.push_back(std::move(L));
       in = H;
     }
     w_out_ = to_matrix(d.w_out, output_size_, in, "head weight");
     b_out_ = to_vector(d.b_out, output_size_, "head bias");
+    for (double v : d.w_out) w_out_rows_.push_back(static_cast<Scalar>(v));  // row-major (O, H)
   }
 
   /// Load a model file; throws FormatError on any malformed content.
@@ -229,7 +125,9 @@ class Model {
   const Vector& output_scale() const { return out_scale_; }
   const Matrix& head_weight() const { return w_out_; }
   const Vector& head_bias() const { return b_out_; }
-  /// True if the gate products use the run-time selected AVX2/FMA kernel.
+  /// The head weight row-major (O rows of H_last), as detail::head_dot reads it.
+  const std::vector<Scalar>& head_weight_rows() const { return w_out_rows_; }
+  /// True if the kernels run the variant compiled for AVX2 + FMA, chosen at run time.
   bool uses_avx2() const { return use_avx2_; }
 
  private:
@@ -260,10 +158,224 @@ class Model {
   std::vector<Layer<Scalar>> layers_;
   Matrix w_out_;
   Vector b_out_;
+  std::vector<Scalar> w_out_rows_;
   bool use_avx2_ = detail::default_use_avx2();
 };
 
-/// Recurrent state of one sequence plus preallocated work buffers.
+namespace detail {
+
+/// State and work buffers of B sequences, row-major (one row per sequence): per layer
+/// z = [u_t ; h_{t-1}] (in + H), c (H) and the gate pre-activations g (4H); the head output.
+template <typename S>
+struct Workspace {
+  Index batch = 0;
+  std::vector<std::vector<S>> z, c, g;
+  std::vector<S> head;
+  std::vector<S> scratch;  // inputs of a batched product in tile order (product_body)
+
+  Workspace(const Model<S>& m, Index B) : batch(B) {
+    Index k_max = 0;
+    for (const auto& L : m.layers()) {
+      k_max = std::max(k_max, L.input_size + L.hidden_size);
+      const auto H = static_cast<std::size_t>(L.hidden_size);
+      z.emplace_back(static_cast<std::size_t>(B) * (static_cast<std::size_t>(L.input_size) + H));
+      c.emplace_back(static_cast<std::size_t>(B) * H);
+      g.emplace_back(static_cast<std::size_t>(B) * 4 * H);
+    }
+    head.resize(static_cast<std::size_t>(B * m.output_size()));
+    if (B > 1) scratch.resize(static_cast<std::size_t>(product_scratch(B, k_max)));
+  }
+  void reset() {
+    for (auto& v : z) std::fill(v.begin(), v.end(), S(0));
+    for (auto& v : c) std::fill(v.begin(), v.end(), S(0));
+  }
+};
+
+/// One recurrent layer for all B sequences: gates, cell update, h_t into z's tail.
+template <typename Isa, typename S>
+TERRASPH_LSTM_INLINE void layer_step(const Layer<S>& L, CellType cell, Index B, S* z, S* c,
+                                     S* g, S* scratch) {
+  const Index H = L.hidden_size, ldz = L.input_size + H;
+  for (Index b = 0; b < B; ++b)
+    std::copy(L.bias.data(), L.bias.data() + 4 * H, g + b * 4 * H);
+  product(Isa{}, L.w_packed, B, z, ldz, g, 4 * H, scratch);  // + W_ih u_t + W_hh h_{t-1}, all four gates
+  if (cell == CellType::Standard) {
+    for (Index b = 0; b < B; ++b) standard_cell(H, g + b * 4 * H, c + b * H, z + b * ldz + ldz - H);
+    return;
+  }
+  product(Isa{}, L.w_cif_packed, B, c, H, g, 4 * H, scratch);  // + W_ci c_{t-1} (4.9), + W_cf c_{t-1} (4.10)
+  for (Index b = 0; b < B; ++b) peephole_cell_state(H, g + b * 4 * H, c + b * H);
+  product(Isa{}, L.w_co_packed, B, c, H, g + 3 * H, 4 * H, scratch);  // + W_co c_t (4.12)
+  for (Index b = 0; b < B; ++b)
+    peephole_output(H, g + b * 4 * H + 3 * H, c + b * H, z + b * ldz + ldz - H);
+}
+
+/// One time step of B sequences: x (B rows of I raw features, leading dimension ldx) ->
+/// y (B rows of O raw targets, leading dimension ldy).
+template <typename Isa, typename S>
+TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, const S* x,
+                                       Index ldx, S* y, Index ldy) {
+  const Index B = ws.batch, ni = m.input_size(), no = m.output_size();
+  const std::size_t n_layers = m.layers().size();
+  {
+    const Index ldz = ni + m.layers()[0].hidden_size;
+    const S *mean = m.input_mean().data(), *scale = m.input_scale().data();
+    for (Index b = 0; b < B; ++b)
+      for (Index j = 0; j < ni; ++j)
+        ws.z[0][static_cast<std::size_t>(b * ldz + j)] = (x[b * ldx + j] - mean[j]) / scale[j];
+  }
+  for (std::size_t l = 0; l < n_layers; ++l) {
+    const Layer<S>& L = m.layers()[l];
+    layer_step<Isa>(L, m.cell_type(), B, ws.z[l].data(), ws.c[l].data(), ws.g[l].data(),
+                    ws.scratch.data());
+    if (l + 1 < n_layers) {  // h_t of layer l is the input of layer l + 1
+      const Index H = L.hidden_size, ldz = L.input_size + H, ldz_next = H + m.layers()[l + 1].hidden_size;
+      for (Index b = 0; b < B; ++b)
+        std::copy(ws.z[l].data() + b * ldz + L.input_size, ws.z[l].data() + (b + 1) * ldz,
+                  ws.z[l + 1].data() + b * ldz_next);
+    }
+  }
+  const Layer<S>& last = m.layers().back();
+  const Index ldz = last.input_size + last.hidden_size;
+  S* head = ws.head.data();
+  const S* h_last = ws.z.back().data() + last.input_size;
+  for (Index b = 0; b < B; ++b) {
+    std::copy(m.head_bias().data(), m.head_bias().data() + no, head + b * no);
+    head_dot(m.head_weight_rows().data(), last.hidden_size, no, last.hidden_size,
+             h_last + b * ldz, head + b * no);
+  }
+  const S *mean = m.output_mean().data(), *scale = m.output_scale().data();
+  for (Index b = 0; b < B; ++b)
+    for (Index k = 0; k < no; ++k) y[b * ldy + k] = head[b * no + k] * scale[k] + mean[k];
+}
+
+template <typename S>
+void advance_generic(const Model<S>& m, Workspace<S>& ws, const S* x, Index ldx, S* y,
+                     Index ldy) {
+  advance_body<Generic>(m, ws, x, ldx, y, ldy);
+}
+
+#ifdef TERRASPH_LSTM_AVX2_DISPATCH
+// The same step compiled for AVX2 + FMA (lstm_kernels.hpp), chosen per Model at run time.
+template <typename S>
+__attribute__((target("avx2,fma"))) void advance_avx2(const Model<S>& m, Workspace<S>& ws,
+                                                      const S* x, Index ldx, S* y, Index ldy) {
+  advance_body<Avx2>(m, ws, x, ldx, y, ldy);
+}
+#endif
+
+/// One time step with the kernel variant the model chose for this CPU.
+template <typename S>
+inline void advance(const Model<S>& m, Workspace<S>& ws, const S* x, Index ldx, S* y,
+                    Index ldy) {
+#ifdef TERRASPH_LSTM_AVX2_DISPATCH
+  if (m.uses_avx2()) {
+    advance_avx2(m, ws, x, ldx, y, ldy);
+    return;
+  }
+#endif
+  advance_generic(m, ws, x, ldx, y, ldy);
+}
+
+}  // namespace detail
+
+/// Recurrent state of B independent sequences advanced together, plus preallocated work
+/// buffers. Each step runs one matrix-matrix product per weight matrix for all B sequences;
+/// results equal those of B single Streams bit for bit (see lstm_kernels.hpp).
+///
+/// step() and run() perform no heap allocation. Not thread-safe: one Batch per thread.
+template <typename Scalar>
+class Batch {
+ public:
+  using Vector = typename Model<Scalar>::Vector;
+  static constexpr Eigen::Index kMaxBatch = 1 << 20;
+
+  Batch(std::shared_ptr<const Model<Scalar>> model, Eigen::Index batch)
+      : model_(checked(std::move(model), batch)), ws_(*model_, batch) {}
+
+  const Model<Scalar>& model() const { return *model_; }
+  Eigen::Index batch() const { return ws_.batch; }
+  Eigen::Index input_size() const { return model_->input_size(); }
+  Eigen::Index output_size() const { return model_->output_size(); }
+
+  /// Zero the hidden and cell state of every sequence and layer (start new sequences).
+  void reset() { ws_.reset(); }
+
+  /// Hidden state h of sequence b in layer l (H_l values).
+  const Scalar* hidden(Eigen::Index b, Eigen::Index l) const {
+    const auto& L = layer(l);
+    const Eigen::Index ldz = L.input_size + L.hidden_size;
+    return ws_.z[static_cast<std::size_t>(l)].data() + row(b) * ldz + L.input_size;
+  }
+  /// Cell state c of sequence b in layer l (H_l values).
+  const Scalar* cell(Eigen::Index b, Eigen::Index l) const {
+    return ws_.c[static_cast<std::size_t>(l)].data() + row(b) * layer(l).hidden_size;
+  }
+
+  /// Advance all sequences one time step: x is (batch, input_size) row-major raw features,
+  /// y receives (batch, output_size) raw targets. Throws std::invalid_argument (state
+  /// untouched) if x is not finite.
+  void step(const Scalar* x, Scalar* y) {
+    check_finite(x, 1);
+    detail::advance(*model_, ws_, x, input_size(), y, output_size());
+  }
+
+  /// Run T steps of every sequence from the current state: x is (batch, T, input_size)
+  /// row-major, y is (batch, T, output_size). Same arithmetic as step(), hence identical
+  /// results. Throws std::invalid_argument (state untouched) if x is not finite.
+  void run(const Scalar* x, Eigen::Index T, Scalar* y) {
+    check_finite(x, T);
+    const Eigen::Index ni = input_size(), no = output_size();
+    for (Eigen::Index t = 0; t < T; ++t)
+      detail::advance(*model_, ws_, x + t * ni, T * ni, y + t * no, T * no);
+  }
+
+ private:
+  static std::shared_ptr<const Model<Scalar>> checked(std::shared_ptr<const Model<Scalar>> m,
+                                                      Eigen::Index batch) {
+    if (!m) throw std::invalid_argument("LSTM batch: model must not be null");
+    if (batch < 1 || batch > kMaxBatch) {
+      throw std::invalid_argument("LSTM batch: batch must be in [1, " +
+                                  std::to_string(kMaxBatch) + "], got " +
+                                  std::to_string(batch));
+    }
+    return m;
+  }
+  const Layer<Scalar>& layer(Eigen::Index l) const {
+    if (l < 0 || l >= model_->num_layers()) {
+      throw std::out_of_range("LSTM state: layer must be in [0, " +
+                              std::to_string(model_->num_layers() - 1) + "], got " +
+                              std::to_string(l));
+    }
+    return model_->layers()[static_cast<std::size_t>(l)];
+  }
+  Eigen::Index row(Eigen::Index b) const {
+    if (b < 0 || b >= batch()) {
+      throw std::out_of_range("LSTM state: sequence must be in [0, " +
+                              std::to_string(batch() - 1) + "], got " + std::to_string(b));
+    }
+    return b;
+  }
+  // x holds batch() rows of T * input_size values.
+  void check_finite(const Scalar* x, Eigen::Index T) const {
+    const Eigen::Index ni = input_size(), n = batch() * T * ni;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      if (!std::isfinite(x[k])) {
+        const Eigen::Index j = k % ni, t = (k / ni) % T, b = k / (ni * T);
+        throw std::invalid_argument(
+            "LSTM input x[sequence " + std::to_string(b) + ", step " + std::to_string(t) +
+            ", feature " + std::to_string(j) + "] ('" +
+            model_->feature_names()[static_cast<std::size_t>(j)] +
+            "') is not finite; inputs must be finite numbers");
+      }
+    }
+  }
+
+  std::shared_ptr<const Model<Scalar>> model_;
+  detail::Workspace<Scalar> ws_;
+};
+
+/// Recurrent state of one sequence: a Batch of one, with single-sequence accessors.
 ///
 /// step() performs no heap allocation. Not thread-safe: use one Stream per thread/sequence.
 template <typename Scalar>
@@ -271,109 +383,39 @@ class Stream {
  public:
   using Vector = typename Model<Scalar>::Vector;
 
-  explicit Stream(std::shared_ptr<const Model<Scalar>> model) : model_(std::move(model)) {
-    if (!model_) throw std::invalid_argument("LSTM stream: model must not be null");
-    for (const auto& L : model_->layers()) {
-      z_.push_back(Vector::Zero(L.input_size + L.hidden_size));
-      c_.push_back(Vector::Zero(L.hidden_size));
-      gates_.push_back(Vector::Zero(4 * L.hidden_size));
-    }
-    head_ = Vector::Zero(model_->output_size());
-  }
+  explicit Stream(std::shared_ptr<const Model<Scalar>> model) : batch_(std::move(model), 1) {}
 
-  const Model<Scalar>& model() const { return *model_; }
-  Eigen::Index input_size() const { return model_->input_size(); }
-  Eigen::Index output_size() const { return model_->output_size(); }
+  const Model<Scalar>& model() const { return batch_.model(); }
+  Eigen::Index input_size() const { return batch_.input_size(); }
+  Eigen::Index output_size() const { return batch_.output_size(); }
 
   /// Zero the hidden and cell state of every layer (start of a new sequence).
-  void reset() {
-    for (auto& z : z_) z.setZero();
-    for (auto& c : c_) c.setZero();
-  }
+  void reset() { batch_.reset(); }
 
   /// Hidden state h of layer l (size H_l).
-  Eigen::Ref<const Vector> hidden(Eigen::Index l) const {
-    const auto& L = model_->layers().at(static_cast<std::size_t>(l));
-    return z_[static_cast<std::size_t>(l)].tail(L.hidden_size);
+  Eigen::Map<const Vector> hidden(Eigen::Index l) const {
+    return Eigen::Map<const Vector>(batch_.hidden(0, l), hidden_size(l));
   }
   /// Cell state c of layer l (size H_l).
-  const Vector& cell(Eigen::Index l) const { return c_.at(static_cast<std::size_t>(l)); }
+  Eigen::Map<const Vector> cell(Eigen::Index l) const {
+    return Eigen::Map<const Vector>(batch_.cell(0, l), hidden_size(l));
+  }
 
   /// Advance one time step: x holds input_size() raw features, y receives output_size() raw
   /// targets. Throws std::invalid_argument (state untouched) if x is not finite.
-  void step(const Scalar* x, Scalar* y) {
-    const Model<Scalar>& m = *model_;
-    const Eigen::Index ni = m.input_size();
-    for (Eigen::Index j = 0; j < ni; ++j) {
-      if (!std::isfinite(x[j])) {
-        throw std::invalid_argument("LSTM input x[" + std::to_string(j) + "] ('" +
-                                    m.feature_names()[static_cast<std::size_t>(j)] +
-                                    "') is not finite; inputs must be finite numbers");
-      }
-    }
-    const Eigen::Map<const Vector> xv(x, ni);
-    z_[0].head(ni) = (xv - m.input_mean()).cwiseQuotient(m.input_scale());
-    const std::size_t n_layers = m.layers().size();
-    for (std::size_t l = 0; l < n_layers; ++l) {
-      step_layer(m.layers()[l], m.cell_type(), m.uses_avx2(), z_[l], c_[l], gates_[l]);
-      const Eigen::Index H = m.layers()[l].hidden_size;
-      if (l + 1 < n_layers) z_[l + 1].head(H) = z_[l].tail(H);
-    }
-    const Layer<Scalar>& last = m.layers().back();
-    head_.noalias() = m.head_weight() * z_.back().tail(last.hidden_size);
-    head_ += m.head_bias();
-    Eigen::Map<Vector> yv(y, m.output_size());
-    yv = head_.cwiseProduct(m.output_scale()) + m.output_mean();
-  }
+  void step(const Scalar* x, Scalar* y) { batch_.step(x, y); }
 
   /// Run a whole sequence of T steps from the current state: x is (T, input_size) row-major,
   /// y is (T, output_size) row-major. Same arithmetic as step(), hence identical results.
-  void run(const Scalar* x, Eigen::Index T, Scalar* y) {
-    const Eigen::Index ni = input_size(), no = output_size();
-    check_finite(x, T, ni);
-    for (Eigen::Index t = 0; t < T; ++t) step(x + t * ni, y + t * no);
-  }
+  void run(const Scalar* x, Eigen::Index T, Scalar* y) { batch_.run(x, T, y); }
 
  private:
-  void check_finite(const Scalar* x, Eigen::Index T, Eigen::Index ni) const {
-    for (Eigen::Index t = 0; t < T; ++t)
-      for (Eigen::Index j = 0; j < ni; ++j)
-        if (!std::isfinite(x[t * ni + j])) {
-          throw std::invalid_argument(
-              "LSTM input x[" + std::to_string(t) + ", " + std::to_string(j) + "] ('" +
-              model_->feature_names()[static_cast<std::size_t>(j)] +
-              "') is not finite; inputs must be finite numbers");
-        }
+  Eigen::Index hidden_size(Eigen::Index l) const {
+    batch_.cell(0, l);  // validates l
+    return model().layers()[static_cast<std::size_t>(l)].hidden_size;
   }
 
-  // One cell update. z = [u_t ; h_{t-1}] on entry, z.tail(H) = h_t on exit; c is updated in
-  // place. Gate blocks of g are PyTorch's i, f, g (cell candidate), o.
-  static void step_layer(const Layer<Scalar>& L, CellType cell, bool avx2, Vector& z,
-                         Vector& c, Vector& g) {
-    const Eigen::Index H = L.hidden_size;
-    g = L.bias;
-    // W_u* u_t + W_h* h_{t-1} + b_*, all four gates at once
-    detail::gemv(avx2, L.w_packed, L.w, z.data(), g.data());
-    if (cell == CellType::Peephole) {
-      detail::gemv(avx2, L.w_ci_packed, L.w_ci, c.data(), g.data());      // + W_ci c_{t-1} (4.9)
-      detail::gemv(avx2, L.w_cf_packed, L.w_cf, c.data(), g.data() + H);  // + W_cf c_{t-1} (4.10)
-    }
-    g.head(2 * H) = g.head(2 * H).array().logistic();        // i, f gates (Eq. 4.9, 4.10)
-    g.segment(2 * H, H) = g.segment(2 * H, H).array().tanh();  // cell candidate
-    c.array() = g.segment(H, H).array() * c.array() +
-                g.segment(0, H).array() * g.segment(2 * H, H).array();  // c_t (Eq. 4.11)
-    if (cell == CellType::Peephole) {
-      detail::gemv(avx2, L.w_co_packed, L.w_co, c.data(), g.data() + 3 * H);  // + W_co c_t (4.12)
-    }
-    g.segment(3 * H, H) = g.segment(3 * H, H).array().logistic();  // o gate (Eq. 4.12)
-    z.tail(H).array() = g.segment(3 * H, H).array() * c.array().tanh();  // h_t (Eq. 4.13)
-  }
-
-  std::shared_ptr<const Model<Scalar>> model_;
-  std::vector<Vector> z_;      // per layer [input ; h_{t-1}]
-  std::vector<Vector> c_;      // per layer cell state
-  std::vector<Vector> gates_;  // per layer gate pre-activations (4H)
-  Vector head_;                // normalised head output
+  Batch<Scalar> batch_;
 };
 
 /// Predict one whole sequence from a zero state: x (T, input_size) -> y (T, output_size),
@@ -383,6 +425,32 @@ void predict_sequence(const std::shared_ptr<const Model<Scalar>>& model, const S
                       Eigen::Index T, Scalar* y) {
   Stream<Scalar> s(model);
   s.run(x, T, y);
+}
+
+/// Predict B whole sequences of T steps from a zero state: x (B, T, input_size) ->
+/// y (B, T, output_size), row-major, advancing up to `chunk` sequences together. Equal bit for
+/// bit to predict_sequence on each sequence.
+template <typename Scalar>
+void predict_batch(const std::shared_ptr<const Model<Scalar>>& model, const Scalar* x,
+                   Eigen::Index B, Eigen::Index T, Scalar* y, Eigen::Index chunk = 256) {
+  if (B < 0 || T < 0) {
+    throw std::invalid_argument("LSTM predict: batch and T must be >= 0, got batch " +
+                                std::to_string(B) + ", T " + std::to_string(T));
+  }
+  if (B == 0 || T == 0) return;
+  const Eigen::Index ni = model->input_size(), no = model->output_size();
+  const Eigen::Index n = std::min(B, std::max<Eigen::Index>(chunk, 1));
+  Batch<Scalar> full(model, n);
+  for (Eigen::Index b0 = 0; b0 < B; b0 += n) {
+    const Eigen::Index nb = std::min(n, B - b0);
+    if (nb == n) {
+      full.reset();
+      full.run(x + b0 * T * ni, T, y + b0 * T * no);
+    } else {
+      Batch<Scalar> rest(model, nb);
+      rest.run(x + b0 * T * ni, T, y + b0 * T * no);
+    }
+  }
 }
 
 }  // namespace lstm

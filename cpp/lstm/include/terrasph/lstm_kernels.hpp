@@ -1,0 +1,412 @@
+// Compute kernels of the terrasph LSTM engine (included by terrasph/lstm.hpp): packed weight
+// panels, the register-tiled matrix products, the gate nonlinearities and the cell updates.
+//
+// One arithmetic for one sequence and for a batch. Every matrix product (gates, peepholes)
+// computes each output element as  y = y0 + w_0 z_0 + w_1 z_1 + ... + w_{K-1} z_{K-1},  summed
+// in that order, one multiply-add per term, whatever the register tile (one sequence: 8 vectors
+// of rows; a batch: 2 vectors of rows times up to kBatchTile sequences). The dense head
+// (head_dot) and the element-wise code run the same instructions on every sequence and every
+// element (vector lanes compute what any other lane computes; a row's last partial vector is
+// zero-padded). A batch of B sequences therefore gives, bit for bit, the results of B single
+// sequences (tests/test_lstm_batch.py).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <vector>
+
+namespace terrasph {
+namespace lstm {
+namespace detail {
+
+using Index = Eigen::Index;
+
+// The kernels are written with GNU vector extensions (one source for SSE, AVX2 and AVX-512).
+#if !defined(__GNUC__)
+#error "terrasph/lstm.hpp needs GNU vector extensions (GCC, Clang or Intel icx)"
+#endif
+#define TERRASPH_LSTM_INLINE inline __attribute__((always_inline))
+#define TERRASPH_LSTM_PRAGMA(x) _Pragma(#x)
+#if defined(__clang__)
+#define TERRASPH_LSTM_UNROLL TERRASPH_LSTM_PRAGMA(unroll)
+#else
+#define TERRASPH_LSTM_UNROLL TERRASPH_LSTM_PRAGMA(GCC unroll 16)
+#endif
+
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__AVX2__) && \
+    !defined(TERRASPH_LSTM_NO_DISPATCH)
+// A build for baseline x86-64 (like a Python wheel) also compiles the step for AVX2 + FMA and
+// chooses it at run time when the CPU has them (terrasph::lstm::detail::advance).
+#define TERRASPH_LSTM_AVX2_DISPATCH 1
+#endif
+
+/// Whether models loaded in this process run the AVX2 + FMA variant (fixed per Model, so its
+/// results are reproducible).
+inline bool default_use_avx2() {
+#ifdef TERRASPH_LSTM_AVX2_DISPATCH
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+  return false;
+#endif
+}
+
+// Width of the vectors the kernels are written for: the widest the build targets, or AVX2 when
+// an AVX2+FMA variant is dispatched at run time (see lstm.hpp).
+#if defined(__AVX512F__)
+constexpr int kSimdBytes = 64;
+#elif defined(__AVX__) || defined(TERRASPH_LSTM_AVX2_DISPATCH)
+constexpr int kSimdBytes = 32;
+#else
+constexpr int kSimdBytes = 16;
+#endif
+
+template <typename S>
+constexpr int lanes() {
+  return kSimdBytes / static_cast<int>(sizeof(S));
+}
+/// Rows of one packed panel: 8 vector registers of accumulators for one sequence, enough
+/// independent multiply-add chains to hide the FMA latency.
+template <typename S>
+constexpr int panel_rows() {
+  return 8 * lanes<S>();
+}
+/// Sequences per register tile of the batched product (2 row vectors x kBatchTile
+/// accumulators: 12 of the 16 AVX2 registers, 24 of the 32 AVX-512 ones).
+constexpr int kBatchTile = kSimdBytes == 64 ? 12 : 6;
+
+/// A vector of lanes<S>() values.
+template <typename S>
+struct Vec {
+  typedef S type __attribute__((vector_size(kSimdBytes)));
+};
+template <typename S>
+using vec_t = typename Vec<S>::type;
+template <typename S>
+TERRASPH_LSTM_INLINE void vload(vec_t<S>& v, const S* p) {
+  std::memcpy(&v, p, sizeof v);
+}
+template <typename S>
+TERRASPH_LSTM_INLINE void vstore(S* p, const vec_t<S>& v) {
+  std::memcpy(p, &v, sizeof v);
+}
+
+/// A weight matrix (rows x cols) in the layout the products stream through: panels of
+/// panel_rows() rows (the last one zero-padded), within a panel column after column.
+template <typename S>
+struct Packed {
+  Index rows = 0, cols = 0;
+  std::vector<S> data;
+
+  template <typename Mat>
+  static Packed pack(const Mat& w) {
+    constexpr Index R = panel_rows<S>();
+    Packed p;
+    p.rows = w.rows();
+    p.cols = w.cols();
+    const Index n_panels = (p.rows + R - 1) / R;
+    p.data.assign(static_cast<std::size_t>(n_panels * R * p.cols), S(0));
+    for (Index r = 0; r < p.rows; ++r)
+      for (Index j = 0; j < p.cols; ++j)
+        p.data[static_cast<std::size_t>((r / R) * R * p.cols + j * R + r % R)] =
+            static_cast<S>(w(r, j));
+    return p;
+  }
+};
+
+/// Register tile: for NB sequences b and the NV * lanes rows r of a panel slice w (column j at
+/// w + j * ldw), g[b * ldg + r] += sum_j w(r, j) z[j * kz + b], in column order. Only the
+/// first n_rows rows are read and written.
+template <int NV, int NB, typename S>
+TERRASPH_LSTM_INLINE void tile(const S* w, Index ldw, Index K, const S* z, Index kz, S* g,
+                               Index ldg, Index n_rows) {
+  constexpr int L = lanes<S>();
+  constexpr int R = NV * L;
+  S edge[NB][R];  // rows beyond n_rows of a partial slice: computed, never stored
+  const bool full = n_rows == R;
+  if (!full) {
+    for (int b = 0; b < NB; ++b)
+      for (int r = 0; r < R; ++r) edge[b][r] = r < n_rows ? g[b * ldg + r] : S(0);
+  }
+  vec_t<S> acc[NB][NV];
+  TERRASPH_LSTM_UNROLL
+  for (int b = 0; b < NB; ++b) {
+    TERRASPH_LSTM_UNROLL
+    for (int v = 0; v < NV; ++v) vload<S>(acc[b][v], full ? g + b * ldg + v * L : &edge[b][v * L]);
+  }
+  for (Index j = 0; j < K; ++j) {
+    const S* col = w + j * ldw;
+    TERRASPH_LSTM_UNROLL
+    for (int b = 0; b < NB; ++b) {
+      const S zb = z[j * kz + b];
+      TERRASPH_LSTM_UNROLL
+      for (int v = 0; v < NV; ++v) {
+        vec_t<S> wv;
+        vload<S>(wv, col + v * L);
+        acc[b][v] += wv * zb;
+      }
+    }
+  }
+  TERRASPH_LSTM_UNROLL
+  for (int b = 0; b < NB; ++b) {
+    TERRASPH_LSTM_UNROLL
+    for (int v = 0; v < NV; ++v) vstore<S>(full ? g + b * ldg + v * L : &edge[b][v * L], acc[b][v]);
+  }
+  if (!full) {
+    for (int b = 0; b < NB; ++b)
+      for (int r = 0; r < n_rows; ++r) g[b * ldg + r] = edge[b][r];
+  }
+}
+
+// tile<NV, nb> for a run-time nb in [1, NB].
+template <int NV, int NB, typename S>
+TERRASPH_LSTM_INLINE void tile_nb(int nb, const S* w, Index ldw, Index K, const S* z, Index kz,
+                                  S* g, Index ldg, Index n_rows) {
+  if (nb == NB) {
+    tile<NV, NB>(w, ldw, K, z, kz, g, ldg, n_rows);
+  } else if constexpr (NB > 1) {
+    tile_nb<NV, NB - 1>(nb, w, ldw, K, z, kz, g, ldg, n_rows);
+  }
+}
+
+// tile<nv, 1> for a run-time nv in [1, NV].
+template <int NV, typename S>
+TERRASPH_LSTM_INLINE void tile_nv(int nv, const S* w, Index ldw, Index K, const S* z, S* g,
+                                  Index n_rows) {
+  if (nv == NV) {
+    tile<NV, 1>(w, ldw, K, z, 1, g, 0, n_rows);
+  } else if constexpr (NV > 1) {
+    tile_nv<NV - 1>(nv, w, ldw, K, z, g, n_rows);
+  }
+}
+
+/// Size of the scratch buffer product_body needs for B sequences and K columns.
+inline Index product_scratch(Index B, Index K) {
+  return (B + kBatchTile - 1) / kBatchTile * kBatchTile * K;
+}
+
+/// G[b, :rows] += W Z[b, :cols] for b < B (Z and G row-major with leading dimensions ldz,
+/// ldg). One sequence: whole panels, 8 vectors of rows per pass over the weights. Several:
+/// Z is first copied into `scratch` (product_scratch(B, cols) values) in blocks of kBatchTile
+/// sequences, column after column, so a tile reads it sequentially; then slices of 2 vectors
+/// of rows meet each block, so every weight loaded serves kBatchTile sequences.
+template <typename S>
+TERRASPH_LSTM_INLINE void product_body(const Packed<S>& W, Index B, const S* Z, Index ldz, S* G,
+                                       Index ldg, S* scratch) {
+  constexpr int L = lanes<S>();
+  constexpr Index R = panel_rows<S>();
+  const Index K = W.cols;
+  if (B == 1) {
+    for (Index r0 = 0; r0 < W.rows; r0 += R) {
+      const Index n_rows = std::min(R, W.rows - r0);
+      tile_nv<8>(static_cast<int>((n_rows + L - 1) / L), W.data.data() + r0 * K, R, K, Z,
+                 G + r0, n_rows);
+    }
+    return;
+  }
+  constexpr Index NB = kBatchTile;
+  for (Index b0 = 0; b0 < B; b0 += NB) {
+    S* blk = scratch + b0 * K;
+    for (Index j = 0; j < K; ++j)
+      for (Index b = 0; b < NB; ++b) blk[j * NB + b] = b0 + b < B ? Z[(b0 + b) * ldz + j] : S(0);
+  }
+  for (Index r0 = 0; r0 < W.rows; r0 += R) {
+    const S* panel = W.data.data() + r0 * K;
+    const Index n_rows = std::min(R, W.rows - r0);
+    for (Index s = 0; s < n_rows; s += 2 * L) {
+      const Index rows_s = std::min<Index>(2 * L, n_rows - s);
+      for (Index b0 = 0; b0 < B; b0 += NB) {
+        const int nb = static_cast<int>(std::min<Index>(NB, B - b0));
+        S* g = G + b0 * ldg + r0 + s;
+        if (rows_s > L) {
+          tile_nb<2, NB>(nb, panel + s, R, K, scratch + b0 * K, NB, g, ldg, rows_s);
+        } else {
+          tile_nb<1, NB>(nb, panel + s, R, K, scratch + b0 * K, NB, g, ldg, rows_s);
+        }
+      }
+    }
+  }
+}
+
+/// Instruction sets the kernels are compiled for: Generic (the build's flags) and, when
+/// dispatching, Avx2 (AVX2 + FMA).
+struct Generic {};
+struct Avx2 {};
+
+// product_body compiled once per instruction set (not inlined: it holds all the tile variants).
+template <typename S>
+__attribute__((noinline)) void product(Generic, const Packed<S>& W, Index B, const S* Z,
+                                       Index ldz, S* G, Index ldg, S* scratch) {
+  product_body(W, B, Z, ldz, G, ldg, scratch);
+}
+#ifdef TERRASPH_LSTM_AVX2_DISPATCH
+template <typename S>
+__attribute__((noinline, target("avx2,fma"))) void product(Avx2, const Packed<S>& W, Index B,
+                                                           const S* Z, Index ldz, S* G,
+                                                           Index ldg, S* scratch) {
+  product_body(W, B, Z, ldz, G, ldg, scratch);
+}
+#endif
+
+// ---- gate nonlinearities and cell updates, on whole vectors --------------------------------
+// Every element goes through the same vector instructions: a row's last partial vector is
+// loaded zero-padded and only its valid lanes are stored, so results do not depend on where an
+// element sits in a row (or in a batch).
+
+/// v = the n <= lanes values at p, zero-padded.
+template <typename S>
+TERRASPH_LSTM_INLINE void load_part(vec_t<S>& v, const S* p, Index n) {
+  if (n == lanes<S>()) {
+    vload<S>(v, p);
+    return;
+  }
+  S tmp[lanes<S>()] = {};
+  std::copy(p, p + n, tmp);
+  vload<S>(v, tmp);
+}
+/// The first n <= lanes values of v to p.
+template <typename S>
+TERRASPH_LSTM_INLINE void store_part(S* p, const vec_t<S>& v, Index n) {
+  if (n == lanes<S>()) {
+    vstore<S>(p, v);
+    return;
+  }
+  S tmp[lanes<S>()];
+  vstore<S>(tmp, v);
+  std::copy(tmp, tmp + n, p);
+}
+
+/// Eigen's rational approximation of tanh in float (Eigen 3.4 MathFunctionsImpl.h,
+/// generic_fast_tanh_float; max error a few ulp), lane-wise, clamped where it reaches +-1.
+/// (Eigen also returns a itself for |a| < 4e-4, a relative refinement of < 2e-7 dropped here.)
+TERRASPH_LSTM_INLINE void tanh_v(vec_t<float>& a) {
+  using V = vec_t<float>;
+  const V lim = V{} + 7.90531110763549805f;
+  V x = a > lim ? lim : a;
+  x = x < -lim ? -lim : x;
+  const V x2 = x * x;
+  V p = x2 * -2.76076847742355e-16f + 2.00018790482477e-13f;
+  p = x2 * p + -8.60467152213735e-11f;
+  p = x2 * p + 5.12229709037114e-08f;
+  p = x2 * p + 1.48572235717979e-05f;
+  p = x2 * p + 6.37261928875436e-04f;
+  p = x2 * p + 4.89352455891786e-03f;
+  p = x * p;
+  V q = x2 * 1.19825839466702e-06f + 1.18534705686654e-04f;
+  q = x2 * q + 2.26843463243900e-03f;
+  q = x2 * q + 4.89352518554385e-03f;
+  a = p / q;
+}
+/// Logistic sigma(a) = (1 + tanh(a/2)) / 2 in float, lane-wise (absolute error ~1e-7).
+TERRASPH_LSTM_INLINE void sigmoid_v(vec_t<float>& a) {
+  a *= 0.5f;
+  tanh_v(a);
+  a = 0.5f + 0.5f * a;
+}
+/// tanh and logistic in double, lane-wise: the C library's functions.
+TERRASPH_LSTM_INLINE void tanh_v(vec_t<double>& a) {
+  for (int k = 0; k < lanes<double>(); ++k) a[k] = std::tanh(a[k]);
+}
+TERRASPH_LSTM_INLINE void sigmoid_v(vec_t<double>& a) {
+  for (int k = 0; k < lanes<double>(); ++k) a[k] = 1.0 / (1.0 + std::exp(-a[k]));
+}
+
+/// y[o] += sum_j w[o * ldw + j] h[j] for o < O (the dense head of one sequence): 4 vector
+/// accumulators over consecutive chunks of h (chunk c into accumulator c mod 4, the last chunk
+/// zero-padded), added as (a0 + a1) + (a2 + a3), then the lanes in order. A fixed order, the
+/// same for every sequence of a batch; short dependency chains instead of one of length H.
+template <typename S>
+TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, const S* h, S* y) {
+  constexpr int L = lanes<S>();
+  for (Index o = 0; o < O; ++o) {
+    const S* row = w + o * ldw;
+    vec_t<S> acc[4] = {};
+    Index j = 0;
+    for (; j + 4 * L <= H; j += 4 * L) {  // whole groups of 4 chunks
+      TERRASPH_LSTM_UNROLL
+      for (int a = 0; a < 4; ++a) {
+        vec_t<S> wv, hv;
+        vload<S>(wv, row + j + a * L);
+        vload<S>(hv, h + j + a * L);
+        acc[a] += wv * hv;
+      }
+    }
+    TERRASPH_LSTM_UNROLL
+    for (int a = 0; a < 3; ++a) {  // the last 1-3 chunks, the very last zero-padded
+      if (j >= H) break;
+      const Index n = std::min<Index>(L, H - j);
+      vec_t<S> wv, hv;
+      load_part<S>(wv, row + j, n);
+      load_part<S>(hv, h + j, n);
+      acc[a] += wv * hv;
+      j += L;
+    }
+    const vec_t<S> sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    S total = y[o];
+    for (int k = 0; k < L; ++k) total += sum[k];
+    y[o] = total;
+  }
+}
+
+// Cell updates of one sequence; g holds the 4H gate pre-activations (blocks i, f, g, o).
+
+/// Standard cell (torch.nn.LSTM): c_t = f c_{t-1} + i g,  h_t = o tanh(c_t).
+template <typename S>
+TERRASPH_LSTM_INLINE void standard_cell(Index H, const S* g, S* c, S* h) {
+  for (Index k = 0; k < H; k += lanes<S>()) {
+    const Index n = std::min<Index>(lanes<S>(), H - k);
+    vec_t<S> i, f, cand, o, cv;
+    load_part<S>(i, g + k, n);
+    load_part<S>(f, g + H + k, n);
+    load_part<S>(cand, g + 2 * H + k, n);
+    load_part<S>(o, g + 3 * H + k, n);
+    load_part<S>(cv, c + k, n);
+    sigmoid_v(i);
+    sigmoid_v(f);
+    tanh_v(cand);
+    sigmoid_v(o);
+    cv = f * cv + i * cand;
+    store_part<S>(c + k, cv, n);
+    tanh_v(cv);
+    store_part<S>(h + k, o * cv, n);
+  }
+}
+/// Peephole cell, first half: i and f (Eq. 4.9, 4.10; peephole terms already in g), then
+/// c_t = f c_{t-1} + i tanh(g) (Eq. 4.11).
+template <typename S>
+TERRASPH_LSTM_INLINE void peephole_cell_state(Index H, const S* g, S* c) {
+  for (Index k = 0; k < H; k += lanes<S>()) {
+    const Index n = std::min<Index>(lanes<S>(), H - k);
+    vec_t<S> i, f, cand, cv;
+    load_part<S>(i, g + k, n);
+    load_part<S>(f, g + H + k, n);
+    load_part<S>(cand, g + 2 * H + k, n);
+    load_part<S>(cv, c + k, n);
+    sigmoid_v(i);
+    sigmoid_v(f);
+    tanh_v(cand);
+    store_part<S>(c + k, f * cv + i * cand, n);
+  }
+}
+/// Peephole cell, second half: o = sigma(g_o + W_co c_t) (Eq. 4.12, W_co c_t already in g_o),
+/// h_t = o tanh(c_t) (Eq. 4.13).
+template <typename S>
+TERRASPH_LSTM_INLINE void peephole_output(Index H, const S* g_o, const S* c, S* h) {
+  for (Index k = 0; k < H; k += lanes<S>()) {
+    const Index n = std::min<Index>(lanes<S>(), H - k);
+    vec_t<S> o, cv;
+    load_part<S>(o, g_o + k, n);
+    load_part<S>(cv, c + k, n);
+    sigmoid_v(o);
+    tanh_v(cv);
+    store_part<S>(h + k, o * cv, n);
+  }
+}
+
+}  // namespace detail
+}  // namespace lstm
+}  // namespace terrasph
