@@ -24,13 +24,13 @@ template <class Body> void for_each_particle(Index n, Body&& body) {
 // integer counts); a floating-point sum would make the result depend on the thread count.
 template <class Partial, class Body, class Merge>
 Partial reduce_over_particles(Index n, const Partial& identity, Body&& body, Merge&& merge) {
-  std::vector<Partial> partials;
+  // sized before the region (a team never exceeds omp_get_max_threads()), so the only barrier is
+  // the region's end, as with OpenMP's own reduction clause
+  std::vector<Partial> partials(static_cast<std::size_t>(omp_get_max_threads()), identity);
 #pragma omp parallel
   {
-#pragma omp single
-    partials.assign(static_cast<std::size_t>(omp_get_num_threads()), identity);
     Partial local = identity;
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait
     for (Index i = 0; i < n; ++i) body(i, local);
     partials[static_cast<std::size_t>(omp_get_thread_num())] = local;
   }
