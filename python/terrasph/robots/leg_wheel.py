@@ -22,7 +22,7 @@ import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -89,11 +89,46 @@ class LegWheel:
 
     def shape(self) -> bodies.BodyShape:
         """The wheel in its own frame (axle at the origin; leg 0 pointing down)."""
-        args = (self.leg_length, self.thickness, self.width, self.spacing)
-        if self.wheel == "wheel":
-            return bodies.wheel(*args)
-        extra = {"foot_ratio": self.foot_ratio} if self.wheel in ("l-leg", "reversed-l-leg") else {}
-        return bodies.leg_wheel(self.wheel, self.legs, *args, **extra)
+        return wheel_shape(self)
+
+
+class WheelConfig(Protocol):
+    """What the leg-wheel and rover configurations share: the wheel and the bed."""
+
+    wheel: str
+    legs: int
+    leg_length: float
+    thickness: float
+    width: float
+    foot_ratio: float
+    spacing: float
+    bed_width: float
+    bed_depth: float
+    numerics: dict[str, Any]
+
+
+def wheel_shape(config: WheelConfig) -> bodies.BodyShape:
+    """A wheel or leg-wheel in its own frame (axle at the origin; leg 0 pointing down)."""
+    args = (config.leg_length, config.thickness, config.width, config.spacing)
+    if config.wheel == "wheel":
+        return bodies.wheel(*args)
+    extra = {"foot_ratio": config.foot_ratio} if config.wheel in ("l-leg", "reversed-l-leg") else {}
+    return bodies.leg_wheel(config.wheel, config.legs, *args, **extra)
+
+
+def bed_and_wheel(config: WheelConfig) -> tuple[Scene, Numerics, float, bodies.BodyShape]:
+    """The bed of chapter 4's glass beads in its container (scene, numerics, surface height) and the
+    wheel's shape; a shape the spacing cannot build is refused naming the wheel."""
+    numerics = from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
+                                       **config.numerics})
+    scene = Scene(spacing=config.spacing)
+    surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
+                                            layers=wall_layers_needed(numerics.h_factor))
+    try:
+        shape = wheel_shape(config)
+    except ValueError as error:
+        raise ConfigError(f"wheel '{config.wheel}': {error}") from None
+    return scene, numerics, surface, shape
 
 
 def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float, float], gravity: float) -> str:
@@ -121,15 +156,7 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 
 def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
     """Bed, container, robot and coupling, ready to run."""
-    numerics = from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
-                                       **config.numerics})
-    scene = Scene(spacing=config.spacing)
-    surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
-                                            layers=wall_layers_needed(numerics.h_factor))
-    try:
-        shape = config.shape()
-    except ValueError as error:
-        raise ConfigError(f"wheel '{config.wheel}': {error}") from None
+    scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, scene.gravity), {"wheel": Coupling(shape, config.width)},
                         gravity=scene.gravity)

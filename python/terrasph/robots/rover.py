@@ -14,14 +14,12 @@ from typing import Any
 import numpy as np
 
 from terrasph import bodies
-from terrasph.config import ConfigError, Numerics, from_mapping
-from terrasph.geometry import wall_layers_needed
+from terrasph.config import ConfigError
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import WHEELS
+from terrasph.robots.leg_wheel import WHEELS, bed_and_wheel, wheel_shape
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
 from terrasph.robots.run import run_coupled
-from terrasph.scene import Scene
 from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import Simulation
 
@@ -78,24 +76,12 @@ class Rover:
 
     def shape(self) -> bodies.BodyShape:
         """One wheel in its own frame (axle at the origin)."""
-        args = (self.leg_length, self.thickness, self.width, self.spacing)
-        if self.wheel == "wheel":
-            return bodies.wheel(*args)
-        extra = {"foot_ratio": self.foot_ratio} if self.wheel in ("l-leg", "reversed-l-leg") else {}
-        return bodies.leg_wheel(self.wheel, self.legs, *args, **extra)
+        return wheel_shape(self)
 
 
 def build_rover(config: Rover) -> CoupledSimulation:
     """Bed, container and the rover standing on it (wheels Δx/2 above the surface)."""
-    numerics = from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
-                                       **config.numerics})
-    scene = Scene(spacing=config.spacing)
-    surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
-                                            layers=wall_layers_needed(numerics.h_factor))
-    try:
-        shape = config.shape()
-    except ValueError as error:
-        raise ConfigError(f"wheel '{config.wheel}': {error}") from None
+    scene, numerics, surface, shape = bed_and_wheel(config)
     axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
     robot = PlanarRobot(ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
                         gravity=scene.gravity, initial={"x": config.start_x, "z": axle_z})
