@@ -70,19 +70,7 @@ class LegWheel:
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
-        if self.wheel not in WHEELS:
-            raise ConfigError(f"parameter 'wheel' = {self.wheel!r} is invalid: allowed one of {', '.join(WHEELS)}")
-        if isinstance(self.legs, bool) or not isinstance(self.legs, int) or not 1 <= self.legs <= 12:
-            raise ConfigError(f"parameter 'legs' = {self.legs!r} is invalid: allowed an integer 1–12")
-        for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "duration",
-                     "wheel_density", "motor_gain", "motor_torque", "series_interval", "frame_interval"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
-        for name in ("omega", "load", "settle_time"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number >= 0")
+        check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
         if not self.leg_length < self.start_x < self.bed_width - self.leg_length:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between leg_length and "
                               "bed_width − leg_length (the wheel must start clear of the container)")
@@ -90,6 +78,24 @@ class LegWheel:
     def shape(self) -> bodies.BodyShape:
         """The wheel in its own frame (axle at the origin; leg 0 pointing down)."""
         return wheel_shape(self)
+
+
+def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...] = ()) -> None:
+    """Checks what the leg-wheel and rover configurations share (the wheel, the bed, the times) and
+    the extra `positive` / `nonnegative` numbers of each; ConfigError naming the first offender."""
+    if config.wheel not in WHEELS:
+        raise ConfigError(f"parameter 'wheel' = {config.wheel!r} is invalid: allowed one of {', '.join(WHEELS)}")
+    if isinstance(config.legs, bool) or not isinstance(config.legs, int) or not 1 <= config.legs <= 12:
+        raise ConfigError(f"parameter 'legs' = {config.legs!r} is invalid: allowed an integer 1–12")
+    for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "duration",
+                 "series_interval", "frame_interval", *positive):
+        value = getattr(config, name)
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
+    for name in ("omega", "settle_time", *nonnegative):
+        value = getattr(config, name)
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number >= 0")
 
 
 class WheelConfig(Protocol):

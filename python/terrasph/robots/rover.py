@@ -16,7 +16,7 @@ import numpy as np
 from terrasph import bodies
 from terrasph.config import ConfigError
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import WHEELS, bed_and_wheel, wheel_shape
+from terrasph.robots.leg_wheel import bed_and_wheel, check_wheel_config, wheel_shape
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
 from terrasph.robots.run import run_coupled
@@ -53,19 +53,7 @@ class Rover:
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
-        if self.wheel not in WHEELS:
-            raise ConfigError(f"parameter 'wheel' = {self.wheel!r} is invalid: allowed one of {', '.join(WHEELS)}")
-        if isinstance(self.legs, bool) or not isinstance(self.legs, int) or not 1 <= self.legs <= 12:
-            raise ConfigError(f"parameter 'legs' = {self.legs!r} is invalid: allowed an integer 1–12")
-        for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "duration",
-                     "series_interval", "frame_interval"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
-        for name in ("omega", "settle_time"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number >= 0")
+        check_wheel_config(self)
         if not 2 * self.leg_length < AXLE_SPACING:
             raise ConfigError(f"parameter 'leg_length' = {self.leg_length!r} is invalid: allowed < "
                               f"{AXLE_SPACING / 2} m (the wheels, {AXLE_SPACING} m apart, must not touch)")
