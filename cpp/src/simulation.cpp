@@ -259,12 +259,13 @@ template <int D> void Simulation<D>::sort_into_cell_order() {
 
 // Active domain. A grain is quiet in a step when its speed |v| and the speed its acceleration
 // would add over numerics.freeze_steps steps, N·dt·|a|, are both below numerics.freeze_speed (a
-// grain released from rest is not quiet); it is settled once it was quiet N steps in a row. It is frozen for the coming step (its position, velocity, density,
-// stress and rates kept as they are, its neighbours still reading them) when it is settled and no
-// unsettled grain and no body particle lies within its neighbour-list radius 2h(1 + skin/2).
-// Anything that starts to move unsettles itself at once, which wakes every grain within that
-// radius for the next step: the awake region grows by ≥ 2h per step, faster than any signal the
-// step resolves (c·dt ≤ C·h), so a disturbance never reaches a grain that is still frozen.
+// grain released from rest is not quiet); it is settled once it was quiet N steps in a row. It
+// is frozen for the coming step (position, velocity, density, stress and rates kept, its
+// neighbours still reading them) when it is settled and no unsettled grain and no body particle
+// lies within its neighbour-list radius 2h(1 + skin/2). A grain that unsettles wakes every grain
+// within that radius for the next step: the awake region grows by ≥ 2h per step, faster than any
+// signal the step resolves (c·dt ≤ C·h). What stays frozen is what no grain above the thresholds
+// has come near: that is the criterion's error.
 template <int D> void Simulation<D>::update_frozen() {
   const std::int32_t settle = params_.numerics.freeze_steps;
   const Int32Array& quiet = *quiet_steps_;
