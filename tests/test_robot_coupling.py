@@ -26,7 +26,8 @@ from terrasph.geometry import wall_layers_needed
 from terrasph.io import read_run
 from terrasph.motion import Motion, Rotate
 from terrasph.robots import ROVER, CoupledSimulation, PlanarRobot
-from terrasph.robots.run import run_coupled
+from terrasph.robots.coupling import MIN_MASS_RATIO
+from terrasph.robots.run import run_coupled, undisturbed_surface
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
@@ -142,12 +143,17 @@ def test_a_robot_resting_on_the_bed_is_carried_by_a_lift_equal_to_its_weight() -
 
 
 def test_a_heavier_load_sinks_deeper() -> None:
-    """Sinkage after 0.2 s of feet of 0.1, 0.3 and 0.9 kg increases with the load."""
+    """Sinkage after 0.2 s of feet of 0.1, 0.3 and 0.9 kg, measured from the settled bed's free
+    surface away from the foot (not the level as built), increases with the load. That surface
+    stays within Δx/2 of the level as built (the bed is built at its hydrostatic density; the
+    grains a sinking foot pushes aside raise it: measured +0.02, +0.05, +1.0 mm for sinkage −1.4, −0.2, +5.6 mm)."""
     sinkage = []
     for mass in (0.1, 0.3, 0.9):
         coupled = resting_foot(mass)
         coupled.advance(0.2)
-        sinkage.append(coupled.sim.body_state("foot")["sinkage"])
+        surface = undisturbed_surface(coupled)
+        assert abs(surface - coupled.sim.scene.surface_level) < 0.5 * DX
+        sinkage.append(surface - coupled.sim.body_state("foot")["lowest_z"])
         assert coupled.sim.leaked_particles == 0
     assert sinkage[0] < sinkage[1] < sinkage[2], sinkage
 
@@ -279,3 +285,22 @@ def test_a_prescribed_body_keeps_its_schedule_beside_a_coupled_one() -> None:
     assert coupled.sim.body_state("paddle")["angle"] == pytest.approx(2.0 * steps * dt, rel=1e-9)
     exact = z0 - G * dt * dt * steps * (steps + 1) / 2
     assert abs(coupled.sim.body_state("plate")["reference"][1] - exact) < 1e-13
+
+
+def test_a_body_too_light_for_the_coupling_is_refused_before_any_step() -> None:
+    """The plate (40 × 15 mm of particles, 5 cm wide) displaces ρ0 · N Δx² · w of beads; at 5e-4 of
+    that it is below the measured stability limit (MIN_MASS_RATIO) and refused by name with its
+    ratio; at 2 × the limit it is accepted."""
+    displaced = BEADS.reference_density * len(PLATE) * DX * DX * 0.05
+    body = '<body name="plate" pos="0.4 0 0.3">{joints}<geom type="box" size="0.02 0.025 0.0075" mass="{mass!r}"/></body>'
+    light = mjcf(body.replace("{mass!r}", repr(5e-4 * displaced)))
+    robot = PlanarRobot(light, {"plate": PLATE})
+    scene = far_grains_scene()
+    robot.add_to_scene(scene)
+    sim = Simulation(scene, BEADS, Numerics(spacing=DX))
+    with pytest.raises(ConfigError, match=r"coupled body 'plate' is too light.* is 0\.0005, allowed >= 0\.001"):
+        CoupledSimulation(robot, sim)
+    assert sim.step_count == 0 and sim.time == 0.0
+    heavy = couple(mjcf(body.replace("{mass!r}", repr(2 * MIN_MASS_RATIO * displaced))), {"plate": PLATE},
+                   far_grains_scene())
+    assert heavy.sim.step_count == 0

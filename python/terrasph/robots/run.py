@@ -4,8 +4,9 @@ Layout of the file (terrasph.io.RunWriter): frames as for any run; ``/series/dia
 (time, step, dt, leaked_particles, wall_time); ``/series/robot/<body>`` per coupled body (time,
 reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s, force (F_x, F_z)
 N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
-the sampling interval, lowest_z m, sinkage m (if the scene has a surface level), slip (Eq. 4.8
-with the shape's radius)); ``/series/robot/actuators`` (time, qpos, qvel, actuator force — a
+the sampling interval, lowest_z m, surface m (the bed's undisturbed free surface at that time,
+:func:`undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8 with the shape's
+radius)); ``/series/robot/actuators`` (time, qpos, qvel, actuator force — a
 motor's torque in N·m for a hinge — and the total actuator power in W).
 """
 
@@ -21,22 +22,40 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.metrics import sinkage, slip
+from terrasph.robots.metrics import free_surface, sinkage, slip
 
-__all__ = ["body_row", "run_coupled"]
+__all__ = ["SURFACE_MARGIN", "body_row", "run_coupled", "undisturbed_surface"]
+
+#: columns of the bed closer than this (m) to a coupled body's x extent are disturbed by it (its
+#: rut and the grains it pushes up) and left out of the free-surface level
+SURFACE_MARGIN = 0.02
 
 
-def body_row(coupled: CoupledSimulation, name: str) -> dict[str, Any]:
-    """One sample of a coupled body's series (granular loads averaged since the last reset)."""
+def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARGIN) -> float:
+    """The bed's free surface now (m; :func:`terrasph.robots.metrics.free_surface`) away from every
+    coupled body: columns within `margin` of a body's x extent are left out. Sinkage is measured
+    from it, so the bed's own settling (it is built at its hydrostatic density and settles by
+    less than Δx) is not counted as the robot sinking."""
+    sim = coupled.sim
+    walls, owner = np.asarray(sim.core.wall_position), np.asarray(sim.core.wall_body)
+    names = [b.name for b in sim.bodies]
+    extents = []
+    for body in coupled.robot.coupled:
+        x = walls[owner == names.index(body.name), 0]
+        extents.append((float(x.min()), float(x.max())))
+    return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)
+
+
+def body_row(coupled: CoupledSimulation, name: str, surface: float) -> dict[str, Any]:
+    """One sample of a coupled body's series (granular loads averaged since the last reset;
+    sinkage below the free surface at `surface`, m)."""
     body = next(b for b in coupled.robot.coupled if b.name == name)
     state = coupled.sim.body_state(name)
     velocity, omega = coupled.robot.velocity(body)
-    row = {"time": coupled.time, "reference": coupled.robot.reference(body), "angle": coupled.angle(name),
-           "velocity": velocity, "omega": omega, "force": state["force"], "torque": state["torque"],
-           "lowest_z": state["lowest_z"], "slip": float(slip(velocity[0], omega, body.shape.radius))}
-    if coupled.sim.scene.surface_level is not None:
-        row["sinkage"] = float(sinkage(state["lowest_z"], coupled.sim.scene.surface_level))
-    return row
+    return {"time": coupled.time, "reference": coupled.robot.reference(body), "angle": coupled.angle(name),
+            "velocity": velocity, "omega": omega, "force": state["force"], "torque": state["torque"],
+            "lowest_z": state["lowest_z"], "surface": surface, "sinkage": float(sinkage(state["lowest_z"], surface)),
+            "slip": float(slip(velocity[0], omega, body.shape.radius))}
 
 
 def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
@@ -80,8 +99,9 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
             writer.append_series(group, row)
 
     def sample() -> None:
+        surface = undisturbed_surface(coupled)
         for body in coupled.robot.coupled:
-            append(f"robot/{body.name}", body_row(coupled, body.name))
+            append(f"robot/{body.name}", body_row(coupled, body.name, surface))
         append("robot/actuators", _actuator_row(coupled))
         append("diagnostics", {"time": coupled.time, "step": sim.step_count, "dt": sim.core.last_dt,
                                "leaked_particles": sim.leaked_particles,
