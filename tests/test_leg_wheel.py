@@ -57,20 +57,20 @@ def test_bad_leg_wheel_parameters_are_named(key: str, value: object) -> None:
 
 
 def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, capsys) -> None:
-    """A tiny leg-wheel run stopped by SIGINT after 700 coupled steps (past the pause: the motor is
+    """A tiny leg-wheel run stopped by SIGINT after 500 coupled steps (past the pause: the motor is
     turning) checkpoints the SPH State and MuJoCo's qpos/qvel/act/ctrl/time; ``terrasph resume``
     (through the scene registry) finishes it into the same file. Every series (robot, actuators,
     diagnostics but wall time) and every frame equals that of a run never stopped, bit for bit,
     and the motor work summed across the stop is the same."""
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
-                      bed_depth=0.04, start_x=0.08, settle_time=0.03, duration=0.1, load=2.0,
+                      bed_depth=0.04, start_x=0.08, settle_time=0.03, duration=0.07, load=2.0,
                       series_interval=0.005, frame_interval=0.02)
     whole = run_leg_wheel(config, tmp_path / "whole.h5")
     step, taken = CoupledSimulation.step, [0]
 
     def interrupted_step(self: CoupledSimulation) -> float:
         taken[0] += 1
-        if taken[0] == 700:
+        if taken[0] == 500:
             os.kill(os.getpid(), signal.SIGINT)  # caught by the run loop, honoured after this step
         return step(self)
 
@@ -81,7 +81,7 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
     monkeypatch.setattr(CoupledSimulation, "step", step)
     assert checkpoint_path(stopped).is_file()
     assert read_run(stopped).group_attrs["/run"]["status"] == "interrupted"
-    assert 0.03 < read_run(stopped).series["diagnostics"]["time"][-1] < 0.1
+    assert 0.03 < read_run(stopped).series["diagnostics"]["time"][-1] < 0.07
     assert main(["resume", str(stopped), "--no-progress"]) == 0
     resumed = json.loads(capsys.readouterr().out)
     a, b = read_run(tmp_path / "whole.h5"), read_run(stopped)
