@@ -14,7 +14,6 @@ import argparse
 import time
 
 import mujoco
-
 from terrasph import _core
 from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel
 

@@ -163,7 +163,8 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 
 def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
     """Bed, container, robot and coupling, ready to run."""
-    from terrasph.scenes.leg_rotation import glass_beads  # the same 3 mm beads as chapter 3 (here: no import cycle)
+    # the same 3 mm beads as chapter 3; imported here, as the scene registry imports this module
+    from terrasph.scenes.leg_rotation import glass_beads
 
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)

@@ -70,7 +70,8 @@ class Rover:
 
 def build_rover(config: Rover) -> CoupledSimulation:
     """Bed, container and the rover standing on it (wheels Δx/2 above the surface)."""
-    from terrasph.scenes.leg_rotation import glass_beads  # here: the scene registry imports this module
+    # imported here, as the scene registry imports this module
+    from terrasph.scenes.leg_rotation import glass_beads
 
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
