@@ -95,3 +95,4 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
         assert np.array_equal(a.fields[name], b.fields[name]), name
     assert resumed["motor_work"] == whole.summary()["motor_work"] > 0
     assert resumed["leaked_particles"] == 0
+    assert resumed["plot"] == str(stopped.with_suffix(".png")) and stopped.with_suffix(".png").is_file()

@@ -175,7 +175,7 @@ def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
 
 
 def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
-                  plot: bool = False, resume: bool = False, until: float | None = None) -> RobotRun:
+                  plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
     """Runs the scene; returns a summary (mean forward speed and slip after the pause, final and
     maximum sinkage, motor work, cost of transport, leaks) and the series, and with `plot` and an
     `output` draws the PNG beside it. ``resume=True`` continues the run in `output` from its

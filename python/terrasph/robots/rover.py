@@ -82,7 +82,7 @@ def build_rover(config: Rover) -> CoupledSimulation:
 
 
 def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
-              plot: bool = False, resume: bool = False, until: float | None = None) -> RobotRun:
+              plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
     """Runs the scene; returns a summary (distance, mean speed and slip of each wheel after the
     pause, final sinkage of each wheel, pitch, leaks) and the series, and with `plot` and an
     `output` draws the PNG beside it. ``resume`` and ``until`` as in :func:`run_leg_wheel`."""
