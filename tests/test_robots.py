@@ -18,6 +18,7 @@ from terrasph.bodies import plate, rotation_matrix, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots import PlanarRobot, shape_inertial, slip
+from terrasph.robots.metrics import free_surface
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
@@ -148,3 +149,19 @@ def test_a_coupled_body_overlapping_the_bed_or_a_wall_is_refused() -> None:
     PlanarRobot(mjcf(in_the_wall), {"arm": PLATE}).add_to_scene(scene)
     with pytest.raises(ConfigError, match="body 'arm' intersects another wall"):
         Simulation(scene, BEADS, Numerics(spacing=DX))
+
+
+def test_free_surface_is_the_undisturbed_columns_level() -> None:
+    """A lattice bed whose top grains sit at z = 0.0375 (cells reach 0.04), with a rut and a pile in
+    x ∈ [0.10, 0.14] beside a body at [0.11, 0.13] and one grain thrown up far away: the level is
+    the flat bed's 0.04 exactly (the pile is within the margin, the thrown grain one column of many
+    in the median); with the margin reaching past the whole bed, NaN."""
+    dx = 0.005
+    x, z = np.meshgrid((np.arange(60) + 0.5) * dx, (np.arange(8) + 0.5) * dx)
+    grains = np.column_stack([x.ravel(), z.ravel()])
+    rut = (grains[:, 0] > 0.11) & (grains[:, 0] < 0.13) & (grains[:, 1] > 0.02)
+    pile = np.array([[0.1025, 0.0425], [0.1025, 0.0475], [0.1375, 0.0425]])
+    grains = np.vstack([grains[~rut], pile, [[0.2525, 0.09]]])
+    assert free_surface(grains, dx, [(0.11, 0.13)], 0.01) == pytest.approx(0.04, abs=1e-15)
+    assert free_surface(grains, dx, [], 0.0) == pytest.approx(0.04, abs=1e-15)  # 8 of 60 columns differ
+    assert math.isnan(free_surface(grains, dx, [(0.11, 0.13)], 0.2))

@@ -4,12 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import pathlib
 
 from terrasph.cli_common import add_force_option, add_threads_option, check_output_file, positive_float
-from terrasph.robots.leg_wheel import WHEELS, LegWheel, plot_leg_wheel, run_leg_wheel
-from terrasph.robots.plots import plot_robot
-from terrasph.robots.rover import WHEEL_BODIES, Rover, run_rover
+from terrasph.robots.leg_wheel import WHEELS, LegWheel, run_leg_wheel
+from terrasph.robots.rover import Rover, run_rover
 
 __all__ = ["register_robot_scenes"]
 
@@ -76,10 +74,8 @@ def _register_leg_wheel(scenes: argparse._SubParsersAction[argparse.ArgumentPars
 
 def _run_leg_wheel(args: argparse.Namespace) -> int:
     config = LegWheel(**_common_values(args), load=args.load)
-    result = run_leg_wheel(config, args.out, progress=not args.no_progress)
-    plot = str(pathlib.Path(args.out).with_suffix(".png"))
-    plot_leg_wheel(result["series"], plot, label=config.wheel, settle_time=config.settle_time)
-    print(json.dumps({**result["summary"], "output": args.out, "plot": plot}, indent=2))
+    result = run_leg_wheel(config, args.out, progress=not args.no_progress, plot=True)
+    print(json.dumps({**result.summary(), "output": args.out, "plot": result.plot}, indent=2))
     return 0
 
 
@@ -94,8 +90,6 @@ def _register_rover(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
 
 def _run_rover(args: argparse.Namespace) -> int:
     config = Rover(**_common_values(args))
-    result = run_rover(config, args.out, progress=not args.no_progress)
-    plot = str(pathlib.Path(args.out).with_suffix(".png"))
-    plot_robot(result["series"], WHEEL_BODIES, plot, settle_time=config.settle_time, title=f"rover, {config.wheel}")
-    print(json.dumps({**result["summary"], "output": args.out, "plot": plot}, indent=2))
+    result = run_rover(config, args.out, progress=not args.no_progress, plot=True)
+    print(json.dumps({**result.summary(), "output": args.out, "plot": result.plot}, indent=2))
     return 0

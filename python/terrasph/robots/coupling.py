@@ -34,12 +34,36 @@ from terrasph.config import ConfigError
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["CoupledSimulation"]
+__all__ = ["MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass"]
+
+#: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
+#: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/bench_robot_coupling.py):
+#: a plate set down on the bed is thrown off it at 1.5e-4 and stays at 2e-4 (Δx = 5 mm); the
+#: accepted range starts a factor 5 above that.
+MIN_MASS_RATIO = 1e-3
 
 
 def _unwrapped(previous: float, wrapped: float) -> float:
     """The angle equal to `wrapped` modulo 2π nearest to `previous` (a step turns far less than π)."""
     return previous + math.remainder(wrapped - previous, 2.0 * math.pi)
+
+
+def displaced_grain_mass(body: CoupledBody, grain_density: float) -> float:
+    """Mass (kg) of the grains at `grain_density` (ρ0, kg/m³) that the body's shape displaces:
+    ρ0 × (its particles' Δx × Δx cells) × its width."""
+    return grain_density * len(body.shape) * body.shape.spacing ** 2 * body.width
+
+
+def _check_mass_ratios(robot: PlanarRobot, grain_density: float) -> None:
+    """Refuses a coupled body lighter than MIN_MASS_RATIO × the grains it displaces: the load lags
+    the body by one step, and a body that light is thrown off the bed by it (docs/robots.md). The
+    body's own MuJoCo mass counts, not what it is jointed to (conservative for a wheel on a chassis)."""
+    for body in robot.coupled:
+        ratio = float(robot.model.body_mass[body.body_id]) / displaced_grain_mass(body, grain_density)
+        if ratio < MIN_MASS_RATIO:
+            raise ConfigError(f"coupled body '{body.name}' is too light for the coupling: its mass over that of the "
+                              f"grains it displaces is {ratio:.3g}, allowed >= {MIN_MASS_RATIO:g} (the explicit "
+                              "scheme's stability limit, docs/robots.md); make it heavier")
 
 
 class CoupledSimulation:
@@ -56,6 +80,7 @@ class CoupledSimulation:
         if removed:
             raise ConfigError(f"wall(s) {removed} have a 'remove_at' time; a removal would cut an SPH step short "
                               "of MuJoCo's, which a coupled run does not support")
+        _check_mass_ratios(robot, sim.material.reference_density)
         self.robot = robot
         self.sim = sim
         #: the core's index of each coupled body (Simulation.bodies is in the core's order)

@@ -12,8 +12,9 @@ servo is stable at the SPH step.
 Readings (the figure is not in the text): ``leg_length`` is the dissertation's "2R = 8 cm" read
 as in chapter 3, the hip-to-toe length of each leg, so the tips lie on a circle of radius 8 cm;
 the wheels have ``legs`` = 3 legs (Whegs-like); the plain wheel has the same outer radius. Slip
-(Eq. 4.8) uses that radius. Sinkage is the depth of the wheel's lowest point below the free
-surface of the bed as built (released at its hydrostatic density, it settles by less than Δx).
+(Eq. 4.8) uses that radius. Sinkage is the depth of the wheel's lowest point below the bed's
+undisturbed free surface, measured at each sample away from the wheel
+(:func:`terrasph.robots.run.undisturbed_surface`).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import pathlib
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -33,9 +35,8 @@ from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.plots import plot_robot
-from terrasph.robots.run import run_coupled
+from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.scene import Scene
-from terrasph.scenes.leg_rotation import glass_beads  # the same 3 mm beads as chapter 3
 from terrasph.simulation import Simulation
 
 __all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
@@ -162,6 +163,9 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 
 def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
     """Bed, container, robot and coupling, ready to run."""
+    # the same 3 mm beads as chapter 3; imported here, as the scene registry imports this module
+    from terrasph.scenes.leg_rotation import glass_beads
+
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, scene.gravity), {"wheel": Coupling(shape, config.width)},
@@ -170,11 +174,14 @@ def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
     return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
 
 
-def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *,
-                  progress: bool = False) -> dict[str, Any]:
+def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
+                  plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
     """Runs the scene; returns a summary (mean forward speed and slip after the pause, final and
-    maximum sinkage, leaks) and the series."""
+    maximum sinkage, motor work, cost of transport, leaks) and the series, and with `plot` and an
+    `output` draws the PNG beside it. ``resume=True`` continues the run in `output` from its
+    checkpoint, ``until`` replaces the end time (:func:`terrasph.robots.run.run_coupled`)."""
     coupled = build_leg_wheel(config)
+    # positive motor work since the pause (J) and the axle's x when the spin began (NaN before)
     work = {"motor": 0.0, "start_x": math.nan}
 
     def motor(run: CoupledSimulation) -> None:
@@ -186,9 +193,11 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
             # positive motor work, power at the step's start × dt (the motor cannot recover energy)
             work["motor"] += max(float(np.dot(data.actuator_force, data.actuator_velocity)), 0.0) * run.time_step()
 
-    series = run_coupled(coupled, config.duration, output=output, frame_interval=config.frame_interval,
-                         series_interval=config.series_interval, control=motor, progress=progress,
-                         config={"scene": "leg-wheel", **dataclasses.asdict(config), **coupled.sim.describe()})
+    series = run_coupled(coupled, config.duration if until is None else until, output=output,
+                         frame_interval=config.frame_interval, series_interval=config.series_interval,
+                         control=motor, progress=progress, memory=work, resume=resume,
+                         config={"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config),
+                                 **coupled.sim.describe()})
     wheel = series["robot/wheel"]
     # the driven phase: after the pause, once the servo has brought ω to half the command
     driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.omega)
@@ -203,7 +212,11 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                # Eq. 4.8 of the phase's mean speed and spin (a mean of the samples would be dominated
                # by the spin-up, where Rω is near 0)
                "mean_slip": float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any() else math.nan}
-    return {"summary": summary, "series": series}
+    figure = None
+    if plot and output is not None:
+        figure = str(pathlib.Path(output).with_suffix(".png"))
+        plot_leg_wheel(series, figure, label=config.wheel, settle_time=config.settle_time)
+    return RobotRun(summary, series, figure)
 
 
 def _cost_of_transport(work: float, coupled: CoupledSimulation, distance: float) -> float:

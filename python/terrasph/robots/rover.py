@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import pathlib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,8 +20,8 @@ from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.leg_wheel import bed_and_wheel, check_wheel_config, wheel_shape
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
-from terrasph.robots.run import run_coupled
-from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.robots.plots import plot_robot
+from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.simulation import Simulation
 
 __all__ = ["WHEEL_BODIES", "Rover", "build_rover", "run_rover"]
@@ -69,6 +70,9 @@ class Rover:
 
 def build_rover(config: Rover) -> CoupledSimulation:
     """Bed, container and the rover standing on it (wheels Δx/2 above the surface)."""
+    # imported here, as the scene registry imports this module
+    from terrasph.scenes.leg_rotation import glass_beads
+
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
     robot = PlanarRobot(ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
@@ -77,17 +81,20 @@ def build_rover(config: Rover) -> CoupledSimulation:
     return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
 
 
-def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False) -> dict[str, Any]:
+def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
+              plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
     """Runs the scene; returns a summary (distance, mean speed and slip of each wheel after the
-    pause, final sinkage of each wheel, pitch, leaks) and the series."""
+    pause, final sinkage of each wheel, pitch, leaks) and the series, and with `plot` and an
+    `output` draws the PNG beside it. ``resume`` and ``until`` as in :func:`run_leg_wheel`."""
     coupled = build_rover(config)
 
     def motors(run: CoupledSimulation) -> None:
         run.robot.data.ctrl[:] = config.omega if run.time >= config.settle_time else 0.0
 
-    series = run_coupled(coupled, config.duration, output=output, frame_interval=config.frame_interval,
-                         series_interval=config.series_interval, control=motors, progress=progress,
-                         config={"scene": "rover", **dataclasses.asdict(config), **coupled.sim.describe()})
+    series = run_coupled(coupled, config.duration if until is None else until, output=output,
+                         frame_interval=config.frame_interval, series_interval=config.series_interval,
+                         control=motors, progress=progress, resume=resume,
+                         config={"scene": "rover", "rover": dataclasses.asdict(config), **coupled.sim.describe()})
     summary: dict[str, Any] = {"wheel": config.wheel, "steps": coupled.sim.step_count,
                                "leaked_particles": coupled.sim.leaked_particles,
                                "distance": float(coupled.robot.data.qpos[0] - config.start_x),
@@ -101,4 +108,8 @@ def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, pr
         summary[f"{name}_mean_slip"] = float(slip(speed, spin, radius)) if driving.any() else math.nan
         summary[f"{name}_final_sinkage"] = float(body["sinkage"][-1])
         summary[f"{name}_mean_forward_speed"] = speed
-    return {"summary": summary, "series": series}
+    figure = None
+    if plot and output is not None:
+        figure = str(pathlib.Path(output).with_suffix(".png"))
+        plot_robot(series, WHEEL_BODIES, figure, settle_time=config.settle_time, title=f"rover, {config.wheel}")
+    return RobotRun(summary, series, figure)

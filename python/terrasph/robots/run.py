@@ -4,8 +4,9 @@ Layout of the file (terrasph.io.RunWriter): frames as for any run; ``/series/dia
 (time, step, dt, leaked_particles, wall_time); ``/series/robot/<body>`` per coupled body (time,
 reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s, force (F_x, F_z)
 N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
-the sampling interval, lowest_z m, sinkage m (if the scene has a surface level), slip (Eq. 4.8
-with the shape's radius)); ``/series/robot/actuators`` (time, qpos, qvel, actuator force — a
+the sampling interval, lowest_z m, surface m (the bed's undisturbed free surface at that time,
+:func:`undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8 with the shape's
+radius)); ``/series/robot/actuators`` (time, qpos, qvel, actuator force — a
 motor's torque in N·m for a hinge — and the total actuator power in W).
 """
 
@@ -14,6 +15,7 @@ from __future__ import annotations
 import os
 import time as wallclock
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -21,22 +23,40 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.metrics import sinkage, slip
+from terrasph.robots.metrics import free_surface, sinkage, slip
 
-__all__ = ["body_row", "run_coupled"]
+__all__ = ["SURFACE_MARGIN", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
+
+#: columns of the bed closer than this (m) to a coupled body's x extent are disturbed by it (its
+#: rut and the grains it pushes up) and left out of the free-surface level
+SURFACE_MARGIN = 0.02
 
 
-def body_row(coupled: CoupledSimulation, name: str) -> dict[str, Any]:
-    """One sample of a coupled body's series (granular loads averaged since the last reset)."""
+def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARGIN) -> float:
+    """The bed's free surface now (m; :func:`terrasph.robots.metrics.free_surface`) away from every
+    coupled body: columns within `margin` of a body's x extent are left out. Sinkage is measured
+    from it, so the bed's own settling (it is built at its hydrostatic density and settles by
+    less than Δx) is not counted as the robot sinking."""
+    sim = coupled.sim
+    walls, owner = np.asarray(sim.core.wall_position), np.asarray(sim.core.wall_body)
+    names = [b.name for b in sim.bodies]
+    extents = []
+    for body in coupled.robot.coupled:
+        x = walls[owner == names.index(body.name), 0]
+        extents.append((float(x.min()), float(x.max())))
+    return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)
+
+
+def body_row(coupled: CoupledSimulation, name: str, surface: float) -> dict[str, Any]:
+    """One sample of a coupled body's series (granular loads averaged since the last reset;
+    sinkage below the free surface at `surface`, m)."""
     body = next(b for b in coupled.robot.coupled if b.name == name)
     state = coupled.sim.body_state(name)
     velocity, omega = coupled.robot.velocity(body)
-    row = {"time": coupled.time, "reference": coupled.robot.reference(body), "angle": coupled.angle(name),
-           "velocity": velocity, "omega": omega, "force": state["force"], "torque": state["torque"],
-           "lowest_z": state["lowest_z"], "slip": float(slip(velocity[0], omega, body.shape.radius))}
-    if coupled.sim.scene.surface_level is not None:
-        row["sinkage"] = float(sinkage(state["lowest_z"], coupled.sim.scene.surface_level))
-    return row
+    return {"time": coupled.time, "reference": coupled.robot.reference(body), "angle": coupled.angle(name),
+            "velocity": velocity, "omega": omega, "force": state["force"], "torque": state["torque"],
+            "lowest_z": state["lowest_z"], "surface": surface, "sinkage": float(sinkage(state["lowest_z"], surface)),
+            "slip": float(slip(velocity[0], omega, body.shape.radius))}
 
 
 def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
@@ -46,24 +66,58 @@ def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
             "power": float(np.dot(data.actuator_force, data.actuator_velocity))}
 
 
+@dataclass
+class RobotRun:
+    """What a robot scene's run gives back: its summary values, the robot series by group name,
+    and the path of its figure (None if none was drawn)."""
+
+    values: dict[str, Any]
+    series: dict[str, dict[str, np.ndarray]]
+    plot: str | None = None
+
+    def summary(self) -> dict[str, Any]:
+        """The summary values (JSON-ready)."""
+        return self.values
+
+
 def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.PathLike[str] | None = None,
                 frame_interval: float = 0.05, series_interval: float = 0.01,
                 config: dict[str, Any] | None = None, control: Callable[[CoupledSimulation], None] | None = None,
-                progress: bool = False) -> dict[str, dict[str, np.ndarray]]:
+                progress: bool = False, memory: dict[str, Any] | None = None,
+                checkpoint_every: float | None = 600.0, resume: bool = False) -> dict[str, dict[str, np.ndarray]]:
     """Runs `coupled` to `t_end` (s); writes frames every `frame_interval` and robot samples every
     `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
-    step (to set MuJoCo's ``data.ctrl`` from the time, say). Returns the robot series by group name."""
+    step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
+    `memory` (plain data), which is checkpointed with the run. Returns the robot series by group
+    name (the whole run's, when resumed).
+
+    As :meth:`terrasph.Simulation.run`: with an `output`, the SPH State, MuJoCo's state (qpos,
+    qvel, act, ctrl, warm start, time), the coupling's memory and `memory` go to
+    :func:`terrasph.simulation.checkpoint_path` every `checkpoint_every` s of wall time (None: never)
+    and when SIGINT or SIGTERM stops the run at the next step boundary (the file is closed and
+    ``KeyboardInterrupt`` raised). ``resume=True`` continues from that checkpoint into the same
+    file (rows and frames written after it are dropped), bitwise the run that never stopped.
+    """
     for name, value in (("frame_interval", frame_interval), ("series_interval", series_interval)):
         if not value > 0:
             raise ConfigError(f"parameter '{name}' = {value} is invalid: allowed > 0 s")
+    if checkpoint_every is not None and not checkpoint_every > 0:
+        raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
+    if resume and output is None:
+        raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
+    from terrasph.io import RunWriter, read_run
+    from terrasph.simulation import _StopRequest, checkpoint_path, versions
+
+    memory = {} if memory is None else memory
+    saved = coupled.restore(checkpoint_path(output)) if resume else {}
+    memory.update(saved.get("memory", {}))
     if not t_end > coupled.time:
         raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {coupled.time}")
-    from terrasph.io import RunWriter
-    from terrasph.simulation import versions
-
     sim = coupled.sim
     writer = None
-    if output is not None:
+    if resume:
+        writer = RunWriter.reopen(output, frames=saved["frames"], series_rows=saved["series_rows"])
+    elif output is not None:
         describe = {**sim.describe(), "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width}
                                                               for b in coupled.robot.coupled},
                                                 "mujoco": mujoco.__version__}}
@@ -71,17 +125,21 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
         writer.write_static("granular/mass", np.array(sim.mass))
         writer.write_static("walls/group", np.array(sim.core.wall_group))
     series: dict[str, dict[str, list[Any]]] = {}
-    start = wallclock.perf_counter()
+    series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
+    frames = saved.get("frames", 0)
+    start = wallclock.perf_counter() - saved.get("wall_time", 0.0)
 
     def append(group: str, row: dict[str, Any]) -> None:
         for key, value in row.items():
             series.setdefault(group, {}).setdefault(key, []).append(value)
         if writer:
             writer.append_series(group, row)
+            series_rows[group] = series_rows.get(group, 0) + 1
 
     def sample() -> None:
+        surface = undisturbed_surface(coupled)
         for body in coupled.robot.coupled:
-            append(f"robot/{body.name}", body_row(coupled, body.name))
+            append(f"robot/{body.name}", body_row(coupled, body.name, surface))
         append("robot/actuators", _actuator_row(coupled))
         append("diagnostics", {"time": coupled.time, "step": sim.step_count, "dt": sim.core.last_dt,
                                "leaked_particles": sim.leaked_particles,
@@ -89,35 +147,63 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
         sim.reset_body_means()
 
     def frame() -> None:
+        nonlocal frames
         if writer:
             writer.write_frame(sim.time, sim.step_count, {**sim.frame_fields(),
                                                           "wall_position": np.array(sim.core.wall_position)})
+            frames += 1
+
+    def save_checkpoint() -> None:
+        if writer:
+            coupled.checkpoint(checkpoint_path(output), {
+                "next_sample": next_sample, "next_frame": next_frame, "frames": frames, "series_rows": series_rows,
+                "wall_time": wallclock.perf_counter() - start, "memory": memory})
 
     from tqdm.auto import tqdm
 
-    sim.reset_body_means()
-    sample()
-    frame()
-    next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
+    if resume:
+        next_sample, next_frame = saved["next_sample"], saved["next_frame"]
+    else:
+        sim.reset_body_means()
+        sample()
+        frame()
+        next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
     bar = tqdm(total=round(t_end - coupled.time, 9), unit="s", disable=not progress, mininterval=0.5,
                bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]")
+    stop = _StopRequest()
     try:
-        while coupled.time < t_end * (1 - 1e-14):
-            if control:
-                control(coupled)
-            bar.update(coupled.step())
-            if coupled.time >= next_sample * (1 - 1e-12):
-                sample()
-                next_sample += series_interval
-            if coupled.time >= next_frame * (1 - 1e-12):
-                frame()
-                next_frame += frame_interval
+        with stop.catching_signals():
+            last_checkpoint = wallclock.perf_counter()
+            while coupled.time < t_end * (1 - 1e-14):
+                if control:
+                    control(coupled)
+                bar.update(coupled.step())
+                if coupled.time >= next_sample * (1 - 1e-12):
+                    sample()
+                    next_sample += series_interval
+                if coupled.time >= next_frame * (1 - 1e-12):
+                    frame()
+                    next_frame += frame_interval
+                if stop.requested:
+                    raise KeyboardInterrupt
+                if checkpoint_every is not None and wallclock.perf_counter() - last_checkpoint >= checkpoint_every:
+                    save_checkpoint()
+                    last_checkpoint = wallclock.perf_counter()
         if writer:
             writer.set_attrs("/run", {"status": "completed", "time": sim.time, "steps": sim.step_count,
                                       "leaked_particles": sim.leaked_particles,
                                       "wall_time": wallclock.perf_counter() - start})
+    except KeyboardInterrupt:
+        if writer:
+            save_checkpoint()
+            writer.set_attrs("/run", {"status": "interrupted", "time": sim.time, "steps": sim.step_count,
+                                      "checkpoint": checkpoint_path(output).name})
+        raise
     finally:
         bar.close()
         if writer:
             writer.close()
+    if resume:  # the whole run's series, not only the resumed part
+        return {group: dict(values) for group, values in read_run(output).series.items()
+                if group.startswith("robot/") or group == "diagnostics"}
     return {group: {key: np.asarray(values) for key, values in rows.items()} for group, rows in series.items()}

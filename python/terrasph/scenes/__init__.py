@@ -14,6 +14,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from terrasph.config import ConfigError
+from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.robots.rover import Rover, run_rover
 from terrasph.scenes.column_collapse import (
     RESOLUTIONS,
     ColumnCollapse,
@@ -60,6 +62,8 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
     SceneEntry("column-collapse", "column_collapse", ColumnCollapse, run_column_collapse),
     SceneEntry("leg-rotation", "leg_rotation", LegRotation, run_leg_rotation),
     SceneEntry("plate-intrusion", "plate_intrusion", PlateIntrusion, run_plate_intrusion),
+    SceneEntry("leg-wheel", "leg_wheel", LegWheel, run_leg_wheel),
+    SceneEntry("rover", "rover", Rover, run_rover),
 )}
 
 
