@@ -536,7 +536,8 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
     becomes node-centred scalars: scalar fields as themselves, vector and tensor fields one scalar
     per component (``velocity_x``, ``velocity_z``, ``stress_xx``, …; a body field's ``body_`` prefix
     is dropped). The HDF5 file is referenced by its path relative to the sidecar (default:
-    ``h5_path`` with suffix ``.xdmf``), so keep the two files together.
+    ``h5_path`` with suffix ``.xdmf``), so keep the two files together. The per-set files that
+    meshio reads too are written beside it (:func:`write_xdmf_sets`).
     """
     h5_path = pathlib.Path(h5_path)
     out = pathlib.Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
