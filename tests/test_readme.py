@@ -27,7 +27,7 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 #: (text in a README block, replacement): the small size each block is run at
 SIZE = [
     ("--spacing 0.002 --thickness 0.006", "--spacing 0.005 --thickness 0.015"),
-    ("--settle-time 0.2 --t-end 3.0 --out leg_wheel.h5", "--settle-time 0.02 --t-end 0.1 --out leg_wheel.h5"),
+    ("--settle-time 0.2 --t-end 2.5 --out leg_wheel.h5", "--settle-time 0.02 --t-end 0.1 --out leg_wheel.h5"),
     ("--resolution coarse --out column_collapse.h5", "--resolution coarse --out column_collapse.h5 --t-end 0.02"),
     ("result = sim.run(0.8,", "result = sim.run(0.02,"),
     ("pause, omega = 2.0, 0.2", "pause, omega = 0.01, 40.0"),
