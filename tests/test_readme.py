@@ -26,6 +26,8 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 
 #: (text in a README block, replacement): the small size each block is run at
 SIZE = [
+    ("--spacing 0.002 --thickness 0.006", "--spacing 0.005 --thickness 0.015"),
+    ("--settle-time 0.2 --t-end 2.5 --out leg_wheel.h5", "--settle-time 0.02 --t-end 0.1 --out leg_wheel.h5"),
     ("--resolution coarse --out column_collapse.h5", "--resolution coarse --out column_collapse.h5 --t-end 0.02"),
     ("result = sim.run(0.8,", "result = sim.run(0.02,"),
     ("pause, omega = 2.0, 0.2", "pause, omega = 0.01, 40.0"),
@@ -86,6 +88,7 @@ def test_readme_blocks_run_as_written(tmp_path: Path) -> None:
             ran[language] += 1
     assert ran["python"] == 3 and ran["bash"] >= 6
     # the files the README says the commands write
-    for name in ("column_collapse.h5", "column_collapse.xdmf", "column_collapse.png", "my_run.h5", "leg.h5",
+    for name in ("leg_wheel.h5", "leg_wheel.png", "leg_wheel.mp4", "column_collapse.h5", "column_collapse.xdmf",
+                 "column_collapse.grains.xdmf", "column_collapse.png", "column_collapse.gif", "my_run.h5", "leg.h5",
                  "c_leg.h5", "plate.h5", "wheel.tslstm", "lw.h5", "rover.h5"):
         assert (tmp_path / name).is_file(), name

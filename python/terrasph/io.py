@@ -31,7 +31,8 @@ from typing import Any
 import h5py
 import numpy as np
 
-__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "read_run", "write_results", "write_xdmf"]
+__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "read_run", "write_results", "write_xdmf",
+           "write_xdmf_sets"]
 
 SCHEMA_VERSION = 1
 UNITS = "SI; 2D plane strain, forces in N for the body's real width"
@@ -535,7 +536,8 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
     becomes node-centred scalars: scalar fields as themselves, vector and tensor fields one scalar
     per component (``velocity_x``, ``velocity_z``, ``stress_xx``, …; a body field's ``body_`` prefix
     is dropped). The HDF5 file is referenced by its path relative to the sidecar (default:
-    ``h5_path`` with suffix ``.xdmf``), so keep the two files together.
+    ``h5_path`` with suffix ``.xdmf``), so keep the two files together. The per-set files that
+    meshio reads too are written beside it (:func:`write_xdmf_sets`).
     """
     h5_path = pathlib.Path(h5_path)
     out = pathlib.Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
@@ -580,9 +582,121 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
             if walls is not None and walls.shape[0] > 0:
                 grid = _polyvertex_grid(step, "walls", walls.shape[0])
                 _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), h5_ref, walls)
-    ET.indent(root)
-    out.write_text('<?xml version="1.0" ?>\n' + ET.tostring(root, encoding="unicode") + "\n")
+    _write_xml(root, out)
+    write_xdmf_sets(h5_path, out)
     return out
+
+
+def _write_xml(root: ET.Element, path: pathlib.Path) -> None:
+    ET.indent(root)
+    path.write_text('<?xml version="1.0" ?>\n' + ET.tostring(root, encoding="unicode") + "\n")
+
+
+def write_xdmf_sets(h5_path: str | os.PathLike[str],
+                    xdmf_path: str | os.PathLike[str] | None = None) -> list[pathlib.Path]:
+    """Write one XDMF 3 file per particle set that both meshio and ParaView read; return their paths.
+
+    meshio's XDMF readers take whole HDF5 datasets only (no hyperslabs), one Uniform grid per time
+    step, and the points of the first step for the whole series. So beside `xdmf_path` (default:
+    ``h5_path`` with suffix ``.xdmf``), named after its stem:
+
+    * ``<stem>.xdmf.h5`` holds HDF5 virtual datasets, one per frame, set and field component, each
+      mapping a slice of the run file's ``/frames/<field>`` (no particle data is copied; the run
+      file is referenced by its relative path, so keep the files together), and each set's
+      Polyvertex connectivity;
+    * ``<stem>.grains.xdmf`` and, in scenes with bodies, ``<stem>.bodies.xdmf``: a Temporal
+      collection of Uniform grids, one per frame, each with that frame's positions as geometry
+      (ParaView moves the particles) and as the point data ``position_x``, ``position_z`` (meshio's
+      ``TimeSeriesReader`` keeps the first frame's points), the fields split into components as in
+      :func:`write_xdmf`, and the particles' ``id`` (bodies: also ``body_index``) when the file has them;
+    * ``<stem>.walls.xdmf``: the fixed walls of ``/static/walls/position`` as one static grid
+      (``meshio.read``) with their ``id`` and ``group`` (wall index).
+    """
+    h5_path = pathlib.Path(h5_path)
+    base = pathlib.Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
+    side = base.with_suffix(".xdmf.h5")
+    run_ref = os.path.relpath(h5_path.resolve(), base.resolve().parent)
+    side_ref = os.path.relpath(side.resolve(), base.resolve().parent)
+    source_ref = os.path.relpath(h5_path.resolve(), side.resolve().parent)  # VDS: relative to the side file
+    written = []
+    with h5py.File(h5_path, "r") as file, h5py.File(side, "w") as views:
+        frames, static = file["frames"], file.get("static", {})
+        n_frames = min(dataset.shape[0] for dataset in frames.values())
+        times = frames["time"][:n_frames]
+        sets = [("grains", "position", "", {"id": "granular/id"}),
+                ("bodies", "body_position", "body_", {"id": "bodies/id", "body_index": "bodies/index"})]
+        for name, geometry, prefix, static_fields in sets:
+            if geometry not in frames:
+                continue
+            count = frames[geometry].shape[1]
+            fields = _set_fields(frames, frames[geometry], prefix)
+            constant = {label: static[path] for label, path in static_fields.items()
+                        if path in static and static[path].shape[:1] == (count,)}
+            root, collection = _xdmf_root(name, temporal=True)
+            connectivity = _connectivity(views, name, count)
+            for k in range(n_frames):
+                grid = ET.SubElement(collection, "Grid", Name=f"frame_{k}", GridType="Uniform")
+                ET.SubElement(grid, "Time", Value=repr(float(times[k])))
+                _polyvertex(grid, count, side_ref, connectivity)
+                position = _virtual_slice(views, f"{name}/frame_{k}/position", source_ref, frames[geometry], (k,))
+                _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), side_ref, position)
+                for label, dataset in [("position", frames[geometry]), *fields]:
+                    trailing = dataset.shape[2:]
+                    for suffix, index in _component_suffixes(trailing) if trailing else [("", ())]:
+                        view = _virtual_slice(views, f"{name}/frame_{k}/{label}{suffix}", source_ref, dataset,
+                                              (k, slice(None), *index))
+                        _node_attribute(grid, label + suffix, side_ref, view)
+                for label, dataset in constant.items():
+                    _node_attribute(grid, label, run_ref, dataset)
+            written.append(base.with_suffix(f".{name}.xdmf"))
+            _write_xml(root, written[-1])
+        walls = static.get("walls/position")
+        if walls is not None and walls.shape[0] > 0:
+            root, grid = _xdmf_root("walls", temporal=False)
+            _polyvertex(grid, walls.shape[0], side_ref, _connectivity(views, "walls", walls.shape[0]))
+            _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), run_ref, walls)
+            for label in ("id", "group"):
+                if f"walls/{label}" in static and static[f"walls/{label}"].shape[:1] == walls.shape[:1]:
+                    _node_attribute(grid, label, run_ref, static[f"walls/{label}"])
+            written.append(base.with_suffix(".walls.xdmf"))
+            _write_xml(root, written[-1])
+    return written
+
+
+def _xdmf_root(name: str, temporal: bool) -> tuple[ET.Element, ET.Element]:
+    """An XDMF 3 document with one grid named `name` in its domain: a Temporal collection or a
+    Uniform grid (meshio reads exactly one grid per domain)."""
+    root = ET.Element("Xdmf", Version="3.0")
+    domain = ET.SubElement(root, "Domain")
+    if temporal:
+        return root, ET.SubElement(domain, "Grid", Name=name, GridType="Collection", CollectionType="Temporal")
+    return root, ET.SubElement(domain, "Grid", Name=name, GridType="Uniform")
+
+
+def _connectivity(views: h5py.File, name: str, count: int) -> h5py.Dataset:
+    """Polyvertex connectivity 0 … count−1 of a set, stored in the side file (meshio needs it)."""
+    return views.create_dataset(f"{name}/connectivity", data=np.arange(count, dtype=np.int64).reshape(count, 1))
+
+
+def _polyvertex(grid: ET.Element, count: int, side_ref: str, connectivity: h5py.Dataset) -> None:
+    topology = ET.SubElement(grid, "Topology", TopologyType="Polyvertex", NumberOfElements=str(count),
+                             NodesPerElement="1")
+    _whole(topology, side_ref, connectivity)
+
+
+def _node_attribute(grid: ET.Element, name: str, h5_ref: str, dataset: h5py.Dataset) -> None:
+    attribute = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar", Center="Node")
+    _whole(attribute, h5_ref, dataset)
+
+
+def _virtual_slice(views: h5py.File, name: str, source_ref: str, dataset: h5py.Dataset,
+                   index: tuple[int | slice, ...]) -> h5py.Dataset:
+    """A virtual dataset `name` in `views` that is ``dataset[index]`` of the run file (no copy)."""
+    source = h5py.VirtualSource(source_ref, dataset.name, shape=dataset.shape, dtype=dataset.dtype)
+    shape = tuple(n for axis, n in enumerate(dataset.shape) if axis >= len(index) or not isinstance(index[axis], int))
+    layout = h5py.VirtualLayout(shape=shape, dtype=dataset.dtype)
+    layout[...] = source[index]
+    return views.create_virtual_dataset(name, layout)
 
 
 def _set_fields(frames: h5py.Group, geometry: h5py.Dataset, prefix: str) -> list[tuple[str, h5py.Dataset]]:
