@@ -96,3 +96,18 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
     assert resumed["motor_work"] == whole.summary()["motor_work"] > 0
     assert resumed["leaked_particles"] == 0
     assert resumed["plot"] == str(stopped.with_suffix(".png")) and stopped.with_suffix(".png").is_file()
+
+
+def test_the_robot_progress_bar_ends_at_its_total(tmp_path, capsys) -> None:
+    """The coupled loop's last step ends past t_end (its dt is the SPH's stable bound): the bar stops
+    at 100 %, with no tqdm clamping warning and no negative remaining time (issue 15, item 7)."""
+    import warnings
+
+    config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
+                      bed_depth=0.04, start_x=0.08, settle_time=0.005, duration=0.0123456781234, load=2.0,
+                      series_interval=0.005, frame_interval=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a TqdmWarning fails the test
+        run_leg_wheel(config, tmp_path / "bar.h5", progress=True, plot=False)
+    bar_lines = [line for line in capsys.readouterr().err.replace("\r", "\n").splitlines() if "simulated" in line]
+    assert "100%" in bar_lines[-1] and "<-" not in bar_lines[-1], bar_lines[-1]

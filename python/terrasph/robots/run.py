@@ -168,7 +168,8 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
         sample()
         frame()
         next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
-    bar = tqdm(total=round(t_end - coupled.time, 9), unit="s", disable=not progress, mininterval=0.5,
+    t_start = coupled.time
+    bar = tqdm(total=round(t_end - t_start, 9), unit="s", disable=not progress, mininterval=0.5,
                bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]")
     stop = _StopRequest()
     try:
@@ -177,7 +178,9 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
             while coupled.time < t_end * (1 - 1e-14):
                 if control:
                     control(coupled)
-                bar.update(coupled.step())
+                coupled.step()
+                # the last step may end past t_end: the bar stops at its total, never beyond (tqdm clamps with a warning)
+                bar.update(min(bar.total, round(coupled.time - t_start, 9)) - bar.n)
                 if coupled.time >= next_sample * (1 - 1e-12):
                     sample()
                     next_sample += series_interval
