@@ -40,10 +40,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     from terrasph import run_files, scenes_cli
     from terrasph.surrogate import cli as surrogate_cli
+    from terrasph.sweeps import cli as sweep_cli
 
     scenes_cli.register(sub)
     run_files.register(sub)
     surrogate_cli.register(sub)
+    sweep_cli.register(sub)
     _remember_leaf_parsers(parser)
     return parser
 
