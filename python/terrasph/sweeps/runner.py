@@ -6,7 +6,9 @@ Layout of a sweep directory::
     runs/<case_id>.json        its record: varied values, configuration, status, error, wall time,
                                versions, worker
     manifest.json              the SPEC and every case's record (rewritten after each case)
-    events.jsonl               one line per case submitted / finished / failed, per session
+    events.jsonl               one line per event: submitted (client), started, then finished or
+                               failed (worker, after the run file and its record are in place),
+                               with the session (one invocation) that caused it
 
 A case counts as finished only if ``runs/<case_id>.h5`` opens as HDF5 and its ``/run`` status is
 "completed" or "at_rest"; anything else (no file, a partial or corrupted file, a failed run) is
@@ -37,6 +39,17 @@ def _write_json_atomically(path: Path, data: Any) -> None:
     os.replace(temporary, path)
 
 
+def log_event(out_dir: Path, session: str, event: str, case_id: str) -> None:
+    """Appends one line to ``events.jsonl`` (one write on an O_APPEND file: lines of concurrent
+    workers do not interleave)."""
+    line = json.dumps({"session": session, "event": event, "case": case_id, "time": time.time()}) + "\n"
+    descriptor = os.open(out_dir / "events.jsonl", os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(descriptor, line.encode())
+    finally:
+        os.close(descriptor)
+
+
 def run_file(out_dir: Path, case: Case) -> Path:
     """Where the finished run of `case` lies."""
     return out_dir / "runs" / f"{case.case_id}.h5"
@@ -54,7 +67,7 @@ def is_finished(path: Path) -> bool:
     return (status.decode() if isinstance(status, bytes) else status) in FINISHED_STATUSES
 
 
-def run_one(scene: str, case: Case, out_dir: str, omp_threads: int) -> dict[str, Any]:
+def run_one(scene: str, case: Case, out_dir: str, omp_threads: int, session: str) -> dict[str, Any]:
     """Runs one case on this process (a Dask worker) with `omp_threads` OpenMP threads; returns its
     record. Any exception of the run is recorded with its message, never raised."""
     from terrasph import _core
@@ -67,6 +80,7 @@ def run_one(scene: str, case: Case, out_dir: str, omp_threads: int) -> dict[str,
     record: dict[str, Any] = {"case_id": case.case_id, "varied": case.varied, "config": case.config,
                               "worker": f"{socket.gethostname()}:{os.getpid()}", "omp_threads": omp_threads,
                               "versions": versions()}
+    log_event(Path(out_dir), session, "started", case.case_id)
     start = time.perf_counter()
     try:
         partial.unlink(missing_ok=True)
@@ -81,6 +95,7 @@ def run_one(scene: str, case: Case, out_dir: str, omp_threads: int) -> dict[str,
                       traceback=traceback.format_exc(limit=4))
     record["wall_time"] = time.perf_counter() - start
     _write_json_atomically(final.with_suffix(".json"), record)
+    log_event(Path(out_dir), session, "finished" if record["status"] == "completed" else "failed", case.case_id)
     return record
 
 
@@ -116,11 +131,6 @@ def run_sweep(spec: SweepSpec, out_dir: str | os.PathLike[str], *, workers: int 
     (out / "runs").mkdir(parents=True, exist_ok=True)
     pending, records = _pending(spec, out)
     session = uuid.uuid4().hex[:8]
-    events = (out / "events.jsonl").open("a")
-
-    def log(event: str, case_id: str) -> None:
-        events.write(json.dumps({"session": session, "event": event, "case": case_id, "time": time.time()}) + "\n")
-        events.flush()
 
     def write_manifest() -> dict[str, Any]:
         cases = [records.get(c.case_id, {"case_id": c.case_id, "varied": c.varied, "config": c.config,
@@ -137,22 +147,20 @@ def run_sweep(spec: SweepSpec, out_dir: str | os.PathLike[str], *, workers: int 
         with Client(scheduler or cluster) as client:
             futures = []
             for case in pending:
-                futures.append(client.submit(run_one, spec.scene, case, str(out), threads_per_worker,
+                futures.append(client.submit(run_one, spec.scene, case, str(out), threads_per_worker, session,
                                              key=f"sweep-{session}-{case.case_id}", pure=False))
-                log("submitted", case.case_id)
+                log_event(out, session, "submitted", case.case_id)
             bar = tqdm(total=len(spec.cases), initial=len(spec.cases) - len(pending), unit="run",
                        disable=not progress, desc=f"sweep {spec.scene}")
             for future in as_completed(futures):
                 record = future.result()
                 records[record["case_id"]] = record
-                log("finished" if record["status"] == "completed" else "failed", record["case_id"])
                 write_manifest()
                 bar.update(1)
                 failed = sum(r["status"] == "failed" for r in records.values())
                 bar.set_postfix(failed=failed)
             bar.close()
     finally:
-        events.close()
         if cluster is not None:
             cluster.close()
     return write_manifest()
