@@ -4,8 +4,9 @@ The wall time includes starting the cluster and its workers' imports (what a use
 
     python benchmarks/bench_sweep_throughput.py [runs] [rounds]
 
-Sweep: `runs` Latin-hypercube cases of the leg-wheel at Δx = 5 mm (README coarse trial: 5 cm
-legs 1.5 cm thick, 30 × 5 cm bed), 0.2 s pause + 0.8 s driven by a drawn ω(t) schedule.
+Sweep: `runs` Latin-hypercube cases of the leg-wheel as in the study (benchmarks/
+sweep_leg_wheel_study.yaml: Δx = 1 cm, 6 cm legs 3 cm thick, 35 × 5 cm bed), 0.2 s pause + 0.8 s
+driven by a drawn ω(t) schedule.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import time
 from terrasph.sweeps.runner import run_sweep
 from terrasph.sweeps.spec import parse_spec
 
-FIXED = {"spacing": 0.005, "thickness": 0.015, "leg_length": 0.05, "bed_width": 0.3, "bed_depth": 0.05,
+FIXED = {"spacing": 0.01, "thickness": 0.03, "leg_length": 0.06, "bed_width": 0.35, "bed_depth": 0.05,
          "start_x": 0.1, "settle_time": 0.2, "duration": 1.0, "frame_interval": 0.5}
 
 if __name__ == "__main__":

@@ -152,7 +152,11 @@ def train(runs: Sequence[Run], config: TrainConfig, progress: bool = True,
     weights of the best validation epoch are kept).
     """
     import torch
-    from tqdm.auto import tqdm
+
+    if progress:
+        from tqdm.auto import tqdm
+    else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
+        from tqdm import tqdm
 
     from terrasph.surrogate.model import ModelConfig, SurrogateNet
 

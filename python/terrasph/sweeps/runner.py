@@ -18,6 +18,7 @@ run again by the next invocation. A worker writes to ``runs/<case_id>.partial.h5
 from __future__ import annotations
 
 import json
+import logging
 import os
 import socket
 import time
@@ -122,7 +123,11 @@ def run_sweep(spec: SweepSpec, out_dir: str | os.PathLike[str], *, workers: int 
     process workers (one task each at a time) unless `scheduler` names an existing cluster — with
     `threads_per_worker` OpenMP threads per run. Writes and returns the manifest."""
     from dask.distributed import Client, LocalCluster, as_completed
-    from tqdm.auto import tqdm
+
+    if progress:
+        from tqdm.auto import tqdm
+    else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
+        from tqdm import tqdm
 
     for name, value in (("workers", workers), ("threads_per_worker", threads_per_worker)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -141,8 +146,9 @@ def run_sweep(spec: SweepSpec, out_dir: str | os.PathLike[str], *, workers: int 
         return manifest
 
     write_manifest()
+    # silence_logs: Dask's own INFO/WARNING lines (e.g. a worker slow to stop on a busy machine) stay out
     cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                  dashboard_address=None)
+                                                  dashboard_address=None, silence_logs=logging.ERROR)
     try:
         with Client(scheduler or cluster) as client:
             futures = []
