@@ -18,9 +18,13 @@ from pathlib import Path
 
 import numpy as np
 import torch
-
 from terrasph.surrogate.dataset import load_runs
-from terrasph.surrogate.evaluation import baseline_predictors, error_table, format_table, plot_predictions
+from terrasph.surrogate.evaluation import (
+    baseline_predictors,
+    error_table,
+    format_table,
+    plot_predictions,
+)
 from terrasph.surrogate.export import export_model
 from terrasph.surrogate.inference import load_model
 from terrasph.surrogate.robot_dataset import build_robot_dataset, split_by_range

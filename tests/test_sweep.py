@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 import yaml
 from sweep_helpers import tiny_spec
-
 from terrasph.sweeps.runner import is_finished, run_sweep
 from terrasph.sweeps.spec import parse_spec
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sweep_helpers import TINY_FIXED, tiny_spec
-
 from terrasph import schedules
 from terrasph.cli import main
 from terrasph.config import ConfigError

@@ -9,6 +9,7 @@ model learns little from constant inputs, so sweeps draw the varied kinds (issue
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -33,7 +34,7 @@ def check_knots(name: str, knots: Sequence[Sequence[float]], lower: float = -mat
     except (TypeError, ValueError):
         raise ConfigError(f"parameter '{name}' = {knots!r} is invalid: allowed a list of (time, value) pairs") from None
     times = [t for t, _ in pairs]
-    if not all(math.isfinite(t) and t >= 0 for t in times) or any(b < a for a, b in zip(times, times[1:])):
+    if not all(math.isfinite(t) and t >= 0 for t in times) or any(b < a for a, b in itertools.pairwise(times)):
         raise ConfigError(f"parameter '{name}': times {times} are invalid: allowed finite, >= 0, non-decreasing")
     for _, value in pairs:
         if not (math.isfinite(value) and lower <= value <= upper):
@@ -80,7 +81,7 @@ def random_piecewise(rng: np.random.Generator, duration: float, lower: float, up
     levels = rng.uniform(lower, upper, segments)
     knots: list[tuple[float, float]] = [(0.0, float(levels[0]))]
     for k in range(1, segments):
-        t, length = float(starts[k]), float((np.append(starts, duration)[k + 1] - starts[k]))
+        t, length = float(starts[k]), float(np.append(starts, duration)[k + 1] - starts[k])
         if rng.random() < 0.5:
             knots += [(t, knots[-1][1]), (t, float(levels[k]))]
         else:

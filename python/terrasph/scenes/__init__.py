@@ -35,8 +35,8 @@ from terrasph.scenes.plate_intrusion import (
     run_plate_intrusion,
 )
 
-__all__ = ["RESOLUTIONS", "SCENES", "run_case", "ColumnCollapse", "LegRotation", "PlateIntrusion", "SceneEntry",
-           "build_column_collapse", "build_leg_rotation", "build_plate_intrusion", "run_column_collapse",
+__all__ = ["RESOLUTIONS", "SCENES", "ColumnCollapse", "LegRotation", "PlateIntrusion", "SceneEntry",
+           "build_column_collapse", "build_leg_rotation", "build_plate_intrusion", "run_case", "run_column_collapse",
            "run_leg_rotation", "run_plate_intrusion", "scene_entry", "scene_of_run"]
 
 

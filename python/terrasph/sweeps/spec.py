@@ -32,13 +32,13 @@ import hashlib
 import itertools
 import json
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomllib
 
 from terrasph import schedules
 from terrasph.config import ConfigError, parameter
@@ -285,11 +285,11 @@ def _design_rows(method: str, design: Mapping[str, Any], dimensions: list[dict[s
         else:
             low, high = d["range"]
             values = low + unit * (high - low)
-            columns[d["name"]] = ([int(round(v)) for v in values] if d["integer"] else [float(v) for v in values])
+            columns[d["name"]] = ([round(v) for v in values] if d["integer"] else [float(v) for v in values])
     return [{name: column[k] for name, column in columns.items()} for k in range(runs)]
 
 
 def _levels(dimension: dict[str, Any]) -> list[Any]:
     low, high = dimension["range"]
     points = np.linspace(low, high, dimension["levels"])
-    return sorted({int(round(p)) for p in points}) if dimension["integer"] else [float(p) for p in points]
+    return sorted({round(p) for p in points}) if dimension["integer"] else [float(p) for p in points]
