@@ -35,8 +35,8 @@ from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.plots import plot_robot
 from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
-from terrasph.schedules import check_knots, evaluate
 from terrasph.scenes.leg_rotation import glass_beads  # the same 3 mm beads as chapter 3
+from terrasph.schedules import check_knots, evaluate
 from terrasph.simulation import Simulation
 
 __all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
@@ -202,7 +202,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                          config={"scene": "leg-wheel", **dataclasses.asdict(config), **coupled.sim.describe()})
     wheel = series["robot/wheel"]
     # the driven phase: after the pause, once the servo has brought ω to half the command
-    driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.omega)
+    driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.commanded_omega(wheel["time"]))
     speed = float(np.mean(wheel["velocity"][driving, 0])) if driving.any() else math.nan
     spin = float(np.mean(wheel["omega"][driving])) if driving.any() else math.nan
     summary = {"wheel": config.wheel, "legs": config.legs, "steps": coupled.sim.step_count,
