@@ -1,4 +1,4 @@
-"""Command line: ``terrasph run SCENE``, ``info``, ``plot``, ``animate``, ``train``, ``predict``, ``make-synthetic-dataset``.
+"""Command line: ``terrasph run SCENE``, ``info``, ``plot``, ``animate``, ``train``, ``predict``, ``make-synthetic-dataset``, ``sweep``.
 
 Every expected error — bad configuration (:class:`terrasph.config.ConfigError`), a malformed file
 or model file (``ValueError`` and its subclasses ``ModelFileError``/``LstmFormatError``), a missing
@@ -40,11 +40,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     from terrasph import animate, run_files, scenes_cli
     from terrasph.surrogate import cli as surrogate_cli
+    from terrasph.sweeps import cli as sweep_cli
 
     scenes_cli.register(sub)
     run_files.register(sub)
     animate.register(sub)
     surrogate_cli.register(sub)
+    sweep_cli.register(sub)
     _remember_leaf_parsers(parser)
     return parser
 

@@ -37,6 +37,7 @@ from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.plots import plot_robot
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.scene import Scene
+from terrasph.schedules import check_knots, evaluate
 from terrasph.simulation import Simulation
 
 __all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
@@ -52,6 +53,9 @@ class LegWheel:
     wheel: str = "c-leg"  #: one of WHEELS
     legs: int = 3  #: legs of a leg-wheel
     omega: float = 1.5  #: commanded spin after the pause (rad/s, clockwise)
+    #: if given, the commanded spin after the pause instead of `omega`: knots (t − settle_time, ω) of a
+    #: piecewise-linear schedule (terrasph.schedules; a repeated time is a step), ω ≥ 0
+    omega_schedule: tuple[tuple[float, float], ...] = ()
     load: float = 4.9  #: vertical load carried by the chassis (N)
     leg_length: float = 0.08  #: hip-to-toe length ("2R = 8 cm"), the tip radius
     thickness: float = 0.005
@@ -72,6 +76,7 @@ class LegWheel:
 
     def __post_init__(self) -> None:
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
+        object.__setattr__(self, "omega_schedule", check_knots("omega_schedule", self.omega_schedule, lower=0.0))
         if not self.leg_length < self.start_x < self.bed_width - self.leg_length:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between leg_length and "
                               "bed_width − leg_length (the wheel must start clear of the container)")
@@ -79,6 +84,12 @@ class LegWheel:
     def shape(self) -> bodies.BodyShape:
         """The wheel in its own frame (axle at the origin; leg 0 pointing down)."""
         return wheel_shape(self)
+
+    def commanded_omega(self, time: np.ndarray | float) -> np.ndarray:
+        """The motor's commanded spin (rad/s) at `time` (s): 0 during the pause, then `omega` or the schedule."""
+        after = np.asarray(time, dtype=float) - self.settle_time
+        driven = evaluate(self.omega_schedule, after) if self.omega_schedule else np.full(after.shape, self.omega)
+        return np.where(after >= 0, driven, 0.0)
 
 
 def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...] = ()) -> None:
@@ -186,7 +197,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
 
     def motor(run: CoupledSimulation) -> None:
         data = run.robot.data
-        data.ctrl[0] = config.omega if run.time >= config.settle_time else 0.0
+        data.ctrl[0] = float(config.commanded_omega(run.time))
         if run.time >= config.settle_time:
             if math.isnan(work["start_x"]):
                 work["start_x"] = float(data.qpos[0])
@@ -200,7 +211,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                                  **coupled.sim.describe()})
     wheel = series["robot/wheel"]
     # the driven phase: after the pause, once the servo has brought ω to half the command
-    driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.omega)
+    driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.commanded_omega(wheel["time"]))
     speed = float(np.mean(wheel["velocity"][driving, 0])) if driving.any() else math.nan
     spin = float(np.mean(wheel["omega"][driving])) if driving.any() else math.nan
     summary = {"wheel": config.wheel, "legs": config.legs, "steps": coupled.sim.step_count,

@@ -1,21 +1,23 @@
 """Ready-made scenes from the dissertation, and the registry that names them.
 
-Every scene is a configuration dataclass and a ``run(config, *, output, progress, plot, resume,
-until)`` function; :data:`SCENES` maps the scene's command-line name to both, so the command line,
-``terrasph resume`` and sweeps find a scene by name and rebuild its configuration from a run file.
+Every scene is a configuration dataclass and a ``run(config, *, output, progress, ...)`` function
+(and ``resume`` and ``until``); :data:`SCENES` maps the scene's
+command-line name to both, so the command line, ``terrasph resume`` and sweeps find a scene by
+name and rebuild its configuration from a run file, and :func:`run_case` runs any of them.
+The robot scenes are imported on first use (they import the chapter-3 beads from this package).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import json
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from terrasph.config import ConfigError
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
-from terrasph.robots.rover import Rover, run_rover
 from terrasph.scenes.column_collapse import (
     RESOLUTIONS,
     ColumnCollapse,
@@ -34,18 +36,30 @@ from terrasph.scenes.plate_intrusion import (
 )
 
 __all__ = ["RESOLUTIONS", "SCENES", "ColumnCollapse", "LegRotation", "PlateIntrusion", "SceneEntry",
-           "build_column_collapse", "build_leg_rotation", "build_plate_intrusion", "run_column_collapse",
-           "run_leg_rotation", "run_plate_intrusion", "scene_of_run"]
+           "build_column_collapse", "build_leg_rotation", "build_plate_intrusion", "run_case", "run_column_collapse",
+           "run_leg_rotation", "run_plate_intrusion", "scene_entry", "scene_of_run"]
 
 
 @dataclass(frozen=True)
 class SceneEntry:
-    """A scene: its configuration type, where a run file keeps that configuration, its run function."""
+    """A scene: its configuration type, where a run file keeps that configuration, its run function
+    (both named in `module`, imported on first use)."""
 
     name: str  #: command-line name, also the run file's ``config["scene"]``
     config_key: str  #: key of the scene's configuration in the run file's configuration
-    config_type: type
-    run: Callable[..., Any]
+    module: str
+    config_class: str
+    run_function: str
+
+    @property
+    def config_type(self) -> type:
+        """The scene's configuration dataclass."""
+        return getattr(importlib.import_module(self.module), self.config_class)
+
+    @property
+    def run(self) -> Callable[..., Any]:
+        """The scene's run function."""
+        return getattr(importlib.import_module(self.module), self.run_function)
 
     def config_from(self, values: Mapping[str, Any]) -> Any:
         """The scene's configuration from its saved form (JSON lists back to the tuples it holds)."""
@@ -59,12 +73,29 @@ class SceneEntry:
 
 
 SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
-    SceneEntry("column-collapse", "column_collapse", ColumnCollapse, run_column_collapse),
-    SceneEntry("leg-rotation", "leg_rotation", LegRotation, run_leg_rotation),
-    SceneEntry("plate-intrusion", "plate_intrusion", PlateIntrusion, run_plate_intrusion),
-    SceneEntry("leg-wheel", "leg_wheel", LegWheel, run_leg_wheel),
-    SceneEntry("rover", "rover", Rover, run_rover),
+    SceneEntry("column-collapse", "column_collapse", __name__, "ColumnCollapse", "run_column_collapse"),
+    SceneEntry("leg-rotation", "leg_rotation", __name__, "LegRotation", "run_leg_rotation"),
+    SceneEntry("plate-intrusion", "plate_intrusion", __name__, "PlateIntrusion", "run_plate_intrusion"),
+    SceneEntry("leg-wheel", "leg_wheel", "terrasph.robots.leg_wheel", "LegWheel", "run_leg_wheel"),
+    SceneEntry("rover", "rover", "terrasph.robots.rover", "Rover", "run_rover"),
 )}
+
+
+def scene_entry(name: str) -> SceneEntry:
+    """The registered scene `name`; ConfigError naming the known ones otherwise."""
+    if name not in SCENES:
+        raise ConfigError(f"scene {name!r} is not registered: allowed one of {', '.join(SCENES)}")
+    return SCENES[name]
+
+
+def run_case(scene: str, config: Mapping[str, Any], out: str | os.PathLike[str]) -> dict[str, Any]:
+    """Runs the registered `scene` with the configuration `config` (its fields by name; unknown names
+    refused) into the run file `out`, without progress bar; returns the run's summary. The one entry
+    point that ``terrasph sweep``, its workers and the tests share."""
+    entry = scene_entry(scene)
+    result = entry.run(entry.config_from(config), output=out, progress=False)
+    # the chapter 2–3 scenes return a result object, the robot scenes a dict with its summary
+    return dict(result.summary() if hasattr(result, "summary") else result["summary"])
 
 
 def scene_of_run(config_json: str) -> tuple[SceneEntry, Any]:

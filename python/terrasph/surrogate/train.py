@@ -142,20 +142,26 @@ def error_report(net: Any, data: SequenceData) -> dict[str, dict[str, float]]:
     return out
 
 
-def train(runs: Sequence[Run], config: TrainConfig, progress: bool = True) -> TrainResult:
-    """Train a surrogate on ``runs`` (split by run, never by time step).
+def train(runs: Sequence[Run], config: TrainConfig, progress: bool = True,
+          splits: Sequence[Sequence[int]] | None = None) -> TrainResult:
+    """Train a surrogate on ``runs`` (split by run, never by time step: the seeded ``config.split``
+    fractions, or ``splits``, the run indices of train, validation and test).
 
     Deterministic for a given seed, machine and thread count. Loss: mean squared error of the
     normalised targets; Adam; gradient clipping; early stopping on the validation loss (the
     weights of the best validation epoch are kept).
     """
     import torch
-    from tqdm.auto import tqdm
+
+    if progress:
+        from tqdm.auto import tqdm
+    else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
+        from tqdm import tqdm
 
     from terrasph.surrogate.model import ModelConfig, SurrogateNet
 
     dt = common_time_step(runs)
-    i_tr, i_va, i_te = split_runs(len(runs), config.split, config.seed)
+    i_tr, i_va, i_te = splits if splits is not None else split_runs(len(runs), config.split, config.seed)
     parts = {
         name: select([runs[i] for i in idx], config.features, config.targets)
         for name, idx in zip(SPLITS, (i_tr, i_va, i_te))

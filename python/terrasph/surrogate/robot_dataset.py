@@ -1,0 +1,100 @@
+"""Dataset of leg-wheel runs (a ``terrasph sweep`` directory) for the surrogate.
+
+Per finished run of the sweep's manifest, from ``/series/robot/wheel`` and the run's
+configuration (``config_json``), over the driven phase t ∈ [settle_time, duration] shifted to
+start at 0 and resampled to a stated Δt (linear interpolation of the SPH samples):
+
+* inputs: ``omega_cmd`` the commanded spin ω(t) (rad/s, the schedule itself, not the measured
+  spin), and the run's fixed parameters: ``load`` (N) and one indicator ``wheel:<morphology>``
+  per morphology of the sweep (1 for the run's own, else 0);
+* targets: ``slip`` (Eq. 4.8, clipped to [−1, 1]: it leaves that interval only while the axle is
+  pushed backwards), ``sinkage`` (m), and ``forward_speed`` v_x (m/s).
+
+Splits are by run, never by time step; :func:`split_by_range` keeps the runs whose parameter lies
+outside a range apart as the extrapolation test, and splits the rest into train, validation and
+the interpolation test.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from terrasph.schedules import evaluate
+from terrasph.surrogate.dataset import Run, split_runs, write_run
+
+__all__ = ["TARGETS", "build_robot_dataset", "features_of", "robot_run", "split_by_range"]
+
+TARGETS = ("slip", "sinkage", "forward_speed")
+_UNITS = {"omega_cmd": "rad/s", "slip": "1", "sinkage": "m", "forward_speed": "m/s"}
+
+
+def features_of(wheels: Sequence[str]) -> tuple[str, ...]:
+    """Input columns of a dataset whose runs use the morphologies `wheels`."""
+    return ("omega_cmd", "load", *(f"wheel:{w}" for w in sorted(wheels)))
+
+
+def robot_run(path: str | Path, dt: float, wheels: Sequence[str]) -> Run:
+    """The driven phase of the leg-wheel run file `path` resampled to `dt` (module docstring)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        config = json.loads(f.attrs["config_json"])
+        group = f["series/robot/wheel"]
+        time = group["time"][()]
+        sampled = {"slip": group["slip"][()], "sinkage": group["sinkage"][()],
+                   "forward_speed": group["velocity"][()][:, 0]}
+    settle, duration = float(config["settle_time"]), float(config["duration"])
+    if not 0 < dt <= (duration - settle) / 2:
+        raise ValueError(f"parameter 'dt' = {dt!r} is invalid: allowed in (0, {(duration - settle) / 2:g}] s "
+                         f"(at least 3 samples of the {duration - settle:g} s driven phase of {path})")
+    grid = np.arange(0.0, duration - settle + 1e-9 * dt, dt)
+    schedule = tuple(tuple(k) for k in config.get("omega_schedule") or ()) or ((0.0, float(config["omega"])),)
+    series = {"omega_cmd": evaluate(schedule, grid)}
+    for name, values in sampled.items():
+        finite = np.isfinite(values)
+        series[name] = np.interp(grid + settle, time[finite], values[finite])
+    series["slip"] = np.clip(series["slip"], -1.0, 1.0)
+    params = {"load": float(config["load"]), **{f"wheel:{w}": float(config["wheel"] == w) for w in wheels}}
+    return Run(name=Path(path).stem, time=grid, series=series, params=params, units=dict(_UNITS))
+
+
+def build_robot_dataset(sweep_dir: str | Path, out_dir: str | Path, dt: float = 0.02) -> dict[str, Any]:
+    """Writes one dataset file per finished run of the sweep in `sweep_dir` (its manifest names them)
+    into `out_dir` (terrasph.surrogate.dataset layout, body "wheel") and ``dataset.json`` (Δt,
+    features, targets, and each run's parameters and drawn input kind); returns that description."""
+    sweep_dir, out_dir = Path(sweep_dir), Path(out_dir)
+    manifest = json.loads((sweep_dir / "manifest.json").read_text())
+    if manifest["spec"]["scene"] != "leg-wheel":
+        raise ValueError(f"{sweep_dir}: a sweep of {manifest['spec']['scene']!r}; the robot dataset needs leg-wheel runs")
+    finished = [c for c in manifest["cases"] if c["status"] == "completed"]
+    if not finished:
+        raise ValueError(f"{sweep_dir}: no finished runs in the manifest")
+    wheels = sorted({c["config"]["wheel"] for c in finished})
+    out_dir.mkdir(parents=True, exist_ok=True)
+    runs = {}
+    for case in finished:
+        run = robot_run(sweep_dir / "runs" / f"{case['case_id']}.h5", dt, wheels)
+        write_run(out_dir / f"{run.name}.h5", run, body="wheel", config=case["config"])
+        runs[run.name] = {"load": case["config"]["load"], "wheel": case["config"]["wheel"],
+                          "input_kind": case["varied"].get("input_kind", "constant")}
+    description = {"dt": dt, "features": list(features_of(wheels)), "targets": list(TARGETS), "wheels": wheels,
+                   "skipped_failed": [c["case_id"] for c in manifest["cases"] if c["status"] == "failed"],
+                   "runs": runs}
+    (out_dir / "dataset.json").write_text(json.dumps(description, indent=1, sort_keys=True))
+    return description
+
+
+def split_by_range(runs: Sequence[Run], parameter: str, low: float, high: float, seed: int = 0,
+                   fractions: tuple[float, float, float] = (0.7, 0.15, 0.15)) -> dict[str, list[int]]:
+    """Run indices by split: ``extrapolation`` the runs whose `parameter` lies outside [`low`, `high`];
+    the others split by run into ``train``, ``val`` and ``interpolation`` (seeded `fractions`)."""
+    inside = [k for k, run in enumerate(runs) if low <= run.params[parameter] <= high]
+    outside = [k for k in range(len(runs)) if k not in set(inside)]
+    train, val, test = split_runs(len(inside), fractions, seed)
+    return {"train": [inside[k] for k in train], "val": [inside[k] for k in val],
+            "interpolation": [inside[k] for k in test], "extrapolation": outside}
