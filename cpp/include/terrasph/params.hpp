@@ -98,6 +98,8 @@ template <> struct ChoiceNames<PlasticFlow> {
   X(double, xsph, 0.2, "1", inclusive(0.0), inclusive(1.0), "chi of XSPH (Eq. 2.49); 0 = off")           \
   X(int, shepard_interval, 0, "steps", inclusive(0.0), exclusive(inf),                                   \
     "Shepard density filter every N steps (Eq. 2.41); 0 = off")                                          \
+  X(int, mls_interval, 0, "steps", inclusive(0.0), exclusive(inf),                                       \
+    "MLS regularisation (Eq. 3.26-3.30, linear basis) of the model's stress state every N steps; 0 = off") \
   X(bool, kernel_gradient_correction, false, "1", exclusive(-inf), exclusive(inf),                       \
     "renormalise grad v so that linear velocity fields are exact")                                       \
   X(double, strain_rate_epsilon, -1.0, "1/s", exclusive(-inf), exclusive(inf),                           \
