@@ -206,7 +206,8 @@ class ColumnResult:
 def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: str | os.PathLike | None = None,
                         progress: bool = True, plot: bool = True,
                         resume: bool = False, until: float | None = None) -> ColumnResult:
-    """Builds and runs a collapse until at rest (or t_end); writes HDF5 and a PNG of the final profile.
+    """Builds and runs a collapse until at rest (or t_end); writes HDF5, a PNG of the final profile
+    and one of the final τ–p yield locus against μ1P + c and μ2P + c (``<output>_yield_locus.png``).
 
     ``resume=True`` continues the run in `output` from its checkpoint; ``until`` replaces the end
     time (see :meth:`terrasph.simulation.Simulation.run`).
@@ -243,4 +244,10 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
                      f"H* = {result.final_height_normalised:.2f}")
             plotting.plot_profiles([(centres, heights, label)], initial=(centres0, heights0), path=png)
             result.plot = os.fspath(png)
+            stress = np.array(sim.stress)
+            locus_p, locus_tau = analysis.yield_locus(stress)
+            plotting.plot_yield_locus(
+                locus_p, locus_tau, particles=analysis.stress_invariants(stress),
+                yield_lines=[("μ1P + c", material.mu1, material.cohesion), ("μ2P + c", material.mu2, material.cohesion)],
+                path=Path(output).with_name(Path(output).stem + "_yield_locus.png"))
     return result
