@@ -4,8 +4,10 @@
 * A linear field is reproduced to round-off at every particle — in the bulk, next to the walls and
   at the free surface — on a bed whose positions are jittered off the lattice; a quadratic field is
   not (the operator does something).
-* Off (mls_interval = 0) the run is untouched; on, it lowers the scatter of σ_zz at fixed depth on
-  a settled bed and keeps the lithostatic profile within 3 %; see the test for the figures.
+* Off (mls_interval = 0) the run is untouched (benchmarks/state_digest.py digests unchanged). On a
+  settled bed it does NOT lower the scatter of σ_zz at fixed depth (docs/design_decisions.md,
+  "Chapter 2": smoothing breaks the bed's discrete equilibrium); every 50 steps on a Drucker–Prager
+  bed it keeps the lithostatic profile within 3 % and the bed at rest (slow test).
 """
 
 from __future__ import annotations
@@ -68,3 +70,17 @@ def _layer_scatter(sim: Simulation) -> tuple[float, float]:
     z, sigma_v = analysis.vertical_stress_profile(x, stress, DX, (0.15 * WIDTH, 0.85 * WIDTH))
     slope, _, _ = analysis.fit_line(x[:, 1].max() + 0.5 * DX - z, sigma_v)
     return scatter, slope / (rho * G) - 1.0
+
+
+@pytest.mark.slow
+def test_drucker_prager_bed_with_mls_every_50_steps_stays_lithostatic() -> None:
+    """The 0.12 × 0.05 m bed (240 grains), Drucker–Prager started geostatic, MLS every 50 steps,
+    0.2 s: −σ_zz against depth has the slope ρg within 3 % [+0.04 %], the mean speed stays below
+    1e-3 m/s [6.9e-5; 1.1e-5 without MLS]. Its σ_zz scatter is 2.6× that without MLS [0.0031 vs
+    0.0012 ρgH], stated here, not asserted as a virtue."""
+    sim = _bed("drucker_prager", mls_interval=50)
+    sim.advance(0.2)
+    scatter, slope_error = _layer_scatter(sim)
+    print(f"scatter/(rho g H) = {scatter:.5f}, slope error = {slope_error:+.4f}")
+    assert abs(slope_error) < 0.03
+    assert np.hypot(*sim.velocity.T).mean() < 1e-3
