@@ -104,3 +104,14 @@ def test_yield_locus_draws_the_material_yield_lines_and_the_particles() -> None:
         x, y = line.get_data()
         assert list(x) == [0.0, 900.0] and np.allclose(y, mu * np.asarray(x) + c)
     assert len(axes.collections) == 2  # particles and locus points
+
+
+def test_profiles_draw_the_bed_when_given() -> None:
+    from terrasph.plotting import plot_profiles
+
+    x = np.linspace(0.0, 0.2, 5)
+    bed_z = 0.35 - np.sqrt(0.35**2 - x**2)
+    figure = plot_profiles([(x, bed_z + 0.01, "deposit")], bed=(x, bed_z))
+    labels = [line.get_label() for line in figure.axes[0].get_lines()]
+    assert labels == ["bed", "deposit"]
+    assert np.allclose(figure.axes[0].get_lines()[0].get_ydata(), bed_z)

@@ -115,6 +115,7 @@ def plot_profiles(
     profiles: Sequence[tuple[np.ndarray, np.ndarray, str]],
     *,
     initial: tuple[np.ndarray, np.ndarray] | None = None,
+    bed: tuple[np.ndarray, np.ndarray] | None = None,
     path: PathLike | None = None,
     xlabel: str = "x (m)",
     ylabel: str = "z (m)",
@@ -122,12 +123,16 @@ def plot_profiles(
 ) -> Figure:
     """Free-surface profiles (x, h, legend label), e.g. from :func:`terrasph.analysis.surface_profile`.
 
-    ``initial`` (x, h) is drawn dashed in black as the initial column. ``equal_aspect`` keeps
-    x and z to the same scale (turn it off for normalised or exaggerated axes).
+    ``initial`` (x, h) is drawn dashed in black as the initial column, ``bed`` (x, z) solid in grey
+    as the bed surface (a curved bed). ``equal_aspect`` keeps x and z to the same scale (turn it
+    off for normalised or exaggerated axes).
     """
     if not profiles:
         raise ValueError("profiles must hold at least one (x, h, label) tuple")
     figure, axes = _new_axes()
+    if bed is not None:
+        xb, zb = _curve("bed", *bed)
+        axes.plot(xb, zb, color="0.5", label="bed")
     if initial is not None:
         x0, h0 = _curve("initial", *initial)
         axes.plot(x0, h0, "k--", label="initial")

@@ -242,7 +242,11 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
             centres, heights = analysis.surface_profile(final, dx)
             label = (f"t = {run.time:.2f} s, L* = {result.runout_normalised:.2f}, "
                      f"H* = {result.final_height_normalised:.2f}")
-            plotting.plot_profiles([(centres, heights, label)], initial=(centres0, heights0), path=png)
+            bed = None
+            if config.bed_semi_axes is not None:
+                bed_x = np.linspace(0.0, float(centres.max()) + dx, 200)
+                bed = (bed_x, config.bed_height(bed_x))
+            plotting.plot_profiles([(centres, heights, label)], initial=(centres0, heights0), bed=bed, path=png)
             result.plot = os.fspath(png)
             stress = np.array(sim.stress)
             locus_p, locus_tau = analysis.yield_locus(stress)
