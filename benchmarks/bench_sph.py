@@ -1,6 +1,7 @@
 """Throughput, thread scaling, memory per particle and feature cost of the SPH core (issue 2).
 
     python benchmarks/bench_sph.py throughput [--sizes 20000 80000 320000] [--threads 1 2] [--steps 200]
+        [--numerics NAME=VALUE ...]
     python benchmarks/bench_sph.py features [--size 20000]
     python benchmarks/bench_sph.py phases [--size 80000] [--threads 1]
 
@@ -50,7 +51,22 @@ def time_steps(sim: Simulation, steps: int) -> float:
     return (time.perf_counter() - start) / steps
 
 
-def throughput(sizes: list[int], threads: list[int], steps: int) -> None:
+def parse_value(text: str) -> bool | int | float:
+    """true/false, an integer or a float."""
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
+
+
+def parse_numerics(pairs: list[str]) -> dict[str, bool | int | float]:
+    """{"cell_order": True, "cfl": 0.4} from ["cell_order=true", "cfl=0.4"]."""
+    return {name: parse_value(text) for name, _, text in (pair.partition("=") for pair in pairs)}
+
+
+def throughput(sizes: list[int], threads: list[int], steps: int, numerics: dict[str, bool | int | float]) -> None:
     print("| granular particles | wall particles | threads | M particle-steps/s | per thread | speed-up | bytes/particle |")
     print("|---|---|---|---|---|---|---|")
     for size in sizes:
@@ -58,7 +74,7 @@ def throughput(sizes: list[int], threads: list[int], steps: int) -> None:
         for n_threads in threads:
             _core.set_num_threads(n_threads)
             before = resident_bytes()
-            sim = bed(size, Material(), Numerics(spacing=SPACING))
+            sim = bed(size, Material(), Numerics(spacing=SPACING, **numerics))
             sim.advance(1e9, max_steps=1)
             memory = (resident_bytes() - before) / len(sim.mass)
             per_step = time_steps(sim, steps)
@@ -124,6 +140,8 @@ def main() -> None:
     p.add_argument("--sizes", type=int, nargs="+", default=[20000, 80000, 320000])
     p.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     p.add_argument("--steps", type=int, default=200)
+    p.add_argument("--numerics", nargs="*", default=[], metavar="NAME=VALUE",
+                   help="numerics options of the bed, e.g. cell_order=true")
     f = sub.add_parser("features")
     f.add_argument("--size", type=int, default=20000)
     f.add_argument("--steps", type=int, default=200)
@@ -134,7 +152,7 @@ def main() -> None:
     ph.add_argument("--steps", type=int, default=100)
     args = parser.parse_args()
     if args.what == "throughput":
-        throughput(args.sizes, args.threads, args.steps)
+        throughput(args.sizes, args.threads, args.steps, parse_numerics(args.numerics))
     elif args.what == "features":
         features(args.size, args.steps, args.repeats)
     else:

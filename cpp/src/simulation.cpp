@@ -126,6 +126,11 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
   if (params_.numerics.xsph > 0.0)
     xsph_correction_ = &granular_.fields.template add<double, D>("xsph_correction", "m/s",
                                                                  "XSPH velocity correction (Eq. 2.49)");
+  if (params_.numerics.freeze_speed > 0.0) {
+    quiet_steps_ = &granular_.fields.template add<std::int32_t, 1>(
+        "quiet_steps", "steps", "consecutive steps below numerics.freeze_speed (active domain)");
+    frozen_ = &granular_.fields.template add<std::uint8_t, 1>("frozen", "", "1: not updated this step (active domain)");
+  }
   mark_interior_walls();
   compose_passes();
   refresh();
@@ -180,6 +185,10 @@ template <int D> void Simulation<D>::mark_interior_walls() {
 
 template <int D> void Simulation<D>::refresh() {
   neighbours_valid_ = false;
+  if (quiet_steps_) {  // the state may have been edited: every grain must settle again before it freezes
+    quiet_steps_->setZero();
+    frozen_->setZero();
+  }
   compute_rates(0.0);
 }
 
@@ -219,11 +228,56 @@ template <int D> void Simulation<D>::permute_walls(const std::vector<Index>& ord
 // ---------------------------------------------------------------- neighbours
 
 template <int D> void Simulation<D>::build_neighbours() {
+  if (params_.numerics.cell_order) sort_into_cell_order();
   build_neighbour_lists(granular_.position, walls_.position);
   granular_.position_at_build = granular_.position;
   walls_.position_at_build = walls_.position;
   neighbours_valid_ = true;
   ++counters_.neighbour_builds;
+}
+
+// Cell-ordered storage: each set's rows are gathered into the order of the cells of the coming
+// neighbour build (cells lexicographic, the current order inside a cell), so that the particles
+// of a cell, and of neighbouring cells in a row, are contiguous in memory. Nothing a user reads
+// changes (it is keyed by id); the sums follow the new list order. A set already in that order
+// (fixed walls after the first sort) is left alone.
+template <int D> void Simulation<D>::sort_into_cell_order() {
+  const double radius = kernel_.support_radius() * (1.0 + 0.5 * params_.numerics.neighbour_skin);
+  Vec<D> lower, upper;
+  bounding_box<D>(granular_.position, walls_.position, radius, lower, upper);
+  auto sort_set = [&](FieldRegistry& fields, const VecArray<D>& position) {
+    CellGrid<D> grid;
+    grid.build(position, lower, upper, radius);
+    const std::vector<std::int32_t>& cells = grid.cell_order();
+    bool sorted = true;
+    for (std::size_t k = 0; k < cells.size() && sorted; ++k) sorted = cells[k] == static_cast<std::int32_t>(k);
+    if (sorted) return;
+    fields.gather(std::vector<Index>(cells.begin(), cells.end()));
+  };
+  sort_set(granular_.fields, granular_.position);
+  sort_set(walls_.fields, walls_.position);
+}
+
+// Active domain. A grain is quiet in a step when its speed |v| and the speed its acceleration
+// would add over numerics.freeze_steps steps, N·dt·|a|, are both below numerics.freeze_speed (a
+// grain released from rest is not quiet); it is settled once it was quiet N steps in a row. It
+// is frozen for the coming step (position, velocity, density, stress and rates kept, its
+// neighbours still reading them) when it is settled and no unsettled grain and no body particle
+// lies within its neighbour-list radius 2h(1 + skin/2). A grain that unsettles wakes every grain
+// within that radius for the next step: the awake region grows by ≥ 2h per step, faster than any
+// signal the step resolves (c·dt ≤ C·h). What stays frozen is what no grain above the thresholds
+// has come near: that is the criterion's error.
+template <int D> void Simulation<D>::update_frozen() {
+  const std::int32_t settle = params_.numerics.freeze_steps;
+  const Int32Array& quiet = *quiet_steps_;
+  for_each_particle(granular_.size(), [&](Index i) {
+    bool freeze = quiet[i] >= settle;
+    for (Index s = granular_granular_.offsets[i]; freeze && s < granular_granular_.offsets[i + 1]; ++s)
+      freeze = quiet[granular_granular_.indices[s]] >= settle;
+    for (Index s = granular_wall_.offsets[i]; freeze && s < granular_wall_.offsets[i + 1]; ++s)
+      freeze = walls_.body[granular_wall_.indices[s]] < 0;
+    (*frozen_)[i] = freeze ? 1 : 0;
+  });
 }
 
 // The lists of all pairs within 2h(1 + skin/2) of the given positions.
@@ -369,6 +423,7 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
   pair_kernel_value_.resize(granular_granular_.indices.size());
   pair_gradient_factor_.resize(granular_granular_.indices.size());
   for_each_particle(granular_.size(), [&](Index i) {
+    if (frozen(i)) return;
     Mat<D> grad = Mat<D>::Zero();
     Mat<D> moment = Mat<D>::Zero();
     add_granular_velocity_gradient(i, correct, grad, moment);
@@ -460,6 +515,10 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
   };
   const Partial total = reduce_over_particles(granular_.size(), Partial{}, [&](Index i, Partial& partial) {
     namespace term = pair_terms;
+    if (frozen(i)) {  // rates kept; still counted by the leak diagnostic (it does not move)
+      if (penetrates_interior_wall(i)) ++partial.penetrating;
+      return;
+    }
     const Vec<D> xi = row_vec<D>(granular_.position, i);
     const Vec<D> vi = row_vec<D>(granular_.velocity, i);
     const double rho_i = granular_.density[i];
@@ -512,6 +571,17 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
   counters_.max_acceleration = std::sqrt(total.max_acc2);
   counters_.penetrating_particles = total.penetrating;
   counters_.penetrated_particles += total.newly_penetrated;
+}
+
+// Whether grain i lies closer than Δx/2 to an interior wall particle (the leak diagnostic).
+template <int D> bool Simulation<D>::penetrates_interior_wall(Index i) const {
+  const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
+  const Vec<D> xi = row_vec<D>(granular_.position, i);
+  for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
+    const std::int32_t w = granular_wall_.indices[s];
+    if (walls_.interior[w] && (xi - row_vec<D>(walls_.position, w)).squaredNorm() < inside_wall2) return true;
+  }
+  return false;
 }
 
 // ---------------------------------------------------------------- rigid bodies
@@ -690,7 +760,9 @@ template <int D> void Simulation<D>::step(double dt) {
   // optional floor ρ ≥ f·ρ0: with the tension-free EOS a grain that separates from the bulk carries
   // no pressure below ρ0 either way; the floor keeps it from re-entering the bed unresisted
   const double density_floor = params_.numerics.density_floor * params_.material.reference_density;
+  if (frozen_) update_frozen();
   for_each_particle(n, [&](Index i) {  // kick, then drift (Eq. 2.49 for the drift velocity)
+    if (frozen(i)) return;
     auto v = row_vec<D>(granular_.velocity, i);
     v += half * row_vec<D>(granular_.acceleration, i);
     granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
@@ -702,11 +774,20 @@ template <int D> void Simulation<D>::step(double dt) {
   const double before_rates = omp_get_wtime();
   compute_rates(dt);
   const double after_rates = omp_get_wtime();
+  const double freeze_speed2 = params_.numerics.freeze_speed * params_.numerics.freeze_speed;
+  const std::int32_t settle = params_.numerics.freeze_steps;
   const double max_v2 = max_over_particles(n, 0.0, [&](Index i) {  // closing kick
     auto v = row_vec<D>(granular_.velocity, i);
+    if (frozen(i)) return v.squaredNorm();
     v += half * row_vec<D>(granular_.acceleration, i);
     granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
-    return v.squaredNorm();
+    const double v2 = v.squaredNorm();
+    if (quiet_steps_) {  // quiet: slow, and not gaining freeze_speed within freeze_steps steps either
+      const double gain = settle * dt * row_vec<D>(granular_.acceleration, i).norm();
+      const bool quiet = v2 < freeze_speed2 && gain * gain < freeze_speed2;
+      (*quiet_steps_)[i] = quiet ? std::min((*quiet_steps_)[i] + 1, settle) : 0;
+    }
+    return v2;
   });
   counters_.max_speed = std::sqrt(max_v2);
   counters_.time += dt;
@@ -772,6 +853,10 @@ template <int D> void Simulation<D>::apply_shepard_filter() {
   const Index n = granular_.size();
   ScalarArray filtered(n);
   for_each_particle(n, [&](Index i) {
+    if (frozen(i)) {
+      filtered[i] = granular_.density[i];
+      return;
+    }
     const Vec<D> xi = row_vec<D>(granular_.position, i);
     const double w0 = kernel_.self_value();
     double num = granular_.mass[i] * w0;

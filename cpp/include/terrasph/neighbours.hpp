@@ -48,6 +48,9 @@ template <int D> class CellGrid {
     for (Index i = 0; i < n; ++i) sorted_[fill[cell_of_[i]]++] = static_cast<std::int32_t>(i);
   }
 
+  // The binned points cell by cell (cells in lexicographic order, by index inside a cell).
+  const std::vector<std::int32_t>& cell_order() const { return sorted_; }
+
   // Calls visit(j) for every binned point j in the cells around p (3^D block).
   template <class Visit> void for_each_candidate(const Vec<D>& p, Visit&& visit) const {
     const std::array<Index, D> c = cell_coords(p);

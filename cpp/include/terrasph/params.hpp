@@ -106,6 +106,13 @@ template <> struct ChoiceNames<PlasticFlow> {
     "epsilon of |D'| + epsilon in Eq. 2.29; < 0 = 0.01*h^2 as in the dissertation")                      \
   X(double, neighbour_skin, 0.15, "1", inclusive(0.0), inclusive(1.0),                                   \
     "Verlet skin of the neighbour lists as a fraction of h")                                             \
+  X(bool, cell_order, false, "1", exclusive(-inf), exclusive(inf),                                       \
+    "store particles in cell order, re-sorted at each neighbour build (ids stable; sums reordered)")     \
+  X(double, freeze_speed, 0.0, "m/s", inclusive(0.0), exclusive(inf),                                    \
+    "active domain: a grain with |v| and freeze_steps*dt*|a| below this for freeze_steps steps, and no " \
+    "body particle or unsettled grain within its neighbour radius, is frozen (not updated); 0 = off")    \
+  X(int, freeze_steps, 200, "steps", inclusive(1.0), exclusive(inf),                                     \
+    "N of freeze_speed: steps a grain must stay quiet before it counts as settled (active domain)")     \
   X(double, density_floor, 0.0, "1", inclusive(0.0), inclusive(1.0),                                     \
     "rho >= density_floor*rho_0 after every kick; 0 = off")                                              \
   X(double, density_ratio_min, 0.5, "1", exclusive(0.0), exclusive(1.0),                                 \

@@ -120,7 +120,8 @@ template <int D> class Simulation {
                std::vector<WallRemoval> pending_removals);
 
   // Debug hook: reorders the storage of one particle set (order[k] = old storage index of the new
-  // row k), as the cell-ordered storage will; everything a user sees is keyed by id and unchanged.
+  // row k), as the cell-ordered storage does (numerics.cell_order); everything a user sees is
+  // keyed by id and unchanged.
   void permute_granular(const std::vector<Index>& order);
   void permute_walls(const std::vector<Index>& order);
 
@@ -133,6 +134,10 @@ template <int D> class Simulation {
   void apply_due_removals();
   void update_neighbours_if_needed();
   void build_neighbours();
+  void sort_into_cell_order();
+  void update_frozen();
+  bool frozen(Index i) const { return frozen_ && (*frozen_)[i]; }
+  bool penetrates_interior_wall(Index i) const;
   void build_neighbour_lists(const VecArray<D>& granular_at, const VecArray<D>& walls_at);
   void compute_rates(double dt);
   void wall_velocity_pass();
@@ -168,6 +173,8 @@ template <int D> class Simulation {
   VecArray<D>* xsph_correction_ = nullptr;  // χ Σ ... of Eq. 2.49 (XSPH on)
   VecArray<D>* body_offset_ = nullptr;      // position in the body frame (bodies present)
   VecArray<D>* body_normal_ = nullptr;      // normal in the body frame
+  Int32Array* quiet_steps_ = nullptr;       // consecutive steps below freeze_speed (active domain on)
+  FlagArray* frozen_ = nullptr;             // 1: not updated this step (active domain on)
 
   // the passes of this run, composed once for its model and optional terms
   StressPass stress_pass_ = nullptr;

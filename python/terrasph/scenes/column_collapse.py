@@ -20,7 +20,8 @@ from terrasph.io import write_results
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 
-__all__ = ["BEDS", "RESOLUTIONS", "ColumnCollapse", "ColumnResult", "build_column_collapse", "run_column_collapse"]
+__all__ = ["BEDS", "MATERIAL_PRESETS", "RESOLUTIONS", "ColumnCollapse", "ColumnResult", "build_column_collapse",
+           "run_column_collapse"]
 
 #: The runout front is where the deposit first becomes thinner than this many grain diameters (8 mm
 #: for the 2 mm beads; 0.1·H0 for the 8 cm column). A physical thickness, not a fraction of H0, so
@@ -36,6 +37,13 @@ RESOLUTIONS: dict[str, int] = {"coarse": 475, "fit": 1036, "fine": 2310, "finer"
 
 #: Bed shapes: flat (the floor), circular (radius `bed_radius`) and elliptical (semi-axes `bed_axes`).
 BEDS = ("flat", "circular", "elliptical")
+
+#: Bulk (reference) density of the column material. "table_2_1": the dissertation's Table 2.1,
+#: ρ0 = 2507 kg/m³ beside the grain density ρ_s = 2532 kg/m³, which makes Eq. 2.44's artificial
+#: sound speed c0 = √(κγρ_s/(ρ0(ρ_s − ρ0))) = 89 m/s and so the step small. "packed": the bulk
+#: density of the same beads in a random packing, ρ0 = ν ρ_s with the material's packing fraction
+#: ν = 0.6 (1519 kg/m³; c0 = 18 m/s, the elastic P-wave speed 14 m/s), a five times larger step.
+MATERIAL_PRESETS = ("table_2_1", "packed")
 
 
 @dataclass(frozen=True)
@@ -57,6 +65,7 @@ class ColumnCollapse:
     rest_threshold: float = 1e-4  #: stop once mean ½|v|² < rest_threshold·g·Δx (after 0.3 s)
     frame_interval: float = 0.02
     width: float = 0.1  #: out-of-plane width of the quasi-2D sample (m), scales reported energies
+    material_preset: str = "table_2_1"  #: a key of MATERIAL_PRESETS: the bulk density of the beads
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
@@ -87,6 +96,9 @@ class ColumnCollapse:
             raise ConfigError(f"parameter 'floor_length' = {self.floor_length} is invalid: allowed > column_width")
         if not 0 <= self.release_time < self.t_end:
             raise ConfigError(f"parameter 'release_time' = {self.release_time} is invalid: allowed [0, t_end)")
+        if self.material_preset not in MATERIAL_PRESETS:
+            raise ConfigError(f"parameter 'material_preset' = {self.material_preset!r} is invalid: allowed one of "
+                              f"{', '.join(MATERIAL_PRESETS)}")
         mu1_deg, mu2_deg = self.friction_angles_deg
         if not 0 <= mu1_deg <= mu2_deg < 90:
             raise ConfigError(f"parameter 'friction_angles_deg' = {self.friction_angles_deg} is invalid: "
@@ -117,11 +129,16 @@ class ColumnCollapse:
         return trough_height(x, semi_axes)
 
     def material(self) -> Material:
-        """Glass beads of Table 2.1 with this configuration's friction and water content."""
+        """Glass beads of Table 2.1 with this configuration's friction, water content and bulk density
+        (material_preset)."""
         mu1, mu2 = (math.tan(math.radians(a)) for a in self.friction_angles_deg)
+        overrides: dict[str, float] = {"mu1": mu1, "mu2": mu2}
+        if self.material_preset == "packed":
+            table = Material()
+            overrides["reference_density"] = table.packing_fraction * table.grain_density
         if self.water_content > 0:
-            return Material.wet(self.water_content, mu1=mu1, mu2=mu2)
-        return Material(mu1=mu1, mu2=mu2)
+            return Material.wet(self.water_content, **overrides)
+        return Material(**overrides)
 
 
 def build_column_collapse(config: ColumnCollapse) -> tuple[Scene, Material, Numerics]:
