@@ -94,6 +94,12 @@ FEATURES: dict[str, tuple[dict, dict]] = {
                                                                "kernel_gradient_correction": True}),
     "+ hypoelastic μ(I) (mu_i_hypoelastic)": ({"model": "mu_i_hypoelastic"}, {"delta_sph": 0.0, "xsph": 0.0}),
     "Drucker–Prager instead of μ(I) (drucker_prager)": ({"model": "drucker_prager"}, {"delta_sph": 0.0, "xsph": 0.0}),
+    "+ hypoelastic μ(I), wet (w = 0.5 %, c = 115 Pa)": ({"model": "mu_i_hypoelastic", "water_content": 0.005},
+                                                          {"delta_sph": 0.0, "xsph": 0.0}),
+    "+ hypoelastic μ(I), MLS every 10 steps": ({"model": "mu_i_hypoelastic"},
+                                                {"delta_sph": 0.0, "xsph": 0.0, "mls_interval": 10}),
+    "Drucker–Prager, MLS every 10 steps": ({"model": "drucker_prager"},
+                                            {"delta_sph": 0.0, "xsph": 0.0, "mls_interval": 10}),
     "default (hypoelastic, δ, XSPH)": ({}, {}),
 }
 

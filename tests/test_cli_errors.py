@@ -96,6 +96,12 @@ BAD_INPUT = [
     ("run-plate-spacing-beyond-the-plate", ["run", "plate-intrusion", "--spacing", "0.5", "--out", "{root}/r.h5"],
      "spacing"),
     ("run-unknown-option", ["run", "column-collapse", "--spacingg", "0.01"], "--spacingg"),
+    ("run-column-ellipse-negative-axis", ["run", "column-collapse", "--bed", "elliptical", "--bed-axes", "0.3", "-0.1",
+                                          "--out", "{root}/r.h5"], "'bed_axes'"),
+    ("run-column-circle-zero-radius", ["run", "column-collapse", "--bed", "circular", "--bed-radius", "0",
+                                       "--out", "{root}/r.h5"], "'bed_radius'"),
+    ("run-column-water-beyond-pendular", ["run", "column-collapse", "--water-content", "0.2", "--out", "{root}/r.h5"],
+     "'material.water_content'"),
     # info and plot
     ("info-missing-file", ["info", "{root}/nothing.h5"], "nothing.h5"),
     ("info-text-file", ["info", "{text}"], "notes.txt"),

@@ -87,3 +87,31 @@ def test_plot_yield_locus_reports_the_fit() -> None:
 def test_bad_input_names_the_argument(call, argument: str) -> None:
     with pytest.raises(ValueError, match=argument):
         call()
+
+
+def test_yield_locus_draws_the_material_yield_lines_and_the_particles() -> None:
+    """Each (label, μ, c) of yield_lines is the line τ = μp + c over [0, max p]; the particles are a
+    scatter of their own."""
+    from terrasph.plotting import plot_yield_locus
+
+    p, tau = np.array([100.0, 400.0, 900.0]), np.array([50.0, 170.0, 360.0])
+    figure = plot_yield_locus(p, tau, fit=False, particles=(p * 0.9, tau * 0.5),
+                              yield_lines=[("mu1P + c", 0.38, 115.0), ("mu2P + c", 0.65, 115.0)])
+    axes = figure.axes[0]
+    lines = [line for line in axes.get_lines() if line.get_linestyle() == "--"]
+    assert len(lines) == 2
+    for line, (mu, c) in zip(lines, [(0.38, 115.0), (0.65, 115.0)]):
+        x, y = line.get_data()
+        assert list(x) == [0.0, 900.0] and np.allclose(y, mu * np.asarray(x) + c)
+    assert len(axes.collections) == 2  # particles and locus points
+
+
+def test_profiles_draw_the_bed_when_given() -> None:
+    from terrasph.plotting import plot_profiles
+
+    x = np.linspace(0.0, 0.2, 5)
+    bed_z = 0.35 - np.sqrt(0.35**2 - x**2)
+    figure = plot_profiles([(x, bed_z + 0.01, "deposit")], bed=(x, bed_z))
+    labels = [line.get_label() for line in figure.axes[0].get_lines()]
+    assert labels == ["bed", "deposit"]
+    assert np.allclose(figure.axes[0].get_lines()[0].get_ydata(), bed_z)

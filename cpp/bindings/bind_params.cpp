@@ -87,7 +87,11 @@ template <int D> void bind_model_params(py::module_& m, const std::string& suffi
 
 void bind_params(py::module_& m) {
   bind_group<MaterialParams>(m, "MaterialParams")
-      .def("cohesion", &MaterialParams::cohesion, "Capillary cohesion c (Pa) of Eq. 2.33-2.34, 0 when dry.");
+      .def("cohesion", &MaterialParams::cohesion, "Capillary cohesion c (Pa) of Eq. 2.33-2.34, 0 when dry.")
+      .def("liquid_saturation", &MaterialParams::liquid_saturation,
+           "Liquid saturation S = w rho_s,dry nu / (rho_l (1 - nu)) of the pores.")
+      .def("max_pendular_water_content", &MaterialParams::max_pendular_water_content,
+           "Largest water content of the supported pendular state (S <= 0.1) for this packing.");
   bind_group<NumericsParams>(m, "NumericsParams");
   m.def("parameter_table", &exported_table,
         "Every material and numerics parameter as a dict: group, name, kind ('double', 'int', 'bool', "

@@ -402,6 +402,8 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
            }, "Ids of the granular particles counted by the leak counter, ascending.")
       .def("stable_time_step", &Sim::stable_time_step)
       .def("apply_shepard_filter", &Sim::apply_shepard_filter)
+      .def("apply_mls_regularisation", &Sim::apply_mls_regularisation,
+           "MLS-regularises the constitutive model's stress state once (Eq. 3.26-3.30, linear basis).")
       .def("kernel_sum", [](Sim& s) {
              const std::vector<Index> order = id_order(s.granular().id);
              const ScalarArray sums = s.kernel_sum();

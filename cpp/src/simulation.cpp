@@ -12,6 +12,7 @@
 #include <string>
 
 #include "terrasph/errors.hpp"
+#include "terrasph/mls.hpp"
 #include "terrasph/pair_terms.hpp"
 #include "terrasph/parallel.hpp"
 
@@ -794,6 +795,8 @@ template <int D> void Simulation<D>::step(double dt) {
   ++counters_.step;
   const int shepard = params_.numerics.shepard_interval;
   if (shepard > 0 && counters_.step % shepard == 0) apply_shepard_filter();
+  const int mls = params_.numerics.mls_interval;
+  if (mls > 0 && counters_.step % mls == 0) apply_mls_regularisation();
   check_health();
   counters_.phase_seconds.integrate_and_check += (before_rates - start) + (omp_get_wtime() - after_rates);
 }
@@ -835,6 +838,16 @@ template <int D> void Simulation<D>::check_health() const {
 // ---------------------------------------------------------------- filters and diagnostics
 
 // ρ_i = Σ_j m_j W_ij / Σ_j V_j W_ij over granular neighbours, self included (Eq. 2.41).
+template <int D> void Simulation<D>::apply_mls_regularisation() {
+  update_neighbours_if_needed();
+  ScalarArray volume = granular_.mass.cwiseQuotient(granular_.density);
+  std::visit([&](auto& model) {
+    model.for_each_state_field([&](auto& field) {
+      field = mls_regularised<D>(granular_.position, volume, granular_granular_, kernel_, field);
+    });
+  }, model_);
+}
+
 template <int D> void Simulation<D>::apply_shepard_filter() {
   const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const Index n = granular_.size();

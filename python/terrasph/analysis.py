@@ -15,6 +15,8 @@ Every function validates its inputs and raises ``ValueError`` naming the argumen
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 __all__ = [
@@ -348,16 +350,20 @@ def vertical_stress_profile(
     return centres[filled], sums[filled] / counts[filled]
 
 
-def deposit_front(position: np.ndarray, spacing: float, min_thickness: float, *, floor: float = 0.0) -> float:
+def deposit_front(position: np.ndarray, spacing: float, min_thickness: float, *, floor: float = 0.0,
+                  bed_height: Callable[[np.ndarray], np.ndarray] | None = None) -> float:
     """Front of a deposit: the right edge of the first surface-profile bin, going right from the
     leftmost occupied bin, after which the deposit is thinner than `min_thickness` (m).
 
-    Unlike :func:`front_position`, a thin tail or a detached clump beyond the first drop does not
-    count, so the front is where the deposit is resolved.
+    The thickness is measured above `floor`, or above the bed surface z = bed_height(x) of a curved
+    bed at each bin's centre. Unlike :func:`front_position`, a thin tail or a detached clump beyond
+    the first drop does not count, so the front is where the deposit is resolved.
     """
     if not min_thickness > 0:
         raise ValueError(f"min_thickness must be > 0, got {min_thickness!r}")
     centres, heights = surface_profile(position, spacing, floor=floor)
+    if bed_height is not None:
+        heights = np.where(heights > 0, heights - np.asarray(bed_height(centres), float), 0.0)
     occupied = np.flatnonzero(heights > 0)
     if len(occupied) == 0:
         raise ValueError("position holds no particle above the floor")

@@ -11,7 +11,8 @@ import math
 
 import numpy as np
 
-__all__ = ["MIN_PARTICLES_ACROSS", "lattice_block", "polyline_wall", "wall_layers_needed"]
+__all__ = ["MIN_PARTICLES_ACROSS", "aligned_wall_layers", "elliptical_arc", "lattice_block", "polyline_wall",
+           "trough_height", "wall_layers_needed"]
 
 
 #: Fewest lattice particles across a granular block's width and height (lattice_block).
@@ -142,3 +143,60 @@ def _merge_close(points: np.ndarray, tolerance: float) -> np.ndarray:
             kept.append(index)
             buckets.setdefault(key, []).append(index)
     return points[kept]
+
+
+# -- curved beds (Fig. 2.6–2.8) ---------------------------------------------------------------------
+def _check_semi_axes(semi_axes: tuple[float, float]) -> tuple[float, float]:
+    a, b = (float(v) for v in semi_axes)
+    if not (a > 0 and b > 0 and math.isfinite(a) and math.isfinite(b)):
+        raise ValueError(f"bed_axes = {tuple(semi_axes)!r} is invalid: allowed two finite semi-axes > 0 (m)")
+    return a, b
+
+
+def trough_height(x: np.ndarray, semi_axes: tuple[float, float]) -> np.ndarray:
+    """Height of an elliptical trough's bed above its lowest point (0, 0):
+    z_b(x) = b − b·√(1 − (x/a)²) for |x| ≤ a (the lower half of the ellipse centred at (0, b))."""
+    a, b = _check_semi_axes(semi_axes)
+    ratio = np.clip(np.asarray(x, float) / a, -1.0, 1.0)
+    return b - b * np.sqrt(1.0 - ratio**2)
+
+
+def elliptical_arc(semi_axes: tuple[float, float], angles: tuple[float, float],
+                   spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points every Δx of arc length along an elliptical trough and their unit normals into it.
+
+    The ellipse is centred at (0, b) with semi-axes a (x) and b (z); a point at angle θ is
+    (a sin θ, b − b cos θ), θ = 0 the lowest point, θ from angles[0] to angles[1] (rad, within
+    [−π/2, π/2]). Points sit at the centres of n equal arc-length intervals, n = round(length/Δx);
+    the normal is −∇((x/a)² + ((z − b)/b)²) normalised: it points into the trough. A circle is
+    the case a = b.
+    """
+    a, b = _check_semi_axes(semi_axes)
+    theta0, theta1 = (float(v) for v in angles)
+    if not -0.5 * math.pi <= theta0 < theta1 <= 0.5 * math.pi:
+        raise ValueError(f"angles = {angles!r} is invalid: allowed -pi/2 <= start < end <= pi/2")
+    dense = np.linspace(theta0, theta1, 20001)
+    x, z = a * np.sin(dense), b - b * np.cos(dense)
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(z)))])
+    n = max(1, round(arc[-1] / spacing))
+    theta = np.interp((np.arange(n) + 0.5) * arc[-1] / n, arc, dense)
+    points = np.column_stack([a * np.sin(theta), b - b * np.cos(theta)])
+    inward = np.column_stack([-points[:, 0] / a**2, -(points[:, 1] - b) / b**2])
+    return points, inward / np.hypot(inward[:, 0], inward[:, 1])[:, None]
+
+
+def aligned_wall_layers(surface: np.ndarray, normals: np.ndarray, spacing: float,
+                        layers: int) -> tuple[np.ndarray, np.ndarray]:
+    """Wall particles in `layers` rows at depths (k + ½)Δx behind the points `surface`, each row
+    offset along the same normals, and those normals (into the granular side).
+
+    The rows line up along the normals (each particle has its outer neighbour exactly Δx away along
+    its normal), so the core's leak counter, which calls a wall particle interior when a particle
+    of its wall sits at x_w + Δx n_w, marks every row but the surface row on a curve too; rows
+    resampled independently (:func:`polyline_wall`) would miss that point by up to Δx/2 there.
+    """
+    if layers < 1:
+        raise ValueError(f"layers = {layers} must be >= 1")
+    surface, normals = np.asarray(surface, float), np.asarray(normals, float)
+    rows = [surface - (k + 0.5) * spacing * normals for k in range(layers)]
+    return np.concatenate(rows), np.tile(normals, (layers, 1))

@@ -115,6 +115,7 @@ def plot_profiles(
     profiles: Sequence[tuple[np.ndarray, np.ndarray, str]],
     *,
     initial: tuple[np.ndarray, np.ndarray] | None = None,
+    bed: tuple[np.ndarray, np.ndarray] | None = None,
     path: PathLike | None = None,
     xlabel: str = "x (m)",
     ylabel: str = "z (m)",
@@ -122,12 +123,16 @@ def plot_profiles(
 ) -> Figure:
     """Free-surface profiles (x, h, legend label), e.g. from :func:`terrasph.analysis.surface_profile`.
 
-    ``initial`` (x, h) is drawn dashed in black as the initial column. ``equal_aspect`` keeps
-    x and z to the same scale (turn it off for normalised or exaggerated axes).
+    ``initial`` (x, h) is drawn dashed in black as the initial column, ``bed`` (x, z) solid in grey
+    as the bed surface (a curved bed). ``equal_aspect`` keeps x and z to the same scale (turn it
+    off for normalised or exaggerated axes).
     """
     if not profiles:
         raise ValueError("profiles must hold at least one (x, h, label) tuple")
     figure, axes = _new_axes()
+    if bed is not None:
+        xb, zb = _curve("bed", *bed)
+        axes.plot(xb, zb, color="0.5", label="bed")
     if initial is not None:
         x0, h0 = _curve("initial", *initial)
         axes.plot(x0, h0, "k--", label="initial")
@@ -235,15 +240,25 @@ def plot_yield_locus(
     tau: np.ndarray,
     *,
     fit: bool = True,
+    particles: tuple[np.ndarray, np.ndarray] | None = None,
+    yield_lines: Sequence[tuple[str, float, float]] = (),
     path: PathLike | None = None,
 ) -> Figure:
-    """τ against p (Pa), e.g. from :func:`terrasph.analysis.yield_locus` (Fig. 2.6f).
+    """τ against p (Pa), e.g. from :func:`terrasph.analysis.yield_locus` (Fig. 2.4–2.6f, 2.7d, 2.8d).
 
     With ``fit``, the least-squares line τ = μp + c is drawn and its μ, c and R² given in the legend.
+    ``particles`` = (p, τ) of every particle adds them as a grey scatter; each (label, μ, c) of
+    ``yield_lines`` draws the line τ = μp + c (e.g. μ1P + c and μ2P + c of the material).
     """
     ps, taus = _curve("(p, tau)", p, tau)
     figure, axes = _new_axes()
+    if particles is not None:
+        all_p, all_tau = _curve("particles", *particles)
+        axes.scatter(all_p, all_tau, s=3, color="0.7", label="particles")
     axes.scatter(ps, taus, s=12, label="locus points")
+    line_range = np.array([0.0, ps.max()])
+    for label, mu, cohesion in yield_lines:
+        axes.plot(line_range, mu * line_range + cohesion, "--", label=f"{label}: τ = {mu:.3f}p + {cohesion:.3g} Pa")
     if fit:
         slope, intercept, r_squared = fit_line(ps, taus)
         line_p = np.array([ps.min(), ps.max()])

@@ -125,6 +125,21 @@ class Scene:
         self.walls.append(group)
         return group
 
+    def add_wall_particles(self, name: str, position: np.ndarray, normal: np.ndarray, *, no_slip: bool = True,
+                           remove_at: float | None = None) -> WallGroup:
+        """Adds a wall group from ready-made particles and their unit normals into the granular side
+        (e.g. :func:`terrasph.geometry.aligned_wall_layers` along a curved bed)."""
+        if any(w.name == name for w in self.walls):
+            raise ConfigError(f"wall name '{name}' is used twice")
+        position, normal = np.asarray(position, float), np.asarray(normal, float)
+        if position.ndim != 2 or position.shape[1] != 2 or normal.shape != position.shape:
+            raise ConfigError(f"wall '{name}': position and normal must both be (M, 2) arrays")
+        if not np.allclose(np.hypot(normal[:, 0], normal[:, 1]), 1.0, atol=1e-9):
+            raise ConfigError(f"wall '{name}': every normal must be a unit vector")
+        group = WallGroup(name, len(self.walls), position, normal, no_slip, remove_at)
+        self.walls.append(group)
+        return group
+
     def add_bed_in_container(self, width: float, depth: float, freeboard: float, *, layers: int,
                              no_slip: bool = True) -> tuple[float, float]:
         """A `width` × `depth` bed at the origin in a container drawn as one polyline (a box of

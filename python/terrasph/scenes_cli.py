@@ -11,6 +11,7 @@ from terrasph.config import parameter
 from terrasph.robots.cli import register_robot_scenes
 from terrasph.scenes import leg_rotation, plate_intrusion
 from terrasph.scenes.column_collapse import (
+    BEDS,
     RESOLUTIONS,
     ColumnCollapse,
     run_column_collapse,
@@ -35,6 +36,14 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                         help=f"friction angle atan(mu2) in degrees (default 33); {parameter('material.mu2').doc}")
     water = parameter("material.water_content")
     column.add_argument("--water-content", type=float, default=water.default, help=water.help())
+    default_column = ColumnCollapse()
+    column.add_argument("--bed", choices=list(BEDS), default="flat",
+                        help="bed under the column: flat floor, or a circular or elliptical trough whose lowest "
+                             "point is at the left wall (Fig. 2.7-2.8; default flat)")
+    column.add_argument("--bed-radius", type=float, default=default_column.bed_radius,
+                        help="radius of the circular trough in m (default %(default)s)")
+    column.add_argument("--bed-axes", type=float, nargs=2, metavar=("A", "B"), default=default_column.bed_axes,
+                        help="semi-axes of the elliptical trough in m, along x then z (default %(default)s)")
     column.add_argument("--t-end", type=float, default=1.0,
                         help="simulated time limit in s; the run stops earlier once at rest (default %(default)s)")
     _add_run_options(column, default_output="column_collapse.h5")
@@ -77,7 +86,8 @@ def _print_summary(summary: dict[str, Any], output: str, plot: str | None) -> in
 def _run_column(args: argparse.Namespace) -> int:
     config = ColumnCollapse(resolution=args.resolution, spacing=args.spacing,
                             friction_angles_deg=(args.mu1_deg, args.mu2_deg),
-                            water_content=args.water_content, t_end=args.t_end)
+                            water_content=args.water_content, t_end=args.t_end, bed=args.bed,
+                            bed_radius=args.bed_radius, bed_axes=tuple(args.bed_axes))
     _prepare(args)
     result = run_column_collapse(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)

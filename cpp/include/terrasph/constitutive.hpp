@@ -46,6 +46,8 @@ template <int D> class MuIRateModel : public TensionFreeEos {
       : TensionFreeEos(m), rheology_(m, epsilon), wave_speed_(std::sqrt(eos_bulk_modulus(m) / m.reference_density)) {}
 
   void register_fields(FieldRegistry&) {}
+  // the state fields an MLS regularisation smooths (numerics.mls_interval): none
+  template <class Visit> void for_each_state_field(Visit&&) {}
 
   Mat<D> update(Index, const Mat<D>& velocity_gradient, double rho, double, double& pressure) const {
     pressure = eos_.pressure(rho);
@@ -82,6 +84,7 @@ template <int D> class MuIHypoelasticModel : public TensionFreeEos {
     deviatoric_ = &fields.add<double, D * D>("deviatoric_stress", "Pa",
                                              "deviatoric stress s, state of the hypoelastic mu(I) model");
   }
+  template <class Visit> void for_each_state_field(Visit&& visit) { visit(*deviatoric_); }
 
   Mat<D> update(Index i, const Mat<D>& velocity_gradient, double rho, double dt, double& pressure) const {
     pressure = eos_.pressure(rho);
@@ -131,6 +134,7 @@ template <int D> class DruckerPragerModel {
     stress_ = &fields.add<double, 9>("stress_state", "Pa",
                                      "full stress of drucker_prager, 3x3: in-plane rows first, then the out-of-plane one");
   }
+  template <class Visit> void for_each_state_field(Visit&& visit) { visit(*stress_); }
 
   Mat<D> update(Index i, const Mat<D>& velocity_gradient, double, double dt, double& pressure) const {
     Eigen::Map<Mat3> sigma(stress_->data() + 9 * i);

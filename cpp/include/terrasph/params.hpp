@@ -62,8 +62,10 @@ template <> struct ChoiceNames<PlasticFlow> {
     "k, liquid bridges per grain in Eq. 2.33")                                                           \
   X(double, surface_tension, 0.0725, "N/m", inclusive(0.0), exclusive(inf),                              \
     "gamma_s, surface tension of the liquid (water) in Eq. 2.34")                                        \
-  X(double, filling_angle, 0.2617993877991494, "rad", inclusive(0.0), exclusive(1.5707963267948966),     \
-    "phi, filling angle of a liquid bridge in Eq. 2.34 (15 deg)")                                        \
+  X(double, filling_angle, 0.2617993877991494, "rad", inclusive(0.0), inclusive(0.5235987755982988),     \
+    "phi, filling angle of a liquid bridge in Eq. 2.34 (15 deg); <= 30 deg, where bridges merge")        \
+  X(double, liquid_density, 1000.0, "kg/m^3", exclusive(0.0), exclusive(inf),                            \
+    "rho_l, density of the liquid (water), for the liquid saturation of the pendular check")             \
   X(ConstitutiveModel, model, ConstitutiveModel::mu_i_hypoelastic, "1", exclusive(-inf),                 \
     exclusive(inf), "mu_i_rate: Eq. 2.29 everywhere; mu_i_hypoelastic: deviatoric stress as state, "     \
     "Jaumann rate, capped at mu(I)P + c; drucker_prager: Eq. 2.17-2.28 with phi = atan(mu1), c")         \
@@ -96,6 +98,8 @@ template <> struct ChoiceNames<PlasticFlow> {
   X(double, xsph, 0.2, "1", inclusive(0.0), inclusive(1.0), "chi of XSPH (Eq. 2.49); 0 = off")           \
   X(int, shepard_interval, 0, "steps", inclusive(0.0), exclusive(inf),                                   \
     "Shepard density filter every N steps (Eq. 2.41); 0 = off")                                          \
+  X(int, mls_interval, 0, "steps", inclusive(0.0), exclusive(inf),                                       \
+    "MLS regularisation (Eq. 3.26-3.30, linear basis) of the model's stress state every N steps; 0 = off") \
   X(bool, kernel_gradient_correction, false, "1", exclusive(-inf), exclusive(inf),                       \
     "renormalise grad v so that linear velocity fields are exact")                                       \
   X(double, strain_rate_epsilon, -1.0, "1/s", exclusive(-inf), exclusive(inf),                           \
@@ -132,9 +136,33 @@ struct MaterialParams {
     return packing_fraction * bridges_per_grain * bridge_force / (pi * grain_diameter * grain_diameter);
   }
 
+  // Pendular state (Eq. 2.33–2.34 hold only while the liquid sits in separate bridges): the
+  // liquid saturation S = V_liquid/V_pores = w ρ_s,dry ν / (ρ_l (1 − ν)) at most this. 0.1 is the
+  // low end of the 10–30 % usually quoted for the pendular–funicular transition (Mitarai & Nori
+  // 2006); ρ_s,dry = grain_density/(1 + w) because wet densities carry the (1 + w) of Table 2.1.
+  static constexpr double max_pendular_saturation = 0.1;
+
+  double liquid_saturation() const {
+    const double dry_grain_density = grain_density / (1.0 + water_content);
+    return water_content * dry_grain_density * packing_fraction / (liquid_density * (1.0 - packing_fraction));
+  }
+
+  // The largest water content of the pendular state for this packing and these densities.
+  double max_pendular_water_content() const {
+    if (packing_fraction >= 1.0) return 0.0;  // no pores: only the dry state
+    const double dry_grain_density = grain_density / (1.0 + water_content);
+    return max_pendular_saturation * liquid_density * (1.0 - packing_fraction) /
+           (dry_grain_density * packing_fraction);
+  }
+
   // Each parameter in its range, then the rules that link parameters.
   void validate() const {
     check_ranges(*this);
+    if (water_content > 0.0 && !(liquid_saturation() <= max_pendular_saturation))
+      throw parameter_error("material.water_content", water_content,
+                            "water_content <= " + format_number(max_pendular_water_content()) +
+                                " (pendular state: liquid saturation w*rho_s*nu/(rho_l*(1-nu)) <= " +
+                                format_number(max_pendular_saturation) + ")");
     if (!(mu2 >= mu1)) throw parameter_error("material.mu2", mu2, "mu2 >= mu1 = " + format_number(mu1));
     // A packing is less dense than its grains (ρ0 ≈ νρ_s); Eq. 2.44 needs it too.
     if (!(grain_density > reference_density))

@@ -94,6 +94,9 @@ template <int D> class Simulation {
 
   // Applies the Shepard density filter once (Eq. 2.41).
   void apply_shepard_filter();
+  // Applies the MLS regularisation (Eq. 3.26–3.30, linear basis; mls.hpp) once to the stress state
+  // of the constitutive model (none for mu_i_rate).
+  void apply_mls_regularisation();
 
   // Makes the wall particles of `wall_group` a rigid body whose reference point is at `reference`
   // and whose current particle layout is the body rotated clockwise by `angle` (rad). From now on

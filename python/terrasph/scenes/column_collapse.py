@@ -1,5 +1,7 @@
 """Granular column collapse (dissertation ch. 2): a 7 cm wide, 8 cm tall column of 2 mm glass
-beads against a rough left wall, released by removing a gate on its right, on a rough floor."""
+beads against a rough left wall, released by removing a gate on its right, on a rough floor that is
+flat or curved (Fig. 2.7–2.8: the lowest point of a circular or elliptical trough at the left wall,
+the bed rising to the right)."""
 
 from __future__ import annotations
 
@@ -13,23 +15,28 @@ from typing import Any
 import numpy as np
 
 from terrasph.config import ConfigError, Material, Numerics, from_mapping
-from terrasph.geometry import wall_layers_needed
+from terrasph.geometry import aligned_wall_layers, elliptical_arc, trough_height, wall_layers_needed
 from terrasph.io import write_results
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 
-__all__ = ["MATERIAL_PRESETS", "RESOLUTIONS", "ColumnCollapse", "ColumnResult", "build_column_collapse", "run_column_collapse"]
+__all__ = ["BEDS", "MATERIAL_PRESETS", "RESOLUTIONS", "ColumnCollapse", "ColumnResult", "build_column_collapse",
+           "run_column_collapse"]
 
-#: The runout front is where the deposit first becomes thinner than this fraction of H0 (8 mm,
-#: four grain diameters, for the 8 cm column). The thin tail beyond it is not resolved: one to three
-#: particles thick, with no overburden, so P ≈ 0 and no basal friction, it slides on as a resolution
-#: artefact and lengthens with refinement (docs/design_decisions.md). Its reach is reported
-#: separately as `toe_front`.
-DEPOSIT_THICKNESS_FRACTION = 0.1
+#: The runout front is where the deposit first becomes thinner than this many grain diameters (8 mm
+#: for the 2 mm beads; 0.1·H0 for the 8 cm column). A physical thickness, not a fraction of H0, so
+#: that tall columns' fronts are not cut into the real deposit (issue 13). The thin tail beyond it is
+#: not resolved: one to three particles thick, with no overburden, so P ≈ 0 and no basal friction,
+#: it slides on as a resolution artefact and lengthens with refinement (docs/design_decisions.md).
+#: Its reach is reported separately as `toe_front`.
+DEPOSIT_THICKNESS_GRAIN_DIAMETERS = 4.0
 
 #: Target numbers of interior (granular) particles: the dissertation's 475 / 1036 / 2310 (Fig. 2.5d)
 #: and two finer levels, 2× and 4× "fine".
 RESOLUTIONS: dict[str, int] = {"coarse": 475, "fit": 1036, "fine": 2310, "finer": 4620, "finest": 9240}
+
+#: Bed shapes: flat (the floor), circular (radius `bed_radius`) and elliptical (semi-axes `bed_axes`).
+BEDS = ("flat", "circular", "elliptical")
 
 #: Bulk (reference) density of the column material. "table_2_1": the dissertation's Table 2.1,
 #: ρ0 = 2507 kg/m³ beside the grain density ρ_s = 2532 kg/m³, which makes Eq. 2.44's artificial
@@ -49,7 +56,10 @@ class ColumnCollapse:
     spacing: float | None = None  #: Δx (m); overrides `resolution`
     friction_angles_deg: tuple[float, float] = (21.0, 33.0)  #: (atan μ1, atan μ2) in degrees
     water_content: float = 0.0  #: w; > 0 gives the wet material of Table 2.1 with cohesion
-    floor_length: float = 0.35  #: length of the rough floor to the right of the left wall
+    floor_length: float = 0.35  #: length of the rough flat floor to the right of the left wall
+    bed: str = "flat"  #: a key of BEDS
+    bed_radius: float = 0.35  #: radius of the circular trough (m)
+    bed_axes: tuple[float, float] = (0.35, 0.15)  #: semi-axes (a along x, b along z) of the elliptical trough (m)
     release_time: float = 0.0  #: the gate is removed at this time
     t_end: float = 1.0  #: simulated time limit
     rest_threshold: float = 1e-4  #: stop once mean ½|v|² < rest_threshold·g·Δx (after 0.3 s)
@@ -68,6 +78,20 @@ class ColumnCollapse:
                               f"{', '.join(RESOLUTIONS)}")
         if self.spacing is not None and not (self.spacing > 0 and math.isfinite(self.spacing)):
             raise ConfigError(f"parameter 'spacing' = {self.spacing!r} is invalid: allowed a finite number > 0")
+        if self.bed not in BEDS:
+            raise ConfigError(f"parameter 'bed' = {self.bed!r} is invalid: allowed one of {', '.join(BEDS)}")
+        if self.bed == "circular" and not (self.bed_radius > 0 and math.isfinite(self.bed_radius)):
+            raise ConfigError(f"parameter 'bed_radius' = {self.bed_radius!r} is invalid: allowed a finite number "
+                              "> 0 (m)")
+        if self.bed == "elliptical" and not (len(self.bed_axes) == 2 and all(
+                isinstance(v, (int, float)) and v > 0 and math.isfinite(v) for v in self.bed_axes)):
+            raise ConfigError(f"parameter 'bed_axes' = {self.bed_axes!r} is invalid: allowed two finite "
+                              "semi-axes > 0 (m)")
+        semi_axes = self.bed_semi_axes
+        if semi_axes is not None and semi_axes[0] <= 2 * self.column_width:
+            name = "bed_radius" if self.bed == "circular" else "bed_axes"
+            raise ConfigError(f"parameter '{name}' = {getattr(self, name)!r} is invalid: allowed a trough "
+                              f"half-width > 2*column_width = {2 * self.column_width:g} m")
         if self.floor_length <= self.column_width:
             raise ConfigError(f"parameter 'floor_length' = {self.floor_length} is invalid: allowed > column_width")
         if not 0 <= self.release_time < self.t_end:
@@ -79,6 +103,7 @@ class ColumnCollapse:
         if not 0 <= mu1_deg <= mu2_deg < 90:
             raise ConfigError(f"parameter 'friction_angles_deg' = {self.friction_angles_deg} is invalid: "
                               "allowed 0 <= mu1 angle <= mu2 angle < 90 degrees")
+        self.material()  # the material's own checks (e.g. the pendular range of the water content)
 
     @property
     def grid_spacing(self) -> float:
@@ -86,6 +111,22 @@ class ColumnCollapse:
         if self.spacing is not None:
             return self.spacing
         return math.sqrt(self.column_width * self.column_height / RESOLUTIONS[self.resolution])
+
+    @property
+    def bed_semi_axes(self) -> tuple[float, float] | None:
+        """(a, b) of the trough, None for the flat floor."""
+        if self.bed == "circular":
+            return (self.bed_radius, self.bed_radius)
+        if self.bed == "elliptical":
+            return (float(self.bed_axes[0]), float(self.bed_axes[1]))
+        return None
+
+    def bed_height(self, x: np.ndarray) -> np.ndarray:
+        """Height z_b(x) of the bed surface (0 on the flat floor)."""
+        semi_axes = self.bed_semi_axes
+        if semi_axes is None:
+            return np.zeros_like(np.asarray(x, float))
+        return trough_height(x, semi_axes)
 
     def material(self) -> Material:
         """Glass beads of Table 2.1 with this configuration's friction, water content and bulk density
@@ -110,20 +151,53 @@ def build_column_collapse(config: ColumnCollapse) -> tuple[Scene, Material, Nume
     top = float(column[:, 1].max()) + 0.5 * dx
     right = float(column[:, 0].max()) + 0.5 * dx
     wall_top = top + 4 * dx
-    scene.add_wall("floor", [(0.0, wall_top), (0.0, 0.0), (config.floor_length, 0.0)], layers=layers, no_slip=True)
-    scene.add_wall("gate", [(right, 0.0), (right, wall_top)], layers=layers, no_slip=False,
-                   remove_at=config.release_time)
     margin = (layers + 2) * dx
+    semi_axes = config.bed_semi_axes
+    if semi_axes is None:
+        scene.add_wall("floor", [(0.0, wall_top), (0.0, 0.0), (config.floor_length, 0.0)], layers=layers,
+                       no_slip=True)
+        bed_right, bed_top = config.floor_length, 0.0
+    else:
+        _add_trough(scene, semi_axes, wall_top, layers)
+        scene.granular[0] = column[_above_bed(column, config, dx)]
+        bed_right, bed_top = semi_axes
+    gate_bottom = float(config.bed_height(np.array([right]))[0])
+    scene.add_wall("gate", [(right, gate_bottom), (right, wall_top)], layers=layers, no_slip=False,
+                   remove_at=config.release_time)
     scene.domain_lower = (-margin, -margin)
-    scene.domain_upper = (config.floor_length + margin, wall_top + 0.5 * config.column_height)
+    scene.domain_upper = (bed_right + margin, max(wall_top, bed_top) + 0.5 * config.column_height)
     return scene, config.material(), numerics
+
+
+def _add_trough(scene: Scene, semi_axes: tuple[float, float], wall_top: float, layers: int) -> None:
+    """The rough left wall and the curved bed as one wall group "floor": the quarter of the trough
+    from its lowest point at the wall to its rim, and the wall, extended `layers` rows below the
+    bed so the corner is filled, each with rows lined up along its normals."""
+    dx = scene.spacing
+    bed, bed_normal = elliptical_arc(semi_axes, (0.0, 0.5 * math.pi), dx)
+    heights = (np.arange(-layers, math.ceil(wall_top / dx)) + 0.5) * dx
+    wall = np.column_stack([np.zeros_like(heights), heights])
+    wall_normal = np.tile([1.0, 0.0], (len(heights), 1))
+    rows = [aligned_wall_layers(bed, bed_normal, dx, layers), aligned_wall_layers(wall, wall_normal, dx, layers)]
+    scene.add_wall_particles("floor", np.concatenate([r[0] for r in rows]), np.concatenate([r[1] for r in rows]),
+                             no_slip=True)
+
+
+def _above_bed(points: np.ndarray, config: ColumnCollapse, dx: float) -> np.ndarray:
+    """Lattice particles at least Δx/2 above the curved bed along its normal (as the flat floor's
+    first row): z − z_b(x) ≥ ½Δx·√(1 + z_b′(x)²)."""
+    x = points[:, 0]
+    a, b = config.bed_semi_axes  # type: ignore[misc]
+    ratio = np.clip(x / a, -0.999999, 0.999999)
+    slope = b * ratio / (a * np.sqrt(1.0 - ratio**2))  # z_b'(x)
+    return points[:, 1] - config.bed_height(x) >= 0.5 * dx * np.sqrt(1.0 + slope**2)
 
 
 @dataclass
 class ColumnResult:
     """Outcome of a column collapse: normalised runout L* = (L − L0)/L0 (L: front of the deposit at
-    least DEPOSIT_THICKNESS_FRACTION·H0 thick) and height H* = H_f/H0; `toe_front` is the x reached by any
-    connected particle, the monolayer toe included."""
+    least DEPOSIT_THICKNESS_GRAIN_DIAMETERS grain diameters thick, measured from the bed) and height
+    H* = H_f/H0; `toe_front` is the x reached by any connected particle, the monolayer toe included."""
 
     runout_normalised: float
     final_height_normalised: float
@@ -149,7 +223,8 @@ class ColumnResult:
 def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: str | os.PathLike | None = None,
                         progress: bool = True, plot: bool = True,
                         resume: bool = False, until: float | None = None) -> ColumnResult:
-    """Builds and runs a collapse until at rest (or t_end); writes HDF5 and a PNG of the final profile.
+    """Builds and runs a collapse until at rest (or t_end); writes HDF5, a PNG of the final profile
+    and one of the final τ–p yield locus against μ1P + c and μ2P + c (``<output>_yield_locus.png``).
 
     ``resume=True`` continues the run in `output` from its checkpoint; ``until`` replaces the end
     time (see :meth:`terrasph.simulation.Simulation.run`).
@@ -168,7 +243,8 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
                           **sim.describe()},
                   stop_when_at_rest=config.rest_threshold, min_time=config.release_time + 0.3)
     final = np.array(sim.position)
-    front = analysis.deposit_front(final, dx, DEPOSIT_THICKNESS_FRACTION * height0)
+    front = analysis.deposit_front(final, dx, DEPOSIT_THICKNESS_GRAIN_DIAMETERS * material.grain_diameter,
+                                   bed_height=config.bed_height)
     toe = analysis.front_position(final, dx)
     result = ColumnResult(analysis.normalised_runout(front, 0.0, length0),
                           analysis.final_height(final, dx) / height0, length0, height0, len(final), dx, run,
@@ -183,6 +259,16 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
             centres, heights = analysis.surface_profile(final, dx)
             label = (f"t = {run.time:.2f} s, L* = {result.runout_normalised:.2f}, "
                      f"H* = {result.final_height_normalised:.2f}")
-            plotting.plot_profiles([(centres, heights, label)], initial=(centres0, heights0), path=png)
+            bed = None
+            if config.bed_semi_axes is not None:
+                bed_x = np.linspace(0.0, float(centres.max()) + dx, 200)
+                bed = (bed_x, config.bed_height(bed_x))
+            plotting.plot_profiles([(centres, heights, label)], initial=(centres0, heights0), bed=bed, path=png)
             result.plot = os.fspath(png)
+            stress = np.array(sim.stress)
+            locus_p, locus_tau = analysis.yield_locus(stress)
+            plotting.plot_yield_locus(
+                locus_p, locus_tau, particles=analysis.stress_invariants(stress),
+                yield_lines=[("μ1P + c", material.mu1, material.cohesion), ("μ2P + c", material.mu2, material.cohesion)],
+                path=Path(output).with_name(Path(output).stem + "_yield_locus.png"))
     return result
