@@ -68,6 +68,9 @@ class Model {
     if (d.layers.empty()) throw std::invalid_argument("LSTM model: num_layers must be >= 1");
     in_mean_ = to_vector(d.input_mean, input_size_, "input_mean");
     in_scale_ = to_vector(d.input_scale, input_size_, "input_scale");
+    in_inv_scale_ = in_scale_;  // 1 / scale in double, rounded once: the step multiplies
+    for (Eigen::Index j = 0; j < input_size_; ++j)
+      in_inv_scale_[j] = static_cast<Scalar>(1.0 / d.input_scale[static_cast<std::size_t>(j)]);
     out_mean_ = to_vector(d.output_mean, output_size_, "output_mean");
     out_scale_ = to_vector(d.output_scale, output_size_, "output_scale");
     Eigen::Index in = input_size_;
@@ -121,6 +124,8 @@ class Model {
   const std::string& metadata() const { return metadata_; }
   const Vector& input_mean() const { return in_mean_; }
   const Vector& input_scale() const { return in_scale_; }
+  /// 1 / input_scale (the step normalises as x_n = (x - mean) * (1 / scale)).
+  const Vector& input_inv_scale() const { return in_inv_scale_; }
   const Vector& output_mean() const { return out_mean_; }
   const Vector& output_scale() const { return out_scale_; }
   const Matrix& head_weight() const { return w_out_; }
@@ -154,7 +159,7 @@ class Model {
   Eigen::Index input_size_, output_size_;
   std::vector<std::string> feature_names_, target_names_;
   std::string metadata_;
-  Vector in_mean_, in_scale_, out_mean_, out_scale_;
+  Vector in_mean_, in_scale_, in_inv_scale_, out_mean_, out_scale_;
   std::vector<Layer<Scalar>> layers_;
   Matrix w_out_;
   Vector b_out_;
@@ -165,12 +170,11 @@ class Model {
 namespace detail {
 
 /// State and work buffers of B sequences, row-major (one row per sequence): per layer
-/// z = [u_t ; h_{t-1}] (in + H), c (H) and the gate pre-activations g (4H); the head output.
+/// z = [u_t ; h_{t-1}] (in + H), c (H) and the gate pre-activations g (4H).
 template <typename S>
 struct Workspace {
   Index batch = 0;
   std::vector<std::vector<S>> z, c, g;
-  std::vector<S> head;
   std::vector<S> scratch;  // inputs of a batched product in tile order (product_body)
 
   Workspace(const Model<S>& m, Index B) : batch(B) {
@@ -182,7 +186,6 @@ struct Workspace {
       c.emplace_back(static_cast<std::size_t>(B) * H);
       g.emplace_back(static_cast<std::size_t>(B) * 4 * H);
     }
-    head.resize(static_cast<std::size_t>(B * m.output_size()));
     if (B > 1) scratch.resize(static_cast<std::size_t>(product_scratch(B, k_max)));
   }
   void reset() {
@@ -196,16 +199,17 @@ template <typename Isa, typename S>
 TERRASPH_LSTM_INLINE void layer_step(const Layer<S>& L, CellType cell, Index B, S* z, S* c,
                                      S* g, S* scratch) {
   const Index H = L.hidden_size, ldz = L.input_size + H;
-  for (Index b = 0; b < B; ++b)
-    std::copy(L.bias.data(), L.bias.data() + 4 * H, g + b * 4 * H);
-  product(Isa{}, L.w_packed, B, z, ldz, g, 4 * H, scratch);  // + W_ih u_t + W_hh h_{t-1}, all four gates
+  // g = b + W_ih u_t + W_hh h_{t-1}, all four gates
+  product(Isa{}, L.w_packed, B, z, ldz, L.bias.data(), 0, g, 4 * H, scratch);
   if (cell == CellType::Standard) {
     for (Index b = 0; b < B; ++b) standard_cell(H, g + b * 4 * H, c + b * H, z + b * ldz + ldz - H);
     return;
   }
-  product(Isa{}, L.w_cif_packed, B, c, H, g, 4 * H, scratch);  // + W_ci c_{t-1} (4.9), + W_cf c_{t-1} (4.10)
+  // + W_ci c_{t-1} (4.9), + W_cf c_{t-1} (4.10)
+  product(Isa{}, L.w_cif_packed, B, c, H, g, 4 * H, g, 4 * H, scratch);
   for (Index b = 0; b < B; ++b) peephole_cell_state(H, g + b * 4 * H, c + b * H);
-  product(Isa{}, L.w_co_packed, B, c, H, g + 3 * H, 4 * H, scratch);  // + W_co c_t (4.12)
+  // + W_co c_t (4.12)
+  product(Isa{}, L.w_co_packed, B, c, H, g + 3 * H, 4 * H, g + 3 * H, 4 * H, scratch);
   for (Index b = 0; b < B; ++b)
     peephole_output(H, g + b * 4 * H + 3 * H, c + b * H, z + b * ldz + ldz - H);
 }
@@ -219,10 +223,10 @@ TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, cons
   const std::size_t n_layers = m.layers().size();
   {
     const Index ldz = ni + m.layers()[0].hidden_size;
-    const S *mean = m.input_mean().data(), *scale = m.input_scale().data();
+    const S *mean = m.input_mean().data(), *inv_scale = m.input_inv_scale().data();
+    S* z = ws.z[0].data();
     for (Index b = 0; b < B; ++b)
-      for (Index j = 0; j < ni; ++j)
-        ws.z[0][static_cast<std::size_t>(b * ldz + j)] = (x[b * ldx + j] - mean[j]) / scale[j];
+      for (Index j = 0; j < ni; ++j) z[b * ldz + j] = (x[b * ldx + j] - mean[j]) * inv_scale[j];
   }
   for (std::size_t l = 0; l < n_layers; ++l) {
     const Layer<S>& L = m.layers()[l];
@@ -237,16 +241,14 @@ TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, cons
   }
   const Layer<S>& last = m.layers().back();
   const Index ldz = last.input_size + last.hidden_size;
-  S* head = ws.head.data();
   const S* h_last = ws.z.back().data() + last.input_size;
-  for (Index b = 0; b < B; ++b) {
-    std::copy(m.head_bias().data(), m.head_bias().data() + no, head + b * no);
-    head_dot(m.head_weight_rows().data(), last.hidden_size, no, last.hidden_size,
-             h_last + b * ldz, head + b * no);
-  }
   const S *mean = m.output_mean().data(), *scale = m.output_scale().data();
-  for (Index b = 0; b < B; ++b)
-    for (Index k = 0; k < no; ++k) y[b * ldy + k] = head[b * no + k] * scale[k] + mean[k];
+  for (Index b = 0; b < B; ++b) {  // y = (b_out + W_out h_t) * scale + mean
+    S* yb = y + b * ldy;
+    head_dot(m.head_weight_rows().data(), last.hidden_size, no, last.hidden_size,
+             h_last + b * ldz, m.head_bias().data(), yb);
+    for (Index k = 0; k < no; ++k) yb[k] = yb[k] * scale[k] + mean[k];
+  }
 }
 
 template <typename S>
@@ -356,10 +358,18 @@ class Batch {
     }
     return b;
   }
-  // x holds batch() rows of T * input_size values.
+  // x holds batch() rows of T * input_size values: a branch-free scan, then the first value
+  // that is not finite is located only if there is one.
   void check_finite(const Scalar* x, Eigen::Index T) const {
-    const Eigen::Index ni = input_size(), n = batch() * T * ni;
-    for (Eigen::Index k = 0; k < n; ++k) {
+    const Eigen::Index n = batch() * T * input_size();
+    bool finite = true;
+    for (Eigen::Index k = 0; k < n; ++k) finite &= std::isfinite(x[k]);
+    if (!finite) throw_not_finite(x, T);
+  }
+  [[noreturn]] __attribute__((noinline, cold)) void throw_not_finite(const Scalar* x,
+                                                                     Eigen::Index T) const {
+    const Eigen::Index ni = input_size();
+    for (Eigen::Index k = 0;; ++k) {
       if (!std::isfinite(x[k])) {
         const Eigen::Index j = k % ni, t = (k / ni) % T, b = k / (ni * T);
         throw std::invalid_argument(

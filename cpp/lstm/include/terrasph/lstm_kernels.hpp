@@ -33,8 +33,10 @@ using Index = Eigen::Index;
 #define TERRASPH_LSTM_PRAGMA(x) _Pragma(#x)
 #if defined(__clang__)
 #define TERRASPH_LSTM_UNROLL TERRASPH_LSTM_PRAGMA(unroll)
+#define TERRASPH_LSTM_UNROLL_4 TERRASPH_LSTM_PRAGMA(unroll 4)
 #else
 #define TERRASPH_LSTM_UNROLL TERRASPH_LSTM_PRAGMA(GCC unroll 16)
+#define TERRASPH_LSTM_UNROLL_4 TERRASPH_LSTM_PRAGMA(GCC unroll 4)
 #endif
 
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__AVX2__) && \
@@ -119,25 +121,27 @@ struct Packed {
 };
 
 /// Register tile: for NB sequences b and the NV * lanes rows r of a panel slice w (column j at
-/// w + j * ldw), g[b * ldg + r] += sum_j w(r, j) z[j * kz + b], in column order. Only the
-/// first n_rows rows are read and written.
+/// w + j * ldw), g[b * ldg + r] = y0[b * ld0 + r] + sum_j w(r, j) z[j * kz + b], in column
+/// order (y0 may be g itself; ld0 = 0 starts every sequence from the same y0, e.g. a bias).
+/// Only the first n_rows rows are read and written.
 template <int NV, int NB, typename S>
-TERRASPH_LSTM_INLINE void tile(const S* w, Index ldw, Index K, const S* z, Index kz, S* g,
-                               Index ldg, Index n_rows) {
+TERRASPH_LSTM_INLINE void tile(const S* w, Index ldw, Index K, const S* z, Index kz,
+                               const S* y0, Index ld0, S* g, Index ldg, Index n_rows) {
   constexpr int L = lanes<S>();
   constexpr int R = NV * L;
   S edge[NB][R];  // rows beyond n_rows of a partial slice: computed, never stored
   const bool full = n_rows == R;
   if (!full) {
     for (int b = 0; b < NB; ++b)
-      for (int r = 0; r < R; ++r) edge[b][r] = r < n_rows ? g[b * ldg + r] : S(0);
+      for (int r = 0; r < R; ++r) edge[b][r] = r < n_rows ? y0[b * ld0 + r] : S(0);
   }
   vec_t<S> acc[NB][NV];
   TERRASPH_LSTM_UNROLL
   for (int b = 0; b < NB; ++b) {
     TERRASPH_LSTM_UNROLL
-    for (int v = 0; v < NV; ++v) vload<S>(acc[b][v], full ? g + b * ldg + v * L : &edge[b][v * L]);
+    for (int v = 0; v < NV; ++v) vload<S>(acc[b][v], full ? y0 + b * ld0 + v * L : &edge[b][v * L]);
   }
+  TERRASPH_LSTM_UNROLL_4  // fewer loop instructions per column; the same sum order
   for (Index j = 0; j < K; ++j) {
     const S* col = w + j * ldw;
     TERRASPH_LSTM_UNROLL
@@ -165,22 +169,22 @@ TERRASPH_LSTM_INLINE void tile(const S* w, Index ldw, Index K, const S* z, Index
 // tile<NV, nb> for a run-time nb in [1, NB].
 template <int NV, int NB, typename S>
 TERRASPH_LSTM_INLINE void tile_nb(int nb, const S* w, Index ldw, Index K, const S* z, Index kz,
-                                  S* g, Index ldg, Index n_rows) {
+                                  const S* y0, Index ld0, S* g, Index ldg, Index n_rows) {
   if (nb == NB) {
-    tile<NV, NB>(w, ldw, K, z, kz, g, ldg, n_rows);
+    tile<NV, NB>(w, ldw, K, z, kz, y0, ld0, g, ldg, n_rows);
   } else if constexpr (NB > 1) {
-    tile_nb<NV, NB - 1>(nb, w, ldw, K, z, kz, g, ldg, n_rows);
+    tile_nb<NV, NB - 1>(nb, w, ldw, K, z, kz, y0, ld0, g, ldg, n_rows);
   }
 }
 
 // tile<nv, 1> for a run-time nv in [1, NV].
 template <int NV, typename S>
-TERRASPH_LSTM_INLINE void tile_nv(int nv, const S* w, Index ldw, Index K, const S* z, S* g,
-                                  Index n_rows) {
+TERRASPH_LSTM_INLINE void tile_nv(int nv, const S* w, Index ldw, Index K, const S* z,
+                                  const S* y0, S* g, Index n_rows) {
   if (nv == NV) {
-    tile<NV, 1>(w, ldw, K, z, 1, g, 0, n_rows);
+    tile<NV, 1>(w, ldw, K, z, 1, y0, 0, g, 0, n_rows);
   } else if constexpr (NV > 1) {
-    tile_nv<NV - 1>(nv, w, ldw, K, z, g, n_rows);
+    tile_nv<NV - 1>(nv, w, ldw, K, z, y0, g, n_rows);
   }
 }
 
@@ -189,14 +193,16 @@ inline Index product_scratch(Index B, Index K) {
   return (B + kBatchTile - 1) / kBatchTile * kBatchTile * K;
 }
 
-/// G[b, :rows] += W Z[b, :cols] for b < B (Z and G row-major with leading dimensions ldz,
-/// ldg). One sequence: whole panels, 8 vectors of rows per pass over the weights. Several:
+/// G[b, :rows] = Y0[b, :rows] + W Z[b, :cols] for b < B (Z, Y0 and G row-major with leading
+/// dimensions ldz, ld0 and ldg; Y0 may be G, ld0 = 0 gives every sequence the same start, e.g.
+/// the bias, which thus costs no separate copy). One sequence: whole panels, 8 vectors of rows
+/// per pass over the weights. Several:
 /// Z is first copied into `scratch` (product_scratch(B, cols) values) in blocks of kBatchTile
 /// sequences, column after column, so a tile reads it sequentially; then slices of 2 vectors
 /// of rows meet each block, so every weight loaded serves kBatchTile sequences.
 template <typename S>
-TERRASPH_LSTM_INLINE void product_body(const Packed<S>& W, Index B, const S* Z, Index ldz, S* G,
-                                       Index ldg, S* scratch) {
+TERRASPH_LSTM_INLINE void product_body(const Packed<S>& W, Index B, const S* Z, Index ldz,
+                                       const S* Y0, Index ld0, S* G, Index ldg, S* scratch) {
   constexpr int L = lanes<S>();
   constexpr Index R = panel_rows<S>();
   const Index K = W.cols;
@@ -204,7 +210,7 @@ TERRASPH_LSTM_INLINE void product_body(const Packed<S>& W, Index B, const S* Z, 
     for (Index r0 = 0; r0 < W.rows; r0 += R) {
       const Index n_rows = std::min(R, W.rows - r0);
       tile_nv<8>(static_cast<int>((n_rows + L - 1) / L), W.data.data() + r0 * K, R, K, Z,
-                 G + r0, n_rows);
+                 Y0 + r0, G + r0, n_rows);
     }
     return;
   }
@@ -221,11 +227,12 @@ TERRASPH_LSTM_INLINE void product_body(const Packed<S>& W, Index B, const S* Z, 
       const Index rows_s = std::min<Index>(2 * L, n_rows - s);
       for (Index b0 = 0; b0 < B; b0 += NB) {
         const int nb = static_cast<int>(std::min<Index>(NB, B - b0));
+        const S* y0 = Y0 + b0 * ld0 + r0 + s;
         S* g = G + b0 * ldg + r0 + s;
         if (rows_s > L) {
-          tile_nb<2, NB>(nb, panel + s, R, K, scratch + b0 * K, NB, g, ldg, rows_s);
+          tile_nb<2, NB>(nb, panel + s, R, K, scratch + b0 * K, NB, y0, ld0, g, ldg, rows_s);
         } else {
-          tile_nb<1, NB>(nb, panel + s, R, K, scratch + b0 * K, NB, g, ldg, rows_s);
+          tile_nb<1, NB>(nb, panel + s, R, K, scratch + b0 * K, NB, y0, ld0, g, ldg, rows_s);
         }
       }
     }
@@ -240,15 +247,17 @@ struct Avx2 {};
 // product_body compiled once per instruction set (not inlined: it holds all the tile variants).
 template <typename S>
 __attribute__((noinline)) void product(Generic, const Packed<S>& W, Index B, const S* Z,
-                                       Index ldz, S* G, Index ldg, S* scratch) {
-  product_body(W, B, Z, ldz, G, ldg, scratch);
+                                       Index ldz, const S* Y0, Index ld0, S* G, Index ldg,
+                                       S* scratch) {
+  product_body(W, B, Z, ldz, Y0, ld0, G, ldg, scratch);
 }
 #ifdef TERRASPH_LSTM_AVX2_DISPATCH
 template <typename S>
 __attribute__((noinline, target("avx2,fma"))) void product(Avx2, const Packed<S>& W, Index B,
-                                                           const S* Z, Index ldz, S* G,
-                                                           Index ldg, S* scratch) {
-  product_body(W, B, Z, ldz, G, ldg, scratch);
+                                                           const S* Z, Index ldz, const S* Y0,
+                                                           Index ld0, S* G, Index ldg,
+                                                           S* scratch) {
+  product_body(W, B, Z, ldz, Y0, ld0, G, ldg, scratch);
 }
 #endif
 
@@ -315,12 +324,13 @@ TERRASPH_LSTM_INLINE void sigmoid_v(vec_t<double>& a) {
   for (int k = 0; k < lanes<double>(); ++k) a[k] = 1.0 / (1.0 + std::exp(-a[k]));
 }
 
-/// y[o] += sum_j w[o * ldw + j] h[j] for o < O (the dense head of one sequence): 4 vector
+/// y[o] = y0[o] + sum_j w[o * ldw + j] h[j] for o < O (the dense head of one sequence): 4 vector
 /// accumulators over consecutive chunks of h (chunk c into accumulator c mod 4, the last chunk
 /// zero-padded), added as (a0 + a1) + (a2 + a3), then the lanes in order. A fixed order, the
 /// same for every sequence of a batch; short dependency chains instead of one of length H.
 template <typename S>
-TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, const S* h, S* y) {
+TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, const S* h,
+                                   const S* y0, S* y) {
   constexpr int L = lanes<S>();
   for (Index o = 0; o < O; ++o) {
     const S* row = w + o * ldw;
@@ -346,7 +356,7 @@ TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, cons
       j += L;
     }
     const vec_t<S> sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    S total = y[o];
+    S total = y0[o];
     for (int k = 0; k < L; ++k) total += sum[k];
     y[o] = total;
   }
@@ -354,26 +364,32 @@ TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, cons
 
 // Cell updates of one sequence; g holds the 4H gate pre-activations (blocks i, f, g, o).
 
+/// standard_cell on the n values of one vector (n = lanes, a compile-time constant for whole
+/// vectors, or fewer in a row's zero-padded last vector).
+template <typename S>
+TERRASPH_LSTM_INLINE void standard_cell_vec(Index H, const S* g, S* c, S* h, Index n) {
+  vec_t<S> i, f, cand, o, cv;
+  load_part<S>(i, g, n);
+  load_part<S>(f, g + H, n);
+  load_part<S>(cand, g + 2 * H, n);
+  load_part<S>(o, g + 3 * H, n);
+  load_part<S>(cv, c, n);
+  sigmoid_v(i);
+  sigmoid_v(f);
+  tanh_v(cand);
+  sigmoid_v(o);
+  cv = f * cv + i * cand;
+  store_part<S>(c, cv, n);
+  tanh_v(cv);
+  store_part<S>(h, o * cv, n);
+}
 /// Standard cell (torch.nn.LSTM): c_t = f c_{t-1} + i g,  h_t = o tanh(c_t).
 template <typename S>
 TERRASPH_LSTM_INLINE void standard_cell(Index H, const S* g, S* c, S* h) {
-  for (Index k = 0; k < H; k += lanes<S>()) {
-    const Index n = std::min<Index>(lanes<S>(), H - k);
-    vec_t<S> i, f, cand, o, cv;
-    load_part<S>(i, g + k, n);
-    load_part<S>(f, g + H + k, n);
-    load_part<S>(cand, g + 2 * H + k, n);
-    load_part<S>(o, g + 3 * H + k, n);
-    load_part<S>(cv, c + k, n);
-    sigmoid_v(i);
-    sigmoid_v(f);
-    tanh_v(cand);
-    sigmoid_v(o);
-    cv = f * cv + i * cand;
-    store_part<S>(c + k, cv, n);
-    tanh_v(cv);
-    store_part<S>(h + k, o * cv, n);
-  }
+  constexpr Index L = lanes<S>();
+  Index k = 0;
+  for (; k + L <= H; k += L) standard_cell_vec(H, g + k, c + k, h + k, L);
+  if (k < H) standard_cell_vec(H, g + k, c + k, h + k, H - k);
 }
 /// Peephole cell, first half: i and f (Eq. 4.9, 4.10; peephole terms already in g), then
 /// c_t = f c_{t-1} + i tanh(g) (Eq. 4.11).
