@@ -111,3 +111,27 @@ def test_the_robot_progress_bar_ends_at_its_total(tmp_path, capsys) -> None:
         run_leg_wheel(config, tmp_path / "bar.h5", progress=True, plot=False)
     bar_lines = [line for line in capsys.readouterr().err.replace("\r", "\n").splitlines() if "simulated" in line]
     assert "100%" in bar_lines[-1] and "<-" not in bar_lines[-1], bar_lines[-1]
+
+
+def test_the_surrogate_dataset_reads_a_leg_wheel_run(tmp_path) -> None:
+    """terrasph.surrogate.robot_dataset takes the driven phase of a leg-wheel run file (the scene's
+    configuration under its registry key): the commanded input is the run's ω schedule, the
+    targets are the file's series at settle_time + t, and a run of another scene is refused."""
+    from terrasph.surrogate.robot_dataset import robot_run
+
+    config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
+                      bed_depth=0.04, start_x=0.08, settle_time=0.01, duration=0.05, load=2.0,
+                      omega_schedule=((0.0, 1.0), (0.02, 2.0)), series_interval=0.002, frame_interval=0.05)
+    run_leg_wheel(config, tmp_path / "lw.h5", plot=False)
+    run = robot_run(tmp_path / "lw.h5", dt=0.01, wheels=("c-leg", "flat-leg"))
+    np.testing.assert_allclose(run.time, [0.0, 0.01, 0.02, 0.03, 0.04], atol=1e-12)
+    np.testing.assert_allclose(run.series["omega_cmd"], [1.0, 1.5, 2.0, 2.0, 2.0], atol=1e-12)
+    wheel = read_run(tmp_path / "lw.h5").series["robot/wheel"]
+    np.testing.assert_allclose(run.series["sinkage"], np.interp(run.time + 0.01, wheel["time"], wheel["sinkage"]))
+    assert run.params == {"load": 2.0, "wheel:c-leg": 1.0, "wheel:flat-leg": 0.0}
+    import h5py
+
+    with h5py.File(tmp_path / "column.h5", "w") as f:
+        f.attrs["config_json"] = json.dumps({"scene": "column-collapse"})
+    with pytest.raises(ValueError, match="not a leg-wheel run"):
+        robot_run(tmp_path / "column.h5", dt=0.01, wheels=("c-leg",))

@@ -43,7 +43,10 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str]) -> Run:
     import h5py
 
     with h5py.File(path, "r") as f:
-        config = json.loads(f.attrs["config_json"])
+        saved = json.loads(f.attrs["config_json"])
+        if saved.get("scene") != "leg-wheel":
+            raise ValueError(f"{path} is not a leg-wheel run (its scene is {saved.get('scene')!r})")
+        config = saved["leg_wheel"]  # the scene's own configuration (terrasph.scenes.SCENES' config_key)
         group = f["series/robot/wheel"]
         time = group["time"][()]
         sampled = {"slip": group["slip"][()], "sinkage": group["sinkage"][()],
