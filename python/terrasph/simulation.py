@@ -35,6 +35,29 @@ def checkpoint_path(output: str | os.PathLike[str]) -> pathlib.Path:
     return path.with_name(path.stem + ".checkpoint.h5")
 
 
+def check_run_options(intervals: dict[str, float], checkpoint_every: float | None, resume: bool,
+                      output: str | os.PathLike[str] | None) -> None:
+    """ConfigError naming the first bad option of a run loop (Simulation.run, the coupled robots'
+    run): every interval > 0 s, `checkpoint_every` > 0 s or None, `resume` only with an `output`."""
+    for name, value in intervals.items():
+        if not value > 0:
+            raise ConfigError(f"parameter '{name}' = {value} is invalid: allowed > 0 s")
+    if checkpoint_every is not None and not checkpoint_every > 0:
+        raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
+    if resume and output is None:
+        raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
+
+
+def simulated_time_bar(total: float, progress: bool) -> Any:
+    """A progress bar over `total` seconds of simulated time (disabled unless `progress`)."""
+    if progress:
+        from tqdm.auto import tqdm
+    else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
+        from tqdm import tqdm
+    return tqdm(total=round(total, 9), unit="s", disable=not progress, mininterval=0.5,
+                bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
+
+
 class _StopRequest:
     """Turns SIGINT and SIGTERM into a request that the run loop honours at the next step
     boundary, so a stop never lands in the middle of writing a frame or a checkpoint. Outside the
@@ -297,7 +320,11 @@ class Simulation:
         with it. The checkpoint must belong to this simulation's configuration (scene, material,
         numerics, width, bodies): anything else is refused with :class:`CheckpointError` naming
         the entries that differ, as is a corrupted, truncated or other-version file."""
-        from terrasph.checkpoint import CheckpointError, configuration_differences, read_checkpoint
+        from terrasph.checkpoint import (
+            CheckpointError,
+            configuration_differences,
+            read_checkpoint,
+        )
 
         state, config, progress = read_checkpoint(path)
         differences = configuration_differences(config, self.describe())
@@ -336,18 +363,8 @@ class Simulation:
         the original one. An :class:`terrasph.InstabilityError` is recorded in the file before
         it propagates.
         """
-        if not frame_interval > 0:
-            raise ConfigError(f"parameter 'frame_interval' = {frame_interval} is invalid: allowed > 0")
-        if not body_interval > 0:
-            raise ConfigError(f"parameter 'body_interval' = {body_interval} is invalid: allowed > 0")
-        if checkpoint_every is not None and not checkpoint_every > 0:
-            raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
-        if resume and output is None:
-            raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
-        if progress:
-            from tqdm.auto import tqdm
-        else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
-            from tqdm import tqdm
+        check_run_options({"frame_interval": frame_interval, "body_interval": body_interval}, checkpoint_every,
+                          resume, output)
 
         from terrasph.io import RunWriter, read_run, write_xdmf
 
@@ -413,8 +430,7 @@ class Simulation:
                     "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start})
 
         t_start = self.time
-        bar = tqdm(total=round(t_end - t_start, 9), unit="s", disable=not progress, mininterval=0.5,
-                   bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
+        bar = simulated_time_bar(t_end - t_start, progress)
         chunk_steps = 1  # steps per call into the core, adapted to CHUNK_SECONDS of wall time
 
         def advance_chunk(target: float) -> None:

@@ -98,15 +98,17 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     ``KeyboardInterrupt`` raised). ``resume=True`` continues from that checkpoint into the same
     file (rows and frames written after it are dropped), bitwise the run that never stopped.
     """
-    for name, value in (("frame_interval", frame_interval), ("series_interval", series_interval)):
-        if not value > 0:
-            raise ConfigError(f"parameter '{name}' = {value} is invalid: allowed > 0 s")
-    if checkpoint_every is not None and not checkpoint_every > 0:
-        raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
-    if resume and output is None:
-        raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
     from terrasph.io import RunWriter, read_run
-    from terrasph.simulation import _StopRequest, checkpoint_path, versions
+    from terrasph.simulation import (
+        _StopRequest,
+        check_run_options,
+        checkpoint_path,
+        simulated_time_bar,
+        versions,
+    )
+
+    check_run_options({"frame_interval": frame_interval, "series_interval": series_interval}, checkpoint_every,
+                      resume, output)
 
     memory = {} if memory is None else memory
     saved = coupled.restore(checkpoint_path(output)) if resume else {}
@@ -159,8 +161,6 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
                 "next_sample": next_sample, "next_frame": next_frame, "frames": frames, "series_rows": series_rows,
                 "wall_time": wallclock.perf_counter() - start, "memory": memory})
 
-    from tqdm.auto import tqdm
-
     if resume:
         next_sample, next_frame = saved["next_sample"], saved["next_frame"]
     else:
@@ -169,8 +169,7 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
         frame()
         next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
     t_start = coupled.time
-    bar = tqdm(total=round(t_end - t_start, 9), unit="s", disable=not progress, mininterval=0.5,
-               bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]")
+    bar = simulated_time_bar(t_end - t_start, progress)
     stop = _StopRequest()
     try:
         with stop.catching_signals():
