@@ -3,6 +3,7 @@
     python benchmarks/bench_levers.py leg [--variant NAME:KEY=VALUE,KEY=VALUE ...] [--threads 2]
         [--bed-depth 0.08] [--settle 0.3] [--omega 0.8]
     python benchmarks/bench_levers.py column [--variant ...] [--resolution coarse]
+    python benchmarks/bench_levers.py leg-wheel [--variant ...] [--spacing 0.005] [--settle 1.0] [--t-end 3.0]
 
 Each variant is a set of overrides of the scene's numerics (e.g. ``cfl=0.4``, ``sound_speed=14.4``,
 ``cell_order=true``); for the column, ``material_preset=NAME`` selects the material preset instead.
@@ -12,7 +13,9 @@ load: compare within one run), CPU seconds of this process per simulated second 
 sensitive to other processes' load than wall time; run with OMP_WAIT_POLICY=passive so that idle
 threads do not spin), and the outcome with its relative change against the reference:
 peak lift and thrust for the leg (the CI variant of the scene by default: 8 cm bed, 0.3 s pause,
-ω = 0.8 rad/s, Δx = 2.13 mm), L* and H* for the column.
+ω = 0.8 rad/s, Δx = 2.13 mm), L* and H* for the column, mean slip, mean forward speed and final
+and maximum sinkage for the leg-wheel (chapter 4's 50 × 10 cm bed and 8 cm C-leg wheel under
+4.9 N at ω = 1.5 rad/s, coarsened: Δx = 5 mm with legs 1.5 cm thick, the three rows a part needs).
 """
 
 from __future__ import annotations
@@ -24,9 +27,11 @@ import time
 from bench_sph import parse_value
 from terrasph import _core
 from terrasph.scenes import ColumnCollapse, run_column_collapse
+from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.scenes.leg_rotation import LegRotation, run_leg_rotation
 
-OUTCOMES = {"leg": ("peak_lift", "peak_thrust"), "column": ("runout_normalised", "final_height_normalised")}
+OUTCOMES = {"leg": ("peak_lift", "peak_thrust"), "column": ("runout_normalised", "final_height_normalised"),
+            "leg-wheel": ("mean_slip", "mean_forward_speed", "final_sinkage", "max_sinkage")}
 
 
 def parse_variant(text: str) -> tuple[str, dict[str, bool | int | float | str]]:
@@ -45,6 +50,12 @@ def run_variant(scene: str, overrides: dict, args: argparse.Namespace) -> dict:
         config = LegRotation(leg=args.leg, omega=args.omega, bed_depth=args.bed_depth, settle_time=args.settle,
                              numerics=numerics)
         return run_leg_rotation(config, output=None, progress=False, plot=False).summary()
+    if scene == "leg-wheel":
+        start = time.perf_counter()
+        wheel = LegWheel(wheel=args.wheel, spacing=args.spacing, thickness=3 * args.spacing, settle_time=args.settle,
+                         duration=args.t_end, numerics=numerics)
+        summary = run_leg_wheel(wheel, plot=False).summary()
+        return {**summary, "time": wheel.duration, "wall_time": time.perf_counter() - start, "status": "completed"}
     extra = {"material_preset": overrides["material_preset"]} if "material_preset" in overrides else {}
     config = ColumnCollapse(resolution=args.resolution, numerics=numerics, **extra)
     return run_column_collapse(config, output=None, progress=False, plot=False).summary()
@@ -58,9 +69,14 @@ def main() -> None:
     parser.add_argument("--leg", default="c-leg")
     parser.add_argument("--omega", type=float, default=0.8)
     parser.add_argument("--bed-depth", type=float, default=0.08)
-    parser.add_argument("--settle", type=float, default=0.3)
+    parser.add_argument("--settle", type=float, default=None, help="pause (s); 0.3 (leg), 1.0 (leg-wheel)")
     parser.add_argument("--resolution", default="coarse")
+    parser.add_argument("--wheel", default="c-leg")
+    parser.add_argument("--spacing", type=float, default=0.005)
+    parser.add_argument("--t-end", type=float, default=3.0)
     args = parser.parse_args()
+    if args.settle is None:
+        args.settle = 1.0 if args.scene == "leg-wheel" else 0.3
     _core.set_num_threads(args.threads)
     variants = [parse_variant(v) for v in args.variant] or [("baseline", {})]
     rows = []
@@ -70,20 +86,18 @@ def main() -> None:
         row["cpu_time"] = time.process_time() - cpu
         rows.append(row)
         print(json.dumps(row), flush=True)
-    first, second = OUTCOMES[args.scene]
+    outcomes = OUTCOMES[args.scene]
+    print("\n| variant | steps | steps per sim. s | wall s per sim. s | speed-up (wall) | CPU s per sim. s "
+          "| speed-up (CPU) | " + " | ".join(f"{name} | change" for name in outcomes) + " | leaks | status |")
+    print("|---" * (9 + 2 * len(outcomes)) + "|")
     reference = rows[0]
-    print(f"\n| variant | steps | steps per sim. s | wall s per sim. s | speed-up (wall) | CPU s per sim. s "
-          f"| speed-up (CPU) | {first} | change "
-          f"| {second} | change | status |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         per_second = r["wall_time"] / r["time"]
+        changes = " | ".join(f"{r[name]:.4g} | {100 * (r[name] / reference[name] - 1):+.1f}%" for name in outcomes)
         print(f"| {r['variant']} | {r['steps']} | {r['steps'] / r['time']:.0f} | {per_second:.1f} | "
               f"{reference['wall_time'] / reference['time'] / per_second:.2f} | {r['cpu_time'] / r['time']:.1f} | "
-              f"{reference['cpu_time'] / reference['time'] / (r['cpu_time'] / r['time']):.2f} | {r[first]:.4g} | "
-              f"{100 * (r[first] / reference[first] - 1):+.1f}% | {r[second]:.4g} | "
-              f"{100 * (r[second] / reference[second] - 1):+.1f}% | {r['status']} |")
-
+              f"{reference['cpu_time'] / reference['time'] / (r['cpu_time'] / r['time']):.2f} | {changes} | "
+              f"{r.get('leaked_particles', '—')} | {r['status']} |")
 
 if __name__ == "__main__":
     main()

@@ -9,6 +9,11 @@ Scene: a 0.4 m × 0.04 m bed of the packed glass beads (Δx = 5 mm) in a rough b
   bitwise unchanged (np.array_equal on position, velocity, density, stress) and never leaks;
 * the grains under the plate were frozen before it came, and are awake and updated (their state
   changed) once it is within their neighbour radius;
+* with numerics.active_radius, grains farther than it from every body are judged on their speed
+  alone: at freeze_speed = 2 mm/s over 400 steps the bed's pressure waves (N·dt·|a| above 2 mm/s)
+  keep the strict criterion from freezing any grain within 0.1 s, while with a 10 cm radius every
+  grain beyond 25 cm is frozen, none within 5 cm of the plate is, the far part stays bitwise
+  unchanged while the plate is pushed down and no grain leaks;
 * determinism (1, 2, 3 threads) and a checkpoint restart stay bitwise with the active domain and
   the cell-ordered storage both on (coarse column collapse with a high freeze speed, so that
   grains freeze and wake during the few hundred steps).
@@ -17,6 +22,7 @@ Scene: a 0.4 m × 0.04 m bed of the packed glass beads (Δx = 5 mm) in a rough b
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from terrasph import _core
 from terrasph.bodies import plate
 from terrasph.config import Material, Numerics
@@ -32,8 +38,8 @@ PLATE_HEIGHT = 0.025  # reference above the bed surface: 1.75 cm gap below the 1
 PUSH_START, PUSH_SPEED, PUSH_TIME = 0.1, 0.05, 0.25  # s, m/s, s: 1.25 cm down, to a 0.5 cm gap
 
 
-def bed_with_plate() -> Simulation:
-    numerics = Numerics(spacing=DX, freeze_speed=5e-3, freeze_steps=100)
+def bed_with_plate(**active_domain: float) -> Simulation:
+    numerics = Numerics(spacing=DX, **(active_domain or {"freeze_speed": 5e-3, "freeze_steps": 100}))
     scene = Scene(spacing=DX)
     scene.add_block(0.0, 0.0, WIDTH, HEIGHT)
     top = HEIGHT + 12 * DX
@@ -69,6 +75,31 @@ def test_far_region_stays_bitwise_unchanged_and_an_approaching_body_wakes_grains
     # updated, not merely flagged: the plate's wall terms changed their rates, so their state moved
     assert not np.array_equal(near_before["velocity"], near_after["velocity"])
     assert not np.array_equal(near_before["stress"], near_after["stress"])
+
+
+def test_far_from_bodies_speed_alone_decides() -> None:
+    strict = {"freeze_speed": 2e-3, "freeze_steps": 400}
+    start = np.asarray(bed_with_plate(**strict).position)
+    far, near = start[:, 0] > 0.25, start[:, 0] < 0.1
+    without = bed_with_plate(**strict)
+    without.advance(PUSH_START)
+    assert not np.asarray(without.field("frozen")).any()
+    sim = bed_with_plate(**strict, active_radius=0.1)
+    sim.advance(PUSH_START)
+    frozen = np.asarray(sim.field("frozen")).astype(bool)
+    assert frozen[far].all() and not frozen[near].any()
+    before = snapshot(sim, far)
+    sim.advance(PUSH_START + PUSH_TIME)
+    after = snapshot(sim, far)
+    for name in before:
+        assert np.array_equal(before[name], after[name]), name
+    assert not np.asarray(sim.field("frozen")).astype(bool)[near].any()
+    assert sim.leaked_particles == 0
+
+
+def test_an_active_radius_without_a_freeze_speed_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"numerics\.active_radius.*freeze_speed"):
+        bed_with_plate(active_radius=0.1)
 
 
 def collapse() -> Simulation:

@@ -98,6 +98,17 @@ template <int D> const ModelParams<D>& validated(const ModelParams<D>& params) {
   return params;
 }
 
+// The speed c of the step bound h/(c + |v|): numerics.step_signal_speed when set, which may not
+// undercut the model's fastest physical wave, else the larger of c0 and that wave speed.
+template <int D> double step_signal_speed(const ModelParams<D>& params, double c0, double wave_speed) {
+  const double chosen = params.numerics.step_signal_speed;
+  if (chosen <= 0.0) return std::max(c0, wave_speed);
+  if (chosen < wave_speed)
+    throw parameter_error("numerics.step_signal_speed", chosen,
+                          "0 or >= the model's wave speed " + format_number(wave_speed) + " m/s");
+  return chosen;
+}
+
 }  // namespace
 
 template <int D>
@@ -106,7 +117,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
       kernel_(params.smoothing_length()),
       model_(make_model(params, granular.fields)),
       sound_speed_(params.artificial_sound_speed()),
-      signal_speed_(std::max(sound_speed_, std::visit([](const auto& m) { return m.wave_speed(); }, model_))),
+      signal_speed_(step_signal_speed(params, sound_speed_, std::visit([](const auto& m) { return m.wave_speed(); }, model_))),
       wall_volume_(std::pow(params.numerics.spacing, D)),
       granular_(std::move(granular)),
       walls_(std::move(walls)) {
@@ -704,6 +715,20 @@ template <int D> void Simulation<D>::accumulate_body_loads(double dt) {
   }
 }
 
+// The circle about each body's reference point that holds all its particles (serial: a fixed
+// order, and only the bodies' particles are visited).
+template <int D> std::vector<BodyCircle<D>> Simulation<D>::body_circles() const {
+  std::vector<BodyCircle<D>> circles(bodies_.size());
+  for (std::size_t b = 0; b < bodies_.size(); ++b) circles[b].centre = bodies_[b].kinematics.reference;
+  for (Index w = 0; w < walls_.size(); ++w) {
+    const std::int32_t b = walls_.body[w];
+    if (b < 0) continue;
+    BodyCircle<D>& c = circles[static_cast<std::size_t>(b)];
+    c.radius = std::max(c.radius, (row_vec<D>(walls_.position, w) - c.centre).norm());
+  }
+  return circles;
+}
+
 // ---------------------------------------------------------------- time stepping
 
 template <int D> double Simulation<D>::stable_time_step() const {
@@ -776,15 +801,18 @@ template <int D> void Simulation<D>::step(double dt) {
   const double after_rates = omp_get_wtime();
   const double freeze_speed2 = params_.numerics.freeze_speed * params_.numerics.freeze_speed;
   const std::int32_t settle = params_.numerics.freeze_steps;
+  const double active_radius = params_.numerics.active_radius;
+  const std::vector<BodyCircle<D>> circles = active_radius > 0.0 ? body_circles() : std::vector<BodyCircle<D>>{};
   const double max_v2 = max_over_particles(n, 0.0, [&](Index i) {  // closing kick
     auto v = row_vec<D>(granular_.velocity, i);
     if (frozen(i)) return v.squaredNorm();
     v += half * row_vec<D>(granular_.acceleration, i);
     granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
     const double v2 = v.squaredNorm();
-    if (quiet_steps_) {  // quiet: slow, and not gaining freeze_speed within freeze_steps steps either
+    if (quiet_steps_) {  // quiet: slow, and (near a body) not gaining freeze_speed within freeze_steps steps
       const double gain = settle * dt * row_vec<D>(granular_.acceleration, i).norm();
-      const bool quiet = v2 < freeze_speed2 && gain * gain < freeze_speed2;
+      const bool far = active_radius > 0.0 && outside_all<D>(circles, row_vec<D>(granular_.position, i), active_radius);
+      const bool quiet = v2 < freeze_speed2 && (far || gain * gain < freeze_speed2);
       (*quiet_steps_)[i] = quiet ? std::min((*quiet_steps_)[i] + 1, settle) : 0;
     }
     return v2;

@@ -114,4 +114,17 @@ template <int D> struct RigidBody {
   double impulse_time = 0.0;         // Σ dt since the last reset
 };
 
+// The circle (sphere in 3D) about a body's reference point that holds all its particles.
+template <int D> struct BodyCircle {
+  Vec<D> centre = Vec<D>::Zero();
+  double radius = 0.0;
+};
+
+// Whether x lies farther than `margin` from every circle (true when there are none).
+template <int D> bool outside_all(const std::vector<BodyCircle<D>>& circles, const Vec<D>& x, double margin) {
+  for (const BodyCircle<D>& c : circles)
+    if ((x - c.centre).norm() - c.radius <= margin) return false;
+  return true;
+}
+
 }  // namespace terrasph

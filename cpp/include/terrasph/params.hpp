@@ -86,7 +86,10 @@ template <> struct ChoiceNames<PlasticFlow> {
   X(double, fixed_dt, 0.0, "s", inclusive(0.0), exclusive(inf),                                          \
     "fixed time step, checked against the stable bound every step; 0 = adaptive")                        \
   X(double, sound_speed, 0.0, "m/s", inclusive(0.0), exclusive(inf),                                     \
-    "c_0 of the artificial viscosity and the step; 0 = Eq. 2.44 from the material")                      \
+    "c_0 of the artificial viscosity, the density diffusion and the step; 0 = Eq. 2.44 from the material") \
+  X(double, step_signal_speed, 0.0, "m/s", inclusive(0.0), exclusive(inf),                               \
+    "c of the step bound alone (c_0 still sets the damping); 0 = max(c_0, the model's wave speed); "     \
+    "else at least the model's wave speed")                                                              \
   X(double, artificial_viscosity, 0.1, "1", inclusive(0.0), exclusive(inf),                              \
     "alpha_Pi (Eq. 2.46) between grains, beta_Pi = 0 (docs/design_decisions.md)")                        \
   X(double, wall_artificial_viscosity, 1.0, "1", inclusive(0.0), exclusive(inf),                         \
@@ -113,6 +116,9 @@ template <> struct ChoiceNames<PlasticFlow> {
     "body particle or unsettled grain within its neighbour radius, is frozen (not updated); 0 = off")    \
   X(int, freeze_steps, 200, "steps", inclusive(1.0), exclusive(inf),                                     \
     "N of freeze_speed: steps a grain must stay quiet before it counts as settled (active domain)")     \
+  X(double, active_radius, 0.0, "m", inclusive(0.0), exclusive(inf),                                     \
+    "active domain: a grain farther than this from every body counts as quiet on |v| alone (no "         \
+    "acceleration test); 0 = off. Needs freeze_speed > 0")                                               \
   X(double, density_floor, 0.0, "1", inclusive(0.0), inclusive(1.0),                                     \
     "rho >= density_floor*rho_0 after every kick; 0 = off")                                              \
   X(double, density_ratio_min, 0.5, "1", exclusive(0.0), exclusive(1.0),                                 \
@@ -179,7 +185,12 @@ struct MaterialParams {
 struct NumericsParams {
   TERRASPH_PARAMETER_GROUP(NumericsParams, "numerics", TERRASPH_NUMERICS_PARAMETERS)
 
-  void validate() const { check_ranges(*this); }
+  void validate() const {
+    check_ranges(*this);
+    if (active_radius > 0.0 && !(freeze_speed > 0.0))
+      throw parameter_error("numerics.active_radius", active_radius,
+                            "0 while numerics.freeze_speed = 0 (the radius refines the active domain)");
+  }
 };
 
 template <int D> struct DomainParams {

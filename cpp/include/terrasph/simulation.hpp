@@ -136,6 +136,7 @@ template <int D> class Simulation {
   void build_neighbours();
   void sort_into_cell_order();
   void update_frozen();
+  std::vector<BodyCircle<D>> body_circles() const;
   bool frozen(Index i) const { return frozen_ && (*frozen_)[i]; }
   bool penetrates_interior_wall(Index i) const;
   void build_neighbour_lists(const VecArray<D>& granular_at, const VecArray<D>& walls_at);
