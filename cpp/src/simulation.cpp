@@ -289,6 +289,23 @@ template <int D> void Simulation<D>::update_frozen() {
       freeze = walls_.body[granular_wall_.indices[s]] < 0;
     (*frozen_)[i] = freeze ? 1 : 0;
   });
+  update_idle_walls();
+}
+
+// A fixed wall particle whose granular neighbours were all frozen in this step and the last one
+// is idle: its ghost velocity and stress, extrapolated from those unchanged neighbours at its
+// unchanged place, would come out bit for bit as they are, and no awake grain reads them. A
+// neighbour rebuild wakes every wall (the lists, and with them the sums, may change).
+template <int D> void Simulation<D>::update_idle_walls() {
+  const Index n = walls_.size();  // the vectors have this size since the last neighbour build
+  for_each_particle(n, [&](Index w) {
+    bool all_frozen = walls_.body[w] < 0;
+    for (Index s = wall_granular_.offsets[w]; all_frozen && s < wall_granular_.offsets[w + 1]; ++s)
+      all_frozen = (*frozen_)[wall_granular_.indices[s]] != 0;
+    const std::size_t k = static_cast<std::size_t>(w);
+    wall_idle_[k] = all_frozen && walls_frozen_around_[k];
+    walls_frozen_around_[k] = all_frozen;
+  });
 }
 
 // The lists of all pairs within 2h(1 + skin/2) of the given positions.
@@ -303,6 +320,10 @@ void Simulation<D>::build_neighbour_lists(const VecArray<D>& granular_at, const 
   build_neighbour_list<D>(granular_at, walls_at, wall_grid_, radius, false, granular_wall_);
   build_neighbour_list<D>(walls_at, granular_at, granular_grid_, radius, false, wall_granular_);
   if (!bodies_.empty()) pair_body_force_.resize(static_cast<Index>(granular_wall_.indices.size()), D);
+  if (frozen_) {  // new lists: no wall is idle until its neighbours have been frozen for two steps again
+    wall_idle_.assign(static_cast<std::size_t>(walls_.size()), 0);
+    walls_frozen_around_.assign(static_cast<std::size_t>(walls_.size()), 0);
+  }
 }
 
 // The lists hold all pairs within 2h(1 + skin/2); they stay complete while no two particles
@@ -354,6 +375,7 @@ template <int D> void Simulation<D>::compute_rates(double dt) {
 template <int D> void Simulation<D>::wall_velocity_pass() {
   const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   for_each_particle(walls_.size(), [&](Index w) {
+    if (wall_idle(w)) return;
     const Vec<D> xw = row_vec<D>(walls_.position, w);
     double sum_w = 0.0;
     Vec<D> sum_v = Vec<D>::Zero();
@@ -463,6 +485,7 @@ void Simulation<D>::wall_stress_pass() {
   const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const Vec<D> g = params_.domain.gravity;
   for_each_particle(walls_.size(), [&](Index w) {
+    if (wall_idle(w)) return;
     const Vec<D> xw = row_vec<D>(walls_.position, w);
     double sum_w = 0.0;
     Mat<D> sum_sigma = Mat<D>::Zero();

@@ -138,6 +138,8 @@ template <int D> class Simulation {
   void update_frozen();
   std::vector<BodyCircle<D>> body_circles() const;
   bool frozen(Index i) const { return frozen_ && (*frozen_)[i]; }
+  void update_idle_walls();
+  bool wall_idle(Index w) const { return frozen_ && wall_idle_[static_cast<std::size_t>(w)]; }
   bool penetrates_interior_wall(Index i) const;
   void build_neighbour_lists(const VecArray<D>& granular_at, const VecArray<D>& walls_at);
   void compute_rates(double dt);
@@ -192,6 +194,10 @@ template <int D> class Simulation {
   // ∇v pass and read by the force pass (0 beyond the support)
   std::vector<double> pair_kernel_value_;
   std::vector<double> pair_gradient_factor_;
+  // active domain: walls whose granular neighbours are all frozen (this step and the last), whose
+  // passes are skipped; derived each step, reset at neighbour builds
+  std::vector<std::uint8_t> wall_idle_;
+  std::vector<std::uint8_t> walls_frozen_around_;
   // force each granular–wall pair exerts on the wall, kept for walls that belong to a body
   VecArray<D> pair_body_force_;
 };
