@@ -4,6 +4,8 @@
         [--numerics NAME=VALUE ...]
     python benchmarks/bench_sph.py features [--size 20000]
     python benchmarks/bench_sph.py phases [--size 80000] [--threads 1]
+    python benchmarks/bench_sph.py scaling [--sizes 10000 30000 100000 300000] [--steps 50] [--repeats 3]
+        [--numerics NAME=VALUE ...]
 
 A scene is a bed of the dry glass beads at rest in a rough box (Δx = 2 mm, gravity on); it is
 stepped a fixed number of steps after a short warm-up. "particle-steps" count granular
@@ -118,6 +120,27 @@ def features(size: int, steps: int, repeats: int) -> None:
         print(f"| {name} | {1e3 * best:.2f} | {best / plain:.2f} |", flush=True)
 
 
+def scaling(sizes: list[int], steps: int, repeats: int, numerics: dict[str, bool | int | float]) -> None:
+    """CPU time per particle-step on one thread against the particle count (issue 12: flat within
+    15 %). CPU time of this process, the best of `repeats` rounds interleaved over the sizes, so
+    that other processes' load (which wall time feels in full) moves every size alike."""
+    _core.set_num_threads(1)
+    sims = {size: bed(size, Material(), Numerics(spacing=SPACING, **numerics)) for size in sizes}
+    best = {size: math.inf for size in sizes}
+    for sim in sims.values():
+        sim.advance(1e9, max_steps=10)
+    for _ in range(repeats):
+        for size, sim in sims.items():
+            start = time.process_time()
+            sim.advance(1e9, max_steps=steps)
+            best[size] = min(best[size], (time.process_time() - start) / steps / len(sim.mass))
+    smallest = best[sizes[0]]
+    print("| granular particles | CPU ns per particle-step (1 thread) | ratio to the smallest |")
+    print("|---|---|---|")
+    for size, sim in sims.items():
+        print(f"| {len(sim.mass)} | {1e9 * best[size]:.0f} | {best[size] / smallest:.2f} |", flush=True)
+
+
 def phases(size: int, threads: int, steps: int) -> None:
     """Wall time of each phase of a step (the core's phase timers), per particle-step."""
     _core.set_num_threads(threads)
@@ -150,8 +173,15 @@ def main() -> None:
     ph.add_argument("--size", type=int, default=80000)
     ph.add_argument("--threads", type=int, default=1)
     ph.add_argument("--steps", type=int, default=100)
+    sc = sub.add_parser("scaling")
+    sc.add_argument("--sizes", type=int, nargs="+", default=[10000, 30000, 100000, 300000])
+    sc.add_argument("--steps", type=int, default=50)
+    sc.add_argument("--repeats", type=int, default=3)
+    sc.add_argument("--numerics", nargs="*", default=[], metavar="NAME=VALUE")
     args = parser.parse_args()
-    if args.what == "throughput":
+    if args.what == "scaling":
+        scaling(args.sizes, args.steps, args.repeats, parse_numerics(args.numerics))
+    elif args.what == "throughput":
         throughput(args.sizes, args.threads, args.steps, parse_numerics(args.numerics))
     elif args.what == "features":
         features(args.size, args.steps, args.repeats)

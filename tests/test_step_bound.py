@@ -1,17 +1,16 @@
-"""The step's signal speed apart from c0 (numerics.step_signal_speed, issue 12).
+"""The step's signal speed apart from c0 (numerics.step_at_wave_speed, issue 12).
 
 The step bound is C·h/(c + |v|) with c = max(c0, the model's wave speed) by default; c0 of
-Eq. 2.44 also sets the artificial viscosity α c0 and the density diffusion δ h c0. Setting
-step_signal_speed to the model's wave speed takes the step from the physical wave alone and
-keeps the damping. For the Table 2.1 beads c0 = 89 m/s and the hypoelastic P-wave speed is
+Eq. 2.44 also sets the artificial viscosity α c0 and the density diffusion δ h c0.
+step_at_wave_speed takes the step from the model's fastest physical wave alone and keeps the damping. For the Table 2.1 beads c0 = 89 m/s and the hypoelastic P-wave speed is
 c_P = √((K + 4G/3)/ρ0) = 11.24 m/s (K = κγ, G from Poisson's ratio 0.3): 7.9× fewer steps.
 
 Scene: test_settling's bed (Δx = 5 mm, 0.12 × 0.05 m, rough box), 0.2 s. References:
 * at c = c_P the bed comes to rest as at the default step (mean |v| < 1e-4 m/s, max < 2e-3 m/s)
   and its vertical stress profile equals the default run's, layer by layer, within 0.5 % of the
   deepest layer's stress [measured 0.02 %];
-* a signal speed below the model's wave speed is refused before any step, naming the parameter and
-  the wave speed.
+* the first step from rest is C·h/c with c the model's wave speed by its formula: c_P for the
+  hypoelastic model, the EOS speed √(κγ/ρ0) for the rate model (to 1e-12).
 """
 
 from __future__ import annotations
@@ -58,7 +57,7 @@ def stress_profile(sim: Simulation) -> np.ndarray:
 
 def test_stepping_at_the_wave_speed_keeps_the_settled_bed() -> None:
     reference = settled_bed()
-    fast = settled_bed(step_signal_speed=1.0001 * p_wave_speed(Material()))
+    fast = settled_bed(step_at_wave_speed=True)
     assert reference.step_count > 7 * fast.step_count  # c0 / c_P = 7.9
     speed = np.hypot(*fast.velocity.T)
     assert speed.mean() < 1e-4 and speed.max() < 2e-3
@@ -68,8 +67,14 @@ def test_stepping_at_the_wave_speed_keeps_the_settled_bed() -> None:
     assert np.max(np.abs(got - expected)) < 0.005 * expected.max()
 
 
-def test_a_signal_speed_below_the_wave_speed_is_refused() -> None:
+@pytest.mark.parametrize("model", ["mu_i_hypoelastic", "mu_i_rate"])
+def test_the_first_step_resolves_the_models_wave_speed(model: str) -> None:
+    material = Material(model=model)
+    eos_speed = math.sqrt(material.bulk_stiffness * material.eos_exponent / material.reference_density)
+    wave_speed = p_wave_speed(material) if model == "mu_i_hypoelastic" else eos_speed
+    numerics = Numerics(spacing=DX, step_at_wave_speed=True)
     scene = Scene(spacing=DX)
     scene.add_block(0.0, 0.0, WIDTH, HEIGHT)
-    with pytest.raises(ValueError, match=r"numerics\.step_signal_speed.*wave speed 11\.2"):
-        Simulation(scene, Material(), Numerics(spacing=DX, step_signal_speed=0.9 * p_wave_speed(Material())))
+    sim = Simulation(scene, material, numerics)
+    sim.advance(1.0, max_steps=1)
+    assert sim.time == pytest.approx(numerics.cfl * numerics.h_factor * DX / wave_speed, rel=1e-12)

@@ -98,15 +98,10 @@ template <int D> const ModelParams<D>& validated(const ModelParams<D>& params) {
   return params;
 }
 
-// The speed c of the step bound h/(c + |v|): numerics.step_signal_speed when set, which may not
-// undercut the model's fastest physical wave, else the larger of c0 and that wave speed.
+// The speed c of the step bound h/(c + |v|): the model's fastest physical wave alone when
+// numerics.step_at_wave_speed, else the larger of c0 and that wave speed.
 template <int D> double step_signal_speed(const ModelParams<D>& params, double c0, double wave_speed) {
-  const double chosen = params.numerics.step_signal_speed;
-  if (chosen <= 0.0) return std::max(c0, wave_speed);
-  if (chosen < wave_speed)
-    throw parameter_error("numerics.step_signal_speed", chosen,
-                          "0 or >= the model's wave speed " + format_number(wave_speed) + " m/s");
-  return chosen;
+  return params.numerics.step_at_wave_speed ? wave_speed : std::max(c0, wave_speed);
 }
 
 }  // namespace

@@ -87,9 +87,9 @@ template <> struct ChoiceNames<PlasticFlow> {
     "fixed time step, checked against the stable bound every step; 0 = adaptive")                        \
   X(double, sound_speed, 0.0, "m/s", inclusive(0.0), exclusive(inf),                                     \
     "c_0 of the artificial viscosity, the density diffusion and the step; 0 = Eq. 2.44 from the material") \
-  X(double, step_signal_speed, 0.0, "m/s", inclusive(0.0), exclusive(inf),                               \
-    "c of the step bound alone (c_0 still sets the damping); 0 = max(c_0, the model's wave speed); "     \
-    "else at least the model's wave speed")                                                              \
+  X(bool, step_at_wave_speed, false, "1", exclusive(-inf), exclusive(inf),                                 \
+    "c of the step bound is the model's fastest physical wave alone (c_0 still sets the damping); "      \
+    "false = max(c_0, that wave speed)")                                                                 \
   X(double, artificial_viscosity, 0.1, "1", inclusive(0.0), exclusive(inf),                              \
     "alpha_Pi (Eq. 2.46) between grains, beta_Pi = 0 (docs/design_decisions.md)")                        \
   X(double, wall_artificial_viscosity, 1.0, "1", inclusive(0.0), exclusive(inf),                         \
