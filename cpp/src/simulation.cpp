@@ -748,8 +748,8 @@ template <int D> void Simulation<D>::accumulate_wall_loads(double dt) {
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];
       if (walls_.body[w] >= 0) continue;
+      // every fixed wall's group is listed (track_wall_loads), so the search finds it
       const auto load = std::lower_bound(wall_loads_.begin(), wall_loads_.end(), walls_.group[w], by_group);
-      if (load == wall_loads_.end() || load->group != walls_.group[w]) continue;  // became a body since
       const Vec<D> f = row_vec<D>(pair_wall_force_, s);
       load->force += f;
       load->torque += quarter_turn_clockwise<D>(row_vec<D>(walls_.position, w) - wall_load_point_).dot(f);
