@@ -386,6 +386,27 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
            "Pose, rates and granular load of a body: force (N/m) and clockwise torque (N·m/m) about the "
            "reference point at the last step, and their time averages since reset_body_means().")
       .def("reset_body_means", &Sim::reset_body_impulses, "Restart the time averages of body loads.")
+      .def("track_wall_loads", &Sim::track_wall_loads, py::arg("point"),
+           "From now on keep the load of the grains on every fixed wall group (not a body), torques clockwise "
+           "about `point` (m); re-evaluates the rates at the present state. Off by default (no cost).")
+      .def_property_readonly("tracks_wall_loads", &Sim::tracks_wall_loads)
+      .def("wall_loads", [](const Sim& s) {
+             py::dict out;
+             for (const WallLoad<D>& load : s.wall_loads()) {
+               py::dict d;
+               d["force"] = Vec<D>(load.force);
+               d["torque"] = load.torque;
+               const double t = load.impulse_time;
+               d["mean_force"] = t > 0.0 ? Vec<D>(load.impulse / t) : Vec<D>(load.force);
+               d["mean_torque"] = t > 0.0 ? load.angular_impulse / t : load.torque;
+               d["averaged_over"] = t;
+               out[py::int_(load.group)] = d;
+             }
+             return out;
+           },
+           "{wall group: load} of the grains on each tracked fixed wall group: force (N/m) and clockwise torque "
+           "(N·m/m) about the tracking point at the last step, and their time averages since reset_wall_load_means().")
+      .def("reset_wall_load_means", &Sim::reset_wall_load_impulses, "Restart the time averages of wall loads.")
       .def_property_readonly("penetrating_particles", [](const Sim& s) { return s.counters().penetrating_particles; },
            "Granular particles past a wall's surface row (closer than spacing/2 to an interior wall "
            "particle) at the last step.")

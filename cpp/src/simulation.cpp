@@ -161,9 +161,9 @@ template <int D> void Simulation<D>::compose_passes() {
     stress_pass_ = &Simulation::template velocity_gradient_and_stress_pass<Model>;
     wall_stress_pass_ = &Simulation::template wall_stress_pass<Model>;
   }, model_);
-  force_pass_ = dispatch_flags([](auto delta, auto xsph, auto bodies) -> ForcePass {
-    return &Simulation::template force_pass<decltype(delta)::value, decltype(xsph)::value, decltype(bodies)::value>;
-  }, params_.numerics.delta_sph > 0.0, params_.numerics.xsph > 0.0, !bodies_.empty());
+  force_pass_ = dispatch_flags([](auto delta, auto xsph, auto keep) -> ForcePass {
+    return &Simulation::template force_pass<decltype(delta)::value, decltype(xsph)::value, decltype(keep)::value>;
+  }, params_.numerics.delta_sph > 0.0, params_.numerics.xsph > 0.0, keeps_pair_forces());
 }
 
 // A wall particle is interior when another particle of its wall group sits one spacing further
@@ -314,7 +314,7 @@ void Simulation<D>::build_neighbour_lists(const VecArray<D>& granular_at, const 
   build_neighbour_list<D>(granular_at, granular_at, granular_grid_, radius, true, granular_granular_);
   build_neighbour_list<D>(granular_at, walls_at, wall_grid_, radius, false, granular_wall_);
   build_neighbour_list<D>(walls_at, granular_at, granular_grid_, radius, false, wall_granular_);
-  if (!bodies_.empty()) pair_body_force_.resize(static_cast<Index>(granular_wall_.indices.size()), D);
+  if (keeps_pair_forces()) pair_wall_force_.resize(static_cast<Index>(granular_wall_.indices.size()), D);
   if (frozen_) {  // new lists: no wall is idle until its neighbours have been frozen for two steps again
     wall_idle_.assign(static_cast<std::size_t>(walls_.size()), 0);
     walls_frozen_around_.assign(static_cast<std::size_t>(walls_.size()), 0);
@@ -362,6 +362,7 @@ template <int D> void Simulation<D>::compute_rates(double dt) {
   lap(t.wall_stress);
   (this->*force_pass_)();
   if (!bodies_.empty()) accumulate_body_loads(dt);
+  if (tracks_wall_loads_) accumulate_wall_loads(dt);
   lap(t.forces);
 }
 
@@ -519,10 +520,11 @@ void Simulation<D>::wall_stress_pass() {
 
 // Continuity with δ-SPH (Eq. 2.42–2.43), momentum with artificial viscosity (Eq. 2.45–2.47) and
 // the XSPH velocity correction (Eq. 2.49), fused into one gather over each particle's pairs.
-// WithBodies: the force of each granular–body pair on the body is kept for Eq. 3.24–3.25.
+// KeepPairForces: the force of each granular–wall pair on the wall is kept for Eq. 3.24–3.25, for
+// the walls of bodies and, when wall loads are tracked, for all walls.
 // Leak diagnostic: a granular particle closer than Δx/2 to an interior wall particle has got past
 // the wall's surface row.
-template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Simulation<D>::force_pass() {
+template <int D> template <bool UseDelta, bool UseXsph, bool KeepPairForces> void Simulation<D>::force_pass() {
   const double h = kernel_.h;
   const double h2x4 = 4.0 * h * h;
   const double alpha = params_.numerics.artificial_viscosity;
@@ -538,6 +540,7 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
   const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;
   const double barrier_reach2 = barrier_strength > 0.0 ? barrier_radius * barrier_radius : 0.0;  // 0: off
   const ForceConstants<D> constants{h, alpha, c0, delta_h_c0, chi, hydrostatic_gradient};
+  const bool keep_every_wall = tracks_wall_loads_;
   struct Partial {
     double max_acc2 = 0.0;
     std::int64_t penetrating = 0, newly_penetrated = 0;
@@ -560,8 +563,8 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
     double nearest_wall2 = std::numeric_limits<double>::infinity();
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];
-      const bool on_body = WithBodies && walls_.body[w] >= 0;
-      if (on_body) row_vec<D>(pair_body_force_, s).setZero();
+      const bool kept = KeepPairForces && (keep_every_wall || walls_.body[w] >= 0);
+      if (kept) row_vec<D>(pair_wall_force_, s).setZero();
       const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
       const double r2 = xiw.squaredNorm();
       if (walls_.interior[w]) nearest_wall2 = std::min(nearest_wall2, r2);
@@ -578,7 +581,7 @@ template <int D> template <bool UseDelta, bool UseXsph, bool WithBodies> void Si
       Vec<D> pair_acc = term::momentum<D>(m_w, si, row_mat<D>(walls_.stress_over_rho2, w), pi_iw, grad_w);
       if (r2 < barrier_reach2) pair_acc += term::wall_barrier(std::sqrt(r2), barrier_radius, barrier_strength) * xiw;
       acc.noalias() += pair_acc;
-      if (on_body) row_vec<D>(pair_body_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
+      if (kept) row_vec<D>(pair_wall_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
     }
     if (nearest_wall2 < inside_wall2) {
       ++partial.penetrating;
@@ -721,7 +724,7 @@ template <int D> void Simulation<D>::accumulate_body_loads(double dt) {
       const std::int32_t b = walls_.body[w];
       if (b < 0) continue;
       RigidBody<D>& body = bodies_[static_cast<size_t>(b)];
-      const Vec<D> f = row_vec<D>(pair_body_force_, s);
+      const Vec<D> f = row_vec<D>(pair_wall_force_, s);
       body.force += f;
       body.torque += quarter_turn_clockwise<D>(row_vec<D>(walls_.position, w) - body.kinematics.reference).dot(f);
     }
@@ -745,6 +748,61 @@ template <int D> std::vector<BodyCircle<D>> Simulation<D>::body_circles() const 
     c.radius = std::max(c.radius, (row_vec<D>(walls_.position, w) - c.centre).norm());
   }
   return circles;
+}
+
+template <int D> void Simulation<D>::track_wall_loads(const Vec<D>& point) {
+  if (!point.allFinite()) throw std::invalid_argument("the wall loads' torque point must be finite");
+  if (params_.numerics.freeze_speed > 0.0)
+    throw std::invalid_argument("wall loads cannot be tracked with the active domain on (numerics.freeze_speed > 0): "
+                                "its frozen grains keep old rates");
+  std::vector<std::int32_t> groups;
+  for (Index w = 0; w < walls_.size(); ++w)
+    if (walls_.body[w] < 0) groups.push_back(walls_.group[w]);
+  std::sort(groups.begin(), groups.end());
+  groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
+  wall_loads_.assign(groups.size(), WallLoad<D>{});
+  for (size_t k = 0; k < groups.size(); ++k) wall_loads_[k].group = groups[k];
+  wall_load_point_ = point;
+  tracks_wall_loads_ = true;
+  compose_passes();
+  refresh();
+  reset_wall_load_impulses();
+}
+
+template <int D> void Simulation<D>::reset_wall_load_impulses() {
+  for (WallLoad<D>& load : wall_loads_) {
+    load.impulse.setZero();
+    load.angular_impulse = 0.0;
+    load.impulse_time = 0.0;
+  }
+}
+
+// Force and clockwise torque about the tracking point of the grains on each fixed wall group
+// (Eq. 3.24–3.25), summed in the fixed order of accumulate_body_loads: with the body loads and
+// the weight they balance the grains' momentum, Σ m_i a_i = M g − Σ F_bodies − Σ F_walls.
+template <int D> void Simulation<D>::accumulate_wall_loads(double dt) {
+  for (WallLoad<D>& load : wall_loads_) {
+    load.force.setZero();
+    load.torque = 0.0;
+  }
+  auto by_group = [](const WallLoad<D>& load, std::int32_t group) { return load.group < group; };
+  const Index n = granular_.size();
+  for (Index i = 0; i < n; ++i) {
+    for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
+      const std::int32_t w = granular_wall_.indices[s];
+      if (walls_.body[w] >= 0) continue;
+      // every fixed wall's group is listed (track_wall_loads), so the search finds it
+      const auto load = std::lower_bound(wall_loads_.begin(), wall_loads_.end(), walls_.group[w], by_group);
+      const Vec<D> f = row_vec<D>(pair_wall_force_, s);
+      load->force += f;
+      load->torque += quarter_turn_clockwise<D>(row_vec<D>(walls_.position, w) - wall_load_point_).dot(f);
+    }
+  }
+  for (WallLoad<D>& load : wall_loads_) {
+    load.impulse += dt * load.force;
+    load.angular_impulse += dt * load.torque;
+    load.impulse_time += dt;
+  }
 }
 
 // ---------------------------------------------------------------- time stepping
@@ -973,7 +1031,7 @@ template <int D> std::size_t Simulation<D>::memory_bytes() const {
   return granular_.fields.bytes() + walls_.fields.bytes() + list_bytes(granular_granular_) +
          list_bytes(granular_wall_) + list_bytes(wall_granular_) +
          (pair_kernel_value_.capacity() + pair_gradient_factor_.capacity()) * sizeof(double) +
-         static_cast<std::size_t>(pair_body_force_.size()) * sizeof(double);
+         static_cast<std::size_t>(pair_wall_force_.size()) * sizeof(double);
 }
 
 template class Simulation<2>;

@@ -108,6 +108,8 @@ class RunResult:
     diagnostics: dict[str, list[float]] = field(default_factory=dict)
     #: per body: time series of pose and load as in :meth:`Simulation.body_state` (arrays)
     bodies: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    #: per fixed wall, when tracked: time series of its load as in :meth:`Simulation.wall_loads` (arrays)
+    walls: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
 class Simulation:
@@ -287,6 +289,38 @@ class Simulation:
         """Restarts the time averages of body forces and torques."""
         self.core.reset_body_means()
 
+    def track_wall_loads(self, about: tuple[float, float] = (0.0, 0.0)) -> None:
+        """Keeps, from now on, the load of the grains on every fixed wall (a wall group that is not a
+        body), its torque clockwise about the point `about` (x, z) m; :meth:`wall_loads` reads it
+        and :meth:`run` records it. Off by default: a simulation that does not ask pays nothing.
+        Re-evaluates the rates at the present state, so call it before the first step (the run is
+        then bitwise the one without it). Refused with the active domain on (numerics.freeze_speed)."""
+        point = np.asarray(about, dtype=float)
+        if point.shape != (2,) or not np.isfinite(point).all():
+            raise ConfigError(f"parameter 'about' = {about!r} is invalid: allowed a point (x, z) of finite numbers (m)")
+        if self.numerics.freeze_speed > 0:
+            raise ConfigError("wall loads cannot be tracked with the active domain on (numerics.freeze_speed > 0): "
+                              "its frozen grains keep old rates")
+        self.core.track_wall_loads(point)
+
+    def wall_loads(self) -> dict[str, dict[str, Any]]:
+        """Load of the grains on each fixed wall, by wall name, in N and N·m for the simulation's
+        `width`, after :meth:`track_wall_loads`: ``force`` (F_x, F_z) of the grains on the wall and
+        ``torque`` (clockwise, about the tracking point) averaged over ``averaged_over`` s since the
+        last :meth:`reset_wall_load_means`, and the instant values ``force_now`` and ``torque_now``
+        (Eq. 3.24–3.25 summed over the wall's particles). Empty when not tracked."""
+        names = {wall.group_id: wall.name for wall in self.scene.walls}
+        return {names[group]: {"force": np.asarray(raw["mean_force"]) * self.width,
+                               "torque": raw["mean_torque"] * self.width,
+                               "force_now": np.asarray(raw["force"]) * self.width,
+                               "torque_now": raw["torque"] * self.width,
+                               "averaged_over": raw["averaged_over"]}
+                for group, raw in self.core.wall_loads().items()}
+
+    def reset_wall_load_means(self) -> None:
+        """Restarts the time averages of the fixed walls' loads."""
+        self.core.reset_wall_load_means()
+
     def _body_index(self, name: str) -> int:
         for index, body in enumerate(self.bodies):
             if body.name == name:
@@ -347,7 +381,9 @@ class Simulation:
         """Runs to `t_end` (s), writing a frame every `frame_interval` (s) to `output` (HDF5).
 
         Every `body_interval` (s) each body's pose and load, averaged over the interval, is
-        appended to ``/series/bodies/<name>`` and to ``RunResult.bodies``.
+        appended to ``/series/bodies/<name>`` and to ``RunResult.bodies``; after
+        :meth:`track_wall_loads`, each fixed wall's load likewise to ``/series/walls/<name>`` and
+        ``RunResult.walls`` (not kept in checkpoints yet, so such a run cannot be resumed).
 
         With ``stop_when_at_rest = r`` the run ends once t ≥ `min_time` and the kinetic energy per
         unit mass ½|v|² (mean) drops below r·g·Δx — a bed whose grains move less than about
@@ -368,6 +404,9 @@ class Simulation:
 
         from terrasph.io import RunWriter, read_run, write_xdmf
 
+        if resume and self.core.tracks_wall_loads:
+            raise ConfigError("parameter 'resume' is invalid for a simulation that tracks wall loads: "
+                              "checkpoints do not keep them yet")
         saved = self.restore(checkpoint_path(output)) if resume else {}
         if not (t_end > self.time):
             raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")
@@ -388,6 +427,8 @@ class Simulation:
                                                                  "max_speed", "neighbour_builds", "wall_time",
                                                                  "leaked_particles")}
         body_series: dict[str, dict[str, list[Any]]] = {b.name: {} for b in self.bodies}
+        wall_series: dict[str, dict[str, list[Any]]] = {name: {} for name in self.wall_loads()}
+        sampled = bool(self.bodies or wall_series)
         start = wallclock.perf_counter() - saved.get("wall_time", 0.0)
         frames = saved.get("frames", 0)
         series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
@@ -415,13 +456,19 @@ class Simulation:
             if on_frame:
                 on_frame(self)
 
-        def record_bodies() -> None:
+        def record_loads() -> None:
             for body in self.bodies:
                 row = {"time": self.time, **self.body_state(body.name)}
                 for key, value in row.items():
                     body_series[body.name].setdefault(key, []).append(value)
                 append_series(f"bodies/{body.name}", row)
             self.reset_body_means()
+            for name, load in self.wall_loads().items():
+                row = {"time": self.time, **load}
+                for key, value in row.items():
+                    wall_series[name].setdefault(key, []).append(value)
+                append_series(f"walls/{name}", row)
+            self.reset_wall_load_means()
 
         def save_checkpoint() -> None:
             if writer:
@@ -457,20 +504,20 @@ class Simulation:
             next_frame, next_sample = saved["next_frame"], saved["next_sample"]
         else:
             next_frame = self.time + frame_interval
-            next_sample = self.time + body_interval if self.bodies else math.inf
+            next_sample = self.time + body_interval if sampled else math.inf
         stop = _StopRequest()
         try:
             with stop.catching_signals():
                 if not resume:
                     record()
-                    if self.bodies:
-                        record_bodies()
+                    if sampled:
+                        record_loads()
                 last_checkpoint = wallclock.perf_counter()
                 while self.time < t_end * (1 - 1e-14):
                     # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
                     advance_chunk(min(next_frame, next_sample, t_end))
-                    if self.time >= next_sample * (1 - 1e-12) or (self.bodies and self.time >= t_end * (1 - 1e-14)):
-                        record_bodies()
+                    if self.time >= next_sample * (1 - 1e-12) or (sampled and self.time >= t_end * (1 - 1e-14)):
+                        record_loads()
                         next_sample += body_interval
                     bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
                     if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
@@ -506,6 +553,8 @@ class Simulation:
         wall_time = wallclock.perf_counter() - start
         bodies = {name: {key: np.asarray(values) for key, values in series.items()}
                   for name, series in body_series.items()}
+        walls = {name: {key: np.asarray(values) for key, values in series.items()}
+                 for name, series in wall_series.items()}
         if writer:
             writer.set_attrs("/run", {"status": status, "wall_time": wall_time, "steps": self.step_count,
                                       "time": self.time, "granular_particles": len(self.mass),
@@ -519,7 +568,7 @@ class Simulation:
                 bodies = {b.name: dict(series.get(f"bodies/{b.name}", {})) for b in self.bodies}
                 frames = read_run(output).n_frames
         return RunResult(self.time, self.step_count, wall_time, frames, os.fspath(output) if output else None,
-                         status, diagnostics, bodies)
+                         status, diagnostics, bodies, walls)
 
     def frame_fields(self) -> dict[str, np.ndarray]:
         """Copies of the per-particle fields written to each frame: the grains' fields and, in a

@@ -52,6 +52,18 @@ struct WallRemoval {
   std::int32_t group = 0;
 };
 
+// The load of the grains on one fixed wall group (a wall group that is not a body), kept when
+// asked for (Simulation::track_wall_loads): Eq. 3.24–3.25 summed over the group's particles, per
+// metre of depth, the clockwise torque about the tracking point.
+template <int D> struct WallLoad {
+  std::int32_t group = 0;
+  Vec<D> force = Vec<D>::Zero();    // at the last rate evaluation
+  double torque = 0.0;              // at the last rate evaluation
+  Vec<D> impulse = Vec<D>::Zero();  // Σ F dt since the last reset (for time-averaged loads)
+  double angular_impulse = 0.0;     // Σ T dt since the last reset
+  double impulse_time = 0.0;        // Σ dt since the last reset
+};
+
 template <int D> class Simulation {
  public:
   // Takes ownership of the particle sets; positions, velocities, densities and masses of the
@@ -113,6 +125,17 @@ template <int D> class Simulation {
   // Restarts the time averages of force and torque (impulse / elapsed time) of every body.
   void reset_body_impulses();
 
+  // From now on keeps the load of the grains on every fixed wall group (one that is not a body
+  // now), torques clockwise about `point`, and re-evaluates the rates so the loads at the present
+  // state are known (called before the first step, the run is bitwise the one without it). Off
+  // by default: a run that does not ask pays nothing. Refused with the active domain on (its
+  // frozen grains keep old rates, so their wall loads would not be re-evaluated).
+  void track_wall_loads(const Vec<D>& point);
+  bool tracks_wall_loads() const { return tracks_wall_loads_; }
+  const Vec<D>& wall_load_point() const { return wall_load_point_; }
+  const std::vector<WallLoad<D>>& wall_loads() const { return wall_loads_; }  // by group, ascending
+  void reset_wall_load_impulses();
+
   // --- state restore (the fields are written through granular()/walls() first) ---
   // Sets the scalar state, the bodies' dynamic state and the removal schedule, then rebuilds the
   // neighbour lists at the saved build positions. Nothing is recomputed.
@@ -148,10 +171,12 @@ template <int D> class Simulation {
   void add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment);
   void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const;
   template <class Model> void wall_stress_pass();
-  template <bool UseDelta, bool UseXsph, bool WithBodies> void force_pass();
+  template <bool UseDelta, bool UseXsph, bool KeepPairForces> void force_pass();
+  bool keeps_pair_forces() const { return !bodies_.empty() || tracks_wall_loads_; }
   int attach_body(std::int32_t wall_group, RigidBody<D> body);
   void move_bodies(double time);
   void accumulate_body_loads(double dt);
+  void accumulate_wall_loads(double dt);
   void check_health() const;
   void mark_interior_walls();
   void check_ids() const;
@@ -170,6 +195,9 @@ template <int D> class Simulation {
   RunCounters counters_;
   std::vector<RigidBody<D>> bodies_;
   std::vector<WallRemoval> pending_removals_;  // by time
+  bool tracks_wall_loads_ = false;
+  Vec<D> wall_load_point_ = Vec<D>::Zero();
+  std::vector<WallLoad<D>> wall_loads_;  // by group, ascending (tracked only)
   bool neighbours_valid_ = false;
 
   // optional fields, registered by the modules that use them
@@ -198,8 +226,9 @@ template <int D> class Simulation {
   // passes are skipped; derived each step, reset at neighbour builds
   std::vector<std::uint8_t> wall_idle_;
   std::vector<std::uint8_t> walls_frozen_around_;
-  // force each granular–wall pair exerts on the wall, kept for walls that belong to a body
-  VecArray<D> pair_body_force_;
+  // force each granular–wall pair exerts on the wall, kept for walls that belong to a body and,
+  // when wall loads are tracked, for all walls
+  VecArray<D> pair_wall_force_;
 };
 
 }  // namespace terrasph

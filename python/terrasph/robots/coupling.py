@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 import pathlib
 from typing import Any
 
@@ -34,13 +35,18 @@ from terrasph.config import ConfigError
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass"]
+__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
 #: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/bench_robot_coupling.py):
 #: a plate set down on the bed is thrown off it at 1.5e-4 and stays at 2e-4 (Δx = 5 mm); the
 #: accepted range starts a factor 5 above that.
 MIN_MASS_RATIO = 1e-3
+#: Below this ratio (and above MIN_MASS_RATIO) the coupling warns: a driven leg-wheel turned by a
+#: constant motor torque (its spin free, not held by a servo) is stable down to 5e-4 but its mean
+#: spin departs from that of heavier wheels below 1e-2 (x5 at 1e-3; docs/robots.md,
+#: benchmarks/bench_robot_driven.py). A wheel whose spin a velocity servo holds is not affected.
+ACCURATE_MASS_RATIO = 1e-2
 
 
 def _unwrapped(previous: float, wrapped: float) -> float:
@@ -64,6 +70,11 @@ def _check_mass_ratios(robot: PlanarRobot, grain_density: float) -> None:
             raise ConfigError(f"coupled body '{body.name}' is too light for the coupling: its mass over that of the "
                               f"grains it displaces is {ratio:.3g}, allowed >= {MIN_MASS_RATIO:g} (the explicit "
                               "scheme's stability limit, docs/robots.md); make it heavier")
+        if ratio < ACCURATE_MASS_RATIO:
+            warnings.warn(f"coupled body '{body.name}' is light for the coupling: its mass over that of the grains it "
+                          f"displaces is {ratio:.3g}, below {ACCURATE_MASS_RATIO:g}; if it turns freely or under a torque "
+                          "(not held by a velocity servo) its motion depends on its mass (docs/robots.md)",
+                          RuntimeWarning, stacklevel=3)
 
 
 class CoupledSimulation:

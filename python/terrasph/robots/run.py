@@ -89,7 +89,9 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
     `memory` (plain data), which is checkpointed with the run. Returns the robot series by group
-    name (the whole run's, when resumed).
+    name (the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
+    the grains on each fixed wall (:meth:`terrasph.Simulation.wall_loads`) is sampled too, as
+    ``walls/<name>`` (such a run cannot be resumed: checkpoints do not keep wall loads yet).
 
     As :meth:`terrasph.Simulation.run`: with an `output`, the SPH State, MuJoCo's state (qpos,
     qvel, act, ctrl, warm start, time), the coupling's memory and `memory` go to
@@ -110,6 +112,9 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     check_run_options({"frame_interval": frame_interval, "series_interval": series_interval}, checkpoint_every,
                       resume, output)
 
+    if resume and coupled.sim.core.tracks_wall_loads:
+        raise ConfigError("parameter 'resume' is invalid for a simulation that tracks wall loads: "
+                          "checkpoints do not keep them yet")
     memory = {} if memory is None else memory
     saved = coupled.restore(checkpoint_path(output)) if resume else {}
     memory.update(saved.get("memory", {}))
@@ -142,11 +147,15 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
         surface = undisturbed_surface(coupled)
         for body in coupled.robot.coupled:
             append(f"robot/{body.name}", body_row(coupled, body.name, surface))
-        append("robot/actuators", _actuator_row(coupled))
+        if coupled.robot.model.nu:  # a robot without actuators has no such series (HDF5 has no 0-wide columns)
+            append("robot/actuators", _actuator_row(coupled))
         append("diagnostics", {"time": coupled.time, "step": sim.step_count, "dt": sim.core.last_dt,
                                "leaked_particles": sim.leaked_particles,
                                "wall_time": wallclock.perf_counter() - start})
         sim.reset_body_means()
+        for name, load in sim.wall_loads().items():
+            append(f"walls/{name}", {"time": coupled.time, **load})
+        sim.reset_wall_load_means()
 
     def frame() -> None:
         nonlocal frames
@@ -165,6 +174,7 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
         next_sample, next_frame = saved["next_sample"], saved["next_frame"]
     else:
         sim.reset_body_means()
+        sim.reset_wall_load_means()
         sample()
         frame()
         next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
