@@ -102,6 +102,14 @@ BAD_INPUT = [
                                        "--out", "{root}/r.h5"], "'bed_radius'"),
     ("run-column-water-beyond-pendular", ["run", "column-collapse", "--water-content", "0.2", "--out", "{root}/r.h5"],
      "'material.water_content'"),
+    *[(f"run-{scene}-numerics-unknown-name", ["run", scene, "--numerics", "cfll=0.3", "--out", "{root}/r.h5"],
+       "one of active_radius") for scene in ("column-collapse", "leg-rotation", "plate-intrusion", "leg-wheel")],
+    ("run-column-numerics-out-of-range", ["run", "column-collapse", "--numerics", "cfl=0.9", "--out", "{root}/r.h5"],
+     "'numerics.cfl'"),
+    ("run-leg-wheel-numerics-not-a-number", ["run", "leg-wheel", "--numerics", "freeze_speed=fast",
+                                             "--out", "{root}/r.h5"], "freeze_speed"),
+    ("run-rover-numerics-spacing", ["run", "rover", "--numerics", "spacing=0.01", "--out", "{root}/r.h5"],
+     "one of active_radius"),
     # info and plot
     ("info-missing-file", ["info", "{root}/nothing.h5"], "nothing.h5"),
     ("info-text-file", ["info", "{text}"], "notes.txt"),
@@ -218,3 +226,21 @@ def test_plate_resolution_sets_the_spacing(monkeypatch) -> None:
     with pytest.raises(SystemExit):
         main(["run", "plate-intrusion", "--resolution", "fine", "--out", "unused.h5"])
     assert seen["spacing"] == RESOLUTIONS["fine"] != RESOLUTIONS["coarse"]
+
+
+@pytest.mark.parametrize("scene, runner", [("column-collapse", "run_column_collapse"), ("leg-wheel", "run_leg_wheel")])
+def test_numerics_reach_the_scene(monkeypatch, scene: str, runner: str) -> None:
+    """--numerics NAME=VALUE ... lands in the scene configuration's numerics (the run is replaced)."""
+    from terrasph import scenes_cli
+    from terrasph.robots import cli as robots_cli
+
+    seen = {}
+
+    def fake_run(config, *args, **kwargs):
+        seen["numerics"] = config.numerics
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(robots_cli if scene == "leg-wheel" else scenes_cli, runner, fake_run)
+    with pytest.raises((SystemExit, KeyboardInterrupt)):
+        main(["run", scene, "--numerics", "step_at_wave_speed=true", "freeze_speed=0.005", "--out", "unused.h5"])
+    assert seen["numerics"] == {"step_at_wave_speed": True, "freeze_speed": 0.005}

@@ -8,13 +8,14 @@ library default or internal parameter name leaks into the message.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["add_force_option", "add_threads_option", "check_output_dir", "check_output_file",
-           "nonnegative_int", "positive_float", "positive_int"]
+__all__ = ["add_force_option", "add_numerics_option", "add_threads_option", "check_output_dir", "check_output_file",
+           "nonnegative_int", "numerics_overrides", "positive_float", "positive_int"]
 
 
 def _int_at_least(minimum: int) -> Callable[[str], int]:
@@ -57,6 +58,47 @@ def add_threads_option(parser: argparse.ArgumentParser, what: str = "OpenMP thre
 def add_force_option(parser: argparse.ArgumentParser) -> None:
     """Adds ``--force``: replace existing output instead of refusing."""
     parser.add_argument("--force", action="store_true", help="replace existing output (default: refuse)")
+
+
+def numerics_setting(text: str) -> tuple[str, bool | int | float]:
+    """argparse type: one ``NAME=VALUE`` of terrasph.Numerics (e.g. ``step_at_wave_speed=true``),
+    checked against the parameter's type and range at once. The spacing is a scene option."""
+    from terrasph.config import ConfigError, Numerics
+
+    name, sep, raw = text.partition("=")
+    allowed = sorted(f.name for f in dataclasses.fields(Numerics) if f.name != "spacing")
+    if not sep or name not in allowed:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE with NAME one of {', '.join(allowed)}; got {text!r}")
+    value: bool | int | float
+    if raw.lower() in ("true", "false"):
+        value = raw.lower() == "true"
+    else:
+        try:
+            value = int(raw)
+        except ValueError:
+            try:
+                value = float(raw)
+            except ValueError:
+                raise argparse.ArgumentTypeError(f"{name}: expected a number or true/false, got {raw!r}") from None
+    try:
+        Numerics(**{name: value})
+    except ConfigError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return name, value
+
+
+def add_numerics_option(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--numerics NAME=VALUE ...``: overrides of the scene's numerical options (the speed
+    levers of docs/benchmarks.md, e.g. ``step_at_wave_speed=true``)."""
+    parser.add_argument("--numerics", type=numerics_setting, nargs="+", default=[], metavar="NAME=VALUE",
+                        help="numerical options over the scene's (terrasph.Numerics, e.g. step_at_wave_speed=true "
+                             "freeze_speed=0.005 active_radius=0.05; docs/benchmarks.md gives each one's error; default: the "
+                             "scene's own)")
+
+
+def numerics_overrides(settings: list[tuple[str, bool | int | float]]) -> dict[str, bool | int | float]:
+    """The ``--numerics`` settings as a mapping (a later setting of a name wins)."""
+    return dict(settings)
 
 
 def check_output_file(path: str | os.PathLike, force: bool, option: str = "--out") -> Path:

@@ -6,7 +6,8 @@ import argparse
 import json
 from typing import Any
 
-from terrasph.cli_common import add_force_option, add_threads_option, check_output_file
+from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
+                                 numerics_overrides)
 from terrasph.config import parameter
 from terrasph.robots.cli import register_robot_scenes
 from terrasph.scenes import leg_rotation, plate_intrusion
@@ -60,6 +61,7 @@ def _add_run_options(parser: argparse.ArgumentParser, default_output: str) -> No
                         help="HDF5 output file; an XDMF sidecar and a PNG are written beside it (default %(default)s)")
     add_force_option(parser)
     add_threads_option(parser)
+    add_numerics_option(parser)
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
@@ -87,7 +89,8 @@ def _run_column(args: argparse.Namespace) -> int:
     config = ColumnCollapse(resolution=args.resolution, spacing=args.spacing,
                             friction_angles_deg=(args.mu1_deg, args.mu2_deg),
                             water_content=args.water_content, t_end=args.t_end, bed=args.bed,
-                            bed_radius=args.bed_radius, bed_axes=tuple(args.bed_axes))
+                            bed_radius=args.bed_radius, bed_axes=tuple(args.bed_axes),
+                            numerics=numerics_overrides(args.numerics))
     _prepare(args)
     result = run_column_collapse(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
@@ -116,7 +119,8 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
 
 def _run_plate(args: argparse.Namespace) -> int:
     spacing = args.spacing if args.spacing is not None else plate_intrusion.RESOLUTIONS[args.resolution]
-    config = PlateIntrusion(spacing=spacing, speed=args.speed, max_depth=args.depth, settle_time=args.settle)
+    config = PlateIntrusion(spacing=spacing, speed=args.speed, max_depth=args.depth, settle_time=args.settle,
+                            numerics=numerics_overrides(args.numerics))
     _prepare(args)
     result = run_plate_intrusion(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)
@@ -143,7 +147,8 @@ def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
 
 def _run_leg(args: argparse.Namespace) -> int:
     config = leg_rotation.LegRotation(leg=args.leg, omega=args.omega, foot_ratio=args.foot_ratio,
-                                      resolution=args.resolution, settle_time=args.settle, bed_depth=args.bed_depth)
+                                      resolution=args.resolution, settle_time=args.settle, bed_depth=args.bed_depth,
+                                      numerics=numerics_overrides(args.numerics))
     _prepare(args)
     result = leg_rotation.run_leg_rotation(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from terrasph.cli_common import add_force_option, add_threads_option, check_output_file, positive_float
+from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
+                                 numerics_overrides, positive_float)
 from terrasph.robots.leg_wheel import WHEELS, LegWheel, run_leg_wheel
 from terrasph.robots.rover import Rover, run_rover
 
@@ -44,6 +45,7 @@ def _add_common(parser: argparse.ArgumentParser, defaults: LegWheel | Rover, out
                         help="HDF5 output file; a PNG is written beside it (default %(default)s)")
     add_force_option(parser)
     add_threads_option(parser)
+    add_numerics_option(parser)
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
@@ -58,7 +60,7 @@ def _common_values(args: argparse.Namespace) -> dict[str, object]:
     return {"wheel": args.wheel, "legs": args.legs, "omega": args.omega, "spacing": args.spacing,
             "thickness": args.thickness, "leg_length": args.leg_length, "bed_width": args.bed_width,
             "bed_depth": args.bed_depth, "start_x": args.start_x, "settle_time": args.settle_time,
-            "duration": args.t_end}
+            "duration": args.t_end, "numerics": numerics_overrides(args.numerics)}
 
 
 def _register_leg_wheel(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
