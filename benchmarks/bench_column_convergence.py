@@ -69,6 +69,8 @@ def main() -> None:
               f"{r['final_height_normalised']:.3f} | {100 * r['runout_change']:.1f}% | {100 * r['height_change']:.1f}% | "
               f"{r['status']} |")
     (args.out / f"{args.name}_convergence.json").write_text(json.dumps(rows, indent=2))
+    if len(rows) < 2:
+        return  # nothing to plot against the finest
     plot_rows = [{"CPU time (s)": r["cpu_time"], "relative change of L* vs finest": r["runout_change"],
                   "relative change of H* vs finest": r["height_change"]} for r in rows[:-1]]
     plot_convergence(plot_rows, "CPU time (s)",
