@@ -18,6 +18,7 @@ import argparse
 import math
 import os
 import time
+from collections.abc import Callable
 
 from terrasph import _core
 from terrasph.config import Material, Numerics
@@ -45,12 +46,12 @@ def bed(size: int, material: Material, numerics: Numerics) -> Simulation:
     return Simulation(scene, material, numerics)
 
 
-def time_steps(sim: Simulation, steps: int) -> float:
-    """Seconds per step over `steps` steps after a warm-up of 10."""
+def time_steps(sim: Simulation, steps: int, clock: Callable[[], float] = time.perf_counter) -> float:
+    """Seconds per step over `steps` steps after a warm-up of 10 (wall clock, or `clock`)."""
     sim.advance(1e9, max_steps=10)
-    start = time.perf_counter()
+    start = clock()
     sim.advance(1e9, max_steps=steps)
-    return (time.perf_counter() - start) / steps
+    return (clock() - start) / steps
 
 
 def parse_value(text: str) -> bool | int | float:
@@ -102,19 +103,27 @@ FEATURES: dict[str, tuple[dict, dict]] = {
                                                 {"delta_sph": 0.0, "xsph": 0.0, "mls_interval": 10}),
     "Drucker–Prager, MLS every 10 steps": ({"model": "drucker_prager"},
                                             {"delta_sph": 0.0, "xsph": 0.0, "mls_interval": 10}),
+    "strain-based quasi-static branch of Eq. 3.6 (mu_i_strain)": ({"model": "mu_i_strain"},
+                                                                   {"delta_sph": 0.0, "xsph": 0.0}),
     "default (hypoelastic, δ, XSPH)": ({}, {}),
 }
 
 
-def features(size: int, steps: int, repeats: int) -> None:
-    print("| configuration | ms/step | ratio to plain |")
+def features(size: int, steps: int, repeats: int, only: list[str], cpu: bool = False) -> None:
+    """The plain bed and every configuration whose name contains one of `only` (all if empty);
+    wall time per step, or CPU time of this process with `cpu`."""
+    clock = time.process_time if cpu else time.perf_counter
+    print(f"| configuration | {'CPU ' if cpu else ''}ms/step | ratio to plain |")
     print("|---|---|---|")
-    results = {name: [] for name in FEATURES}
+    plain_name = next(iter(FEATURES))
+    chosen = {name: config for name, config in FEATURES.items()
+              if name == plain_name or not only or any(word in name for word in only)}
+    results = {name: [] for name in chosen}
     for _ in range(repeats):  # interleaved so load changes hit every variant alike
-        for name, (material, numerics) in FEATURES.items():
+        for name, (material, numerics) in chosen.items():
             sim = bed(size, Material(**material), Numerics(spacing=SPACING, **numerics))
-            results[name].append(time_steps(sim, steps))
-    plain = min(results[next(iter(FEATURES))])
+            results[name].append(time_steps(sim, steps, clock))
+    plain = min(results[plain_name])
     for name, times in results.items():
         best = min(times)
         print(f"| {name} | {1e3 * best:.2f} | {best / plain:.2f} |", flush=True)
@@ -169,6 +178,11 @@ def main() -> None:
     f.add_argument("--size", type=int, default=20000)
     f.add_argument("--steps", type=int, default=200)
     f.add_argument("--repeats", type=int, default=3)
+    f.add_argument("--only", nargs="*", default=[], metavar="WORD",
+                   help="only the configurations whose name contains one of these (and the plain one)")
+    f.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: the core's choice)")
+    f.add_argument("--cpu", action="store_true",
+                   help="CPU time of this process instead of wall time (use with --threads 1 on a busy machine)")
     ph = sub.add_parser("phases")
     ph.add_argument("--size", type=int, default=80000)
     ph.add_argument("--threads", type=int, default=1)
@@ -184,7 +198,9 @@ def main() -> None:
     elif args.what == "throughput":
         throughput(args.sizes, args.threads, args.steps, parse_numerics(args.numerics))
     elif args.what == "features":
-        features(args.size, args.steps, args.repeats)
+        if args.threads is not None:
+            _core.set_num_threads(args.threads)
+        features(args.size, args.steps, args.repeats, args.only, args.cpu)
     else:
         phases(args.size, args.threads, args.steps)
 

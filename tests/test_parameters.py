@@ -130,7 +130,8 @@ def test_nan_is_refused_for_every_real_parameter() -> None:
 
 def test_choices_agree() -> None:
     model = parameter("material.model")
-    assert model.kind == "choice" and model.choices == ("mu_i_rate", "mu_i_hypoelastic", "drucker_prager")
+    assert model.kind == "choice" and model.choices == ("mu_i_rate", "mu_i_hypoelastic", "drucker_prager",
+                                                        "mu_i_strain")
     for choice in model.choices:
         assert Material(model=choice).model == choice
         assert core_struct("material", {"model": choice}).model == choice

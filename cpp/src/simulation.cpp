@@ -158,7 +158,10 @@ template <int D> void Simulation<D>::check_ids() const {
 template <int D> void Simulation<D>::compose_passes() {
   std::visit([this](const auto& model) {
     using Model = std::decay_t<decltype(model)>;
-    stress_pass_ = &Simulation::template velocity_gradient_and_stress_pass<Model>;
+    if constexpr (uses_small_strain<Model>)
+      stress_pass_ = &Simulation::template strain_and_stress_pass<Model>;
+    else
+      stress_pass_ = &Simulation::template velocity_gradient_and_stress_pass<Model>;
     wall_stress_pass_ = &Simulation::template wall_stress_pass<Model>;
   }, model_);
   force_pass_ = dispatch_flags([](auto delta, auto xsph, auto keep) -> ForcePass {
@@ -465,6 +468,52 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
     granular_.pressure[i] = p;
     row_mat<D>(granular_.stress, i) = sigma;
     row_mat<D>(granular_.stress_over_rho2, i) = sigma / (rho * rho);
+  });
+}
+
+// The stress pass of a model that needs the small strain E (mu_i_strain, Eq. 3.6): E first.
+template <int D>
+template <class Model>
+void Simulation<D>::strain_and_stress_pass(double dt) {
+  Model& model = std::get<Model>(model_);
+  small_strain_pass(model.reference_position(), model.small_strain(), model.reference_time());
+  velocity_gradient_and_stress_pass<Model>(dt);
+}
+
+// Small strain of Eq. 3.6 from the displacement u = x − X, computed as ∇v is (Eq. 2.48) with u
+// for v, over granular neighbours and renormalised, so that a homogeneous (linear) displacement
+// gives its exact gradient also at walls and the free surface:
+//   ∇u_i = [Σ_j V_j (u_j − u_i) ⊗ ∇_iW_ij] M_i⁻¹,  M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_iW_ij,
+//   E_i = ½(∇u_i + ∇u_iᵀ)   (the unrenormalised sum where M_i is near-singular, as for ∇v).
+// The gradient is taken in the current configuration, which for small strain is the reference one.
+// Before `reference_time` the reference moves with the particles (X = x, E = 0).
+template <int D>
+void Simulation<D>::small_strain_pass(VecArray<D>& reference, MatArray<D>& strain, double reference_time) {
+  const bool follow = counters_.time < reference_time;
+  const double h2x4 = 4.0 * kernel_.h * kernel_.h;
+  for_each_particle(granular_.size(), [&](Index i) {
+    if (frozen(i)) return;
+    const Vec<D> xi = row_vec<D>(granular_.position, i);
+    if (follow) {
+      row_vec<D>(reference, i) = xi;
+      row_mat<D>(strain, i).setZero();
+      return;
+    }
+    const Vec<D> ui = xi - row_vec<D>(reference, i);
+    Mat<D> grad = Mat<D>::Zero();
+    Mat<D> moment = Mat<D>::Zero();
+    for (Index s = granular_granular_.offsets[i]; s < granular_granular_.offsets[i + 1]; ++s) {
+      const std::int32_t j = granular_granular_.indices[s];
+      const Vec<D> xj = row_vec<D>(granular_.position, j);
+      const Vec<D> xij = xi - xj;
+      const double r2 = xij.squaredNorm();
+      if (r2 >= h2x4) continue;
+      const double vf = granular_.volume[j] * kernel_.gradient_factor(std::sqrt(r2));
+      grad.noalias() += (vf * (xj - row_vec<D>(reference, j) - ui)) * xij.transpose();
+      moment.noalias() -= (vf * xij) * xij.transpose();
+    }
+    if (std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
+    row_mat<D>(strain, i) = 0.5 * (grad + grad.transpose());
   });
 }
 

@@ -177,8 +177,10 @@ class Material(_ParameterGroup):
     Defaults are the dry glass beads of the column collapse (Table 2.1, μ1 = tan 21°, μ2 = tan 33°).
     Densities of a wet material scale with (1 + w) (Table 2.1); use :meth:`wet`. ``model`` is
     ``"mu_i_hypoelastic"`` (default: a hypoelastic–plastic μ(I), the deviatoric stress is state,
-    loaded with the Jaumann rate and capped at μ(I)P + c, so a bed at rest holds shear) or
-    ``"mu_i_rate"`` (the rate form of Eq. 2.29 everywhere).
+    loaded with the Jaumann rate and capped at μ(I)P + c, so a bed at rest holds shear),
+    ``"mu_i_rate"`` (the rate form of Eq. 2.29 everywhere), ``"drucker_prager"`` (Eq. 2.17–2.28
+    with the Jaumann rate) or ``"mu_i_strain"`` (Eq. 3.6: the small strain's direction for
+    I ≤ 0.001).
     """
 
     @property

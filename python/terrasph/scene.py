@@ -11,7 +11,8 @@ from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import lattice_block, polyline_wall
 from terrasph.motion import Motion
 
-__all__ = ["BodyGroup", "Scene", "WallGroup", "hydrostatic_density"]
+__all__ = ["BodyGroup", "Scene", "WallGroup", "earth_pressure_at_rest", "geostatic_deviatoric_stress",
+           "hydrostatic_density"]
 
 GRAVITY = 9.81
 
@@ -55,14 +56,21 @@ def _close_pairs(a: np.ndarray, b: np.ndarray, radius: float) -> tuple[np.ndarra
     return rows[keep], indices[keep] - len(a)
 
 
-def hydrostatic_density(depth: np.ndarray, material: Material, gravity: float = GRAVITY) -> np.ndarray:
-    """ρ(depth) from the inverse EOS of the lithostatic pressure ρ0·g·depth (Eq. 2.30 inverted).
+def hydrostatic_density(depth: np.ndarray, material: Material, gravity: float = GRAVITY,
+                        pressure_ratio: float = 1.0) -> np.ndarray:
+    """ρ(depth) from the inverse EOS of the pressure pressure_ratio·ρ0·g·depth (Eq. 2.30 inverted);
+    pressure_ratio = 1: the lithostatic pressure.
 
     Starting a bed at this density avoids the initial compression wave of a bed released at ρ0.
     """
-    pressure = material.reference_density * gravity * np.clip(depth, 0.0, None)
+    pressure = pressure_ratio * material.reference_density * gravity * np.clip(depth, 0.0, None)
     stiffness = material.bulk_stiffness * (1.0 + material.water_content)
     return material.reference_density * (pressure / stiffness + 1.0) ** (1.0 / material.eos_exponent)
+
+
+def earth_pressure_at_rest(material: Material) -> float:
+    """Jaky's K0 = 1 − sin φ with φ = atan μ1, the ratio σ_xx/σ_zz of a bed at rest."""
+    return float(1.0 - np.sin(np.arctan(material.mu1)))
 
 
 def geostatic_stress(depth: np.ndarray, material: Material, gravity: float = GRAVITY) -> np.ndarray:
@@ -70,11 +78,23 @@ def geostatic_stress(depth: np.ndarray, material: Material, gravity: float = GRA
     σ_zz = −ρ0 g depth and σ_xx = σ_yy = K0 σ_zz with Jaky's K0 = 1 − sin φ, φ = atan μ1; rows and
     columns x, z, then the out-of-plane y (compression negative)."""
     vertical = -material.reference_density * gravity * np.clip(depth, 0.0, None)
-    k0 = 1.0 - np.sin(np.arctan(material.mu1))
+    k0 = earth_pressure_at_rest(material)
     stress = np.zeros((len(depth), 3, 3))
     stress[:, 0, 0] = stress[:, 2, 2] = k0 * vertical
     stress[:, 1, 1] = vertical
     return stress
+
+
+def geostatic_deviatoric_stress(depth: np.ndarray, material: Material, gravity: float = GRAVITY) -> np.ndarray:
+    """In-plane deviatoric stress s (N, 2, 2) of the geostatic state for the hypoelastic μ(I), whose
+    σ = −P I + s with the EOS pressure P: σ_zz = −ρ0 g depth and σ_xx = K0 σ_zz give
+    P = ½(1 + K0) ρ0 g depth (the 2D mean; start the density at it) and
+    s_xx = −s_zz = ½(1 − K0) ρ0 g depth."""
+    half_difference = 0.5 * (1.0 - earth_pressure_at_rest(material)) * material.reference_density * gravity
+    s = np.zeros((len(depth), 2, 2))
+    s[:, 0, 0] = half_difference * np.clip(depth, 0.0, None)
+    s[:, 1, 1] = -s[:, 0, 0]
+    return s
 
 
 @dataclass

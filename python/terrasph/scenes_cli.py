@@ -45,6 +45,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                         help="radius of the circular trough in m (default %(default)s)")
     column.add_argument("--bed-axes", type=float, nargs=2, metavar=("A", "B"), default=default_column.bed_axes,
                         help="semi-axes of the elliptical trough in m, along x then z (default %(default)s)")
+    model = parameter("material.model")
+    column.add_argument("--model", choices=list(model.choices), default=default_column.model,
+                        help=f"constitutive model (default {default_column.model}); {model.doc}")
     column.add_argument("--t-end", type=float, default=1.0,
                         help="simulated time limit in s; the run stops earlier once at rest (default %(default)s)")
     _add_run_options(column, default_output="column_collapse.h5")
@@ -89,7 +92,7 @@ def _run_column(args: argparse.Namespace) -> int:
     config = ColumnCollapse(resolution=args.resolution, spacing=args.spacing,
                             friction_angles_deg=(args.mu1_deg, args.mu2_deg),
                             water_content=args.water_content, t_end=args.t_end, bed=args.bed,
-                            bed_radius=args.bed_radius, bed_axes=tuple(args.bed_axes),
+                            bed_radius=args.bed_radius, bed_axes=tuple(args.bed_axes), model=args.model,
                             numerics=numerics_overrides(args.numerics))
     _prepare(args)
     result = run_column_collapse(config, output=args.out, progress=not args.no_progress)

@@ -19,7 +19,13 @@ import numpy as np
 
 from terrasph import _core
 from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_units
-from terrasph.scene import Scene, geostatic_stress, hydrostatic_density
+from terrasph.scene import (
+    Scene,
+    earth_pressure_at_rest,
+    geostatic_deviatoric_stress,
+    geostatic_stress,
+    hydrostatic_density,
+)
 
 __all__ = ["RunResult", "Simulation", "checkpoint_path", "versions"]
 
@@ -112,8 +118,24 @@ class RunResult:
     walls: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
+def _geostatic_hypoelastic(geostatic: bool, material: Material) -> bool:
+    """Whether to start the hypoelastic μ(I) geostatic; ConfigError for a model without stress state."""
+    if not isinstance(geostatic, bool):
+        raise ConfigError(f"parameter 'geostatic' = {geostatic!r} is invalid: allowed True or False")
+    if geostatic and material.model not in ("mu_i_hypoelastic", "drucker_prager"):
+        raise ConfigError(f"parameter 'geostatic' = True is invalid for material.model = '{material.model}': "
+                          "allowed only with a model that keeps a stress state (mu_i_hypoelastic, drucker_prager)")
+    return geostatic and material.model == "mu_i_hypoelastic"
+
+
 class Simulation:
     """A granular SPH simulation in plane strain, built from a validated scene.
+
+    The grains start at the density of the lithostatic pressure ρ0 g depth (``initial_density``
+    overrides it). Drucker–Prager's stress state starts geostatic, σ_xx = σ_yy = K0 σ_zz with
+    K0 = 1 − sin φ; ``geostatic=True`` starts the hypoelastic μ(I) so too (mean stress
+    ½(1 + K0) ρ0 g depth from the EOS, deviatoric stress ½(1 − K0) ρ0 g depth; off by default, the
+    state then starts isotropic).
 
     Particle arrays (``position``, ``velocity``, ``density``, ``pressure``, ``stress``, any registered
     field through :meth:`field`) are read-only copies in particle-id order: the core may store
@@ -124,7 +146,7 @@ class Simulation:
     """
 
     def __init__(self, scene: Scene, material: Material, numerics: Numerics, *,
-                 initial_density: np.ndarray | None = None, width: float = 1.0) -> None:
+                 initial_density: np.ndarray | None = None, width: float = 1.0, geostatic: bool = False) -> None:
         if not isinstance(material, Material):
             raise ConfigError("parameter 'material' must be a terrasph.Material")
         if not isinstance(numerics, Numerics):
@@ -138,8 +160,10 @@ class Simulation:
         self.width = width
         position = scene.granular_position
         depth = position[:, 1].max() + 0.5 * scene.spacing - position[:, 1]
-        if initial_density is None:
-            initial_density = hydrostatic_density(depth, material, scene.gravity)
+        geostatic_hypoelastic = _geostatic_hypoelastic(geostatic, material)
+        if initial_density is None:  # the geostatic hypoelastic state's mean stress is ½(1 + K0) ρ0 g depth
+            ratio = 0.5 * (1.0 + earth_pressure_at_rest(material)) if geostatic_hypoelastic else 1.0
+            initial_density = hydrostatic_density(depth, material, scene.gravity, ratio)
         density = np.asarray(initial_density, dtype=float)
         if density.shape != (len(position),):
             raise ConfigError(f"parameter 'initial_density' must have shape ({len(position)},)")
@@ -167,6 +191,9 @@ class Simulation:
                 self.core.add_body(body.group_id, np.asarray(body.reference), body.angle, body.motion.rows())
         if material.model == "drucker_prager":  # its stress is state: start from the geostatic one
             self.core.set_field("stress_state", geostatic_stress(depth, material, scene.gravity))
+            self.core.refresh()
+        if geostatic_hypoelastic:
+            self.core.set_field("deviatoric_stress", geostatic_deviatoric_stress(depth, material, scene.gravity))
             self.core.refresh()
 
     def _core_params(self) -> _core.ModelParams2D:

@@ -62,6 +62,49 @@ template <int D> class MuIRateModel : public TensionFreeEos {
   double wave_speed_;
 };
 
+// μ(I) of Eq. 3.6 with the strain-based quasi-static branch: Eq. 2.29 in flow (I > 0.001); below,
+// the shear stress (μ(I)P + c) points along the deviator of the small strain E = ½(∇u + ∇uᵀ) of
+// the displacement u = x − X from each particle's reference position X (MuIRheology::
+// strain_branch_stress). It registers X and E; the simulation computes E before the stress
+// (Simulation::small_strain_pass, the ∇v sum with u for v, renormalised) and, until
+// material.strain_reference_time, keeps moving X with the particles. Only scenes that choose this
+// model store X and E.
+template <int D> class MuIStrainModel : public TensionFreeEos {
+ public:
+  MuIStrainModel(const MaterialParams& m, double epsilon)
+      : TensionFreeEos(m), rheology_(m, epsilon), reference_time_(m.strain_reference_time),
+        wave_speed_(std::sqrt(eos_bulk_modulus(m) / m.reference_density)) {}
+
+  // X starts at the positions the particles have when the model is registered (if they have any).
+  void register_fields(FieldRegistry& fields) {
+    reference_ = &fields.add<double, D>("reference_position", "m",
+                                        "X, reference position of the small strain of mu_i_strain (Eq. 3.6)");
+    if (fields.contains("position")) *reference_ = fields.get<double, D>("position");
+    strain_ = &fields.add<double, D * D>("small_strain", "1",
+                                         "E = sym grad(x - X), small strain of mu_i_strain (Eq. 3.6)");
+  }
+  // the state fields an MLS regularisation smooths: none (X is a position, E is recomputed)
+  template <class Visit> void for_each_state_field(Visit&&) {}
+
+  Mat<D> update(Index i, const Mat<D>& velocity_gradient, double rho, double, double& pressure) const {
+    pressure = eos_.pressure(rho);
+    return rheology_.strain_branch_stress(velocity_gradient, row_mat<D>(*strain_, i), pressure);
+  }
+
+  double wave_speed() const { return wave_speed_; }
+  VecArray<D>& reference_position() { return *reference_; }
+  MatArray<D>& small_strain() { return *strain_; }
+  // X follows the particles while the simulated time is below this
+  double reference_time() const { return reference_time_; }
+
+ private:
+  MuIRheology<D> rheology_;
+  double reference_time_;
+  double wave_speed_;
+  VecArray<D>* reference_ = nullptr;  // registered in the granular fields
+  MatArray<D>* strain_ = nullptr;
+};
+
 // Shear modulus of the models with an elastic part: G given, or from K and ν = 0.3:
 // G = 3K(1 − 2ν)/(2(1 + ν)).
 inline double elastic_shear_modulus(const MaterialParams& m) {
@@ -187,12 +230,18 @@ template <int D> class DruckerPragerModel {
 };
 
 template <int D>
-using ConstitutiveModelVariant = std::variant<MuIRateModel<D>, MuIHypoelasticModel<D>, DruckerPragerModel<D>>;
+using ConstitutiveModelVariant =
+    std::variant<MuIRateModel<D>, MuIHypoelasticModel<D>, DruckerPragerModel<D>, MuIStrainModel<D>>;
+
+// Whether a model's stress needs the small strain E (its passes then compute it first).
+template <class Model> constexpr bool uses_small_strain = false;
+template <int D> constexpr bool uses_small_strain<MuIStrainModel<D>> = true;
 
 // The model a configuration asks for (its fields not yet registered).
 template <int D> ConstitutiveModelVariant<D> make_constitutive_model(const ModelParams<D>& params) {
   const double epsilon = params.strain_rate_epsilon();
   if (params.material.model == ConstitutiveModel::drucker_prager) return DruckerPragerModel<D>(params.material);
+  if (params.material.model == ConstitutiveModel::mu_i_strain) return MuIStrainModel<D>(params.material, epsilon);
   if (params.material.model == ConstitutiveModel::mu_i_hypoelastic)
     return MuIHypoelasticModel<D>(params.material, epsilon);
   return MuIRateModel<D>(params.material, epsilon);

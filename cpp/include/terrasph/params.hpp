@@ -20,10 +20,13 @@ enum class ConstitutiveModel {
                      // capped at |s| ≤ μ(I)P + c
   drucker_prager,    // elasto-plastic Drucker–Prager with the Jaumann rate (Eq. 2.17–2.28,
                      // Appendix A): the full stress (σ_yy included) as state
+  mu_i_strain,       // Eq. 3.6: Eq. 2.29 for I > 0.001, the small strain's direction E′/|E′| below;
+                     // reference positions as state
 };
 // The names in the order of the enum's values (the Python side sees a str).
 template <> struct ChoiceNames<ConstitutiveModel> {
-  static constexpr std::array<const char*, 3> names = {"mu_i_rate", "mu_i_hypoelastic", "drucker_prager"};
+  static constexpr std::array<const char*, 4> names = {"mu_i_rate", "mu_i_hypoelastic", "drucker_prager",
+                                                       "mu_i_strain"};
 };
 
 // Plastic flow of the Drucker–Prager model: along the yield surface's normal (Eq. 2.18) or along
@@ -68,13 +71,17 @@ template <> struct ChoiceNames<PlasticFlow> {
     "rho_l, density of the liquid (water), for the liquid saturation of the pendular check")             \
   X(ConstitutiveModel, model, ConstitutiveModel::mu_i_hypoelastic, "1", exclusive(-inf),                 \
     exclusive(inf), "mu_i_rate: Eq. 2.29 everywhere; mu_i_hypoelastic: deviatoric stress as state, "     \
-    "Jaumann rate, capped at mu(I)P + c; drucker_prager: Eq. 2.17-2.28 with phi = atan(mu1), c")         \
+    "Jaumann rate, capped at mu(I)P + c; drucker_prager: Eq. 2.17-2.28 with phi = atan(mu1), c; "        \
+    "mu_i_strain: Eq. 3.6, the direction of the small strain E from reference positions for I <= 0.001")  \
   X(double, shear_modulus, 0.0, "Pa", inclusive(0.0), exclusive(inf),                                    \
     "G of mu_i_hypoelastic and drucker_prager; 0 = 3K(1-2nu)/(2(1+nu)), K = kappa*gamma*(1+w), nu = 0.3") \
   X(PlasticFlow, plastic_flow, PlasticFlow::non_associated, "1", exclusive(-inf), exclusive(inf),        \
     "drucker_prager flow rule: associated (Eq. 2.18) or non_associated with dilatancy_angle (Eq. 2.19)") \
   X(double, dilatancy_angle, 0.0, "rad", inclusive(0.0), exclusive(1.5707963267948966),                  \
-    "psi of the non-associated drucker_prager flow (Eq. 2.19); <= the friction angle atan(mu1)")
+    "psi of the non-associated drucker_prager flow (Eq. 2.19); <= the friction angle atan(mu1)")          \
+  X(double, strain_reference_time, 0.0, "s", inclusive(0.0), exclusive(inf),                             \
+    "mu_i_strain: the reference positions X of the small strain E follow the particles until this "      \
+    "simulated time and stay fixed from then on; 0 = the positions at the start")
 
 #define TERRASPH_NUMERICS_PARAMETERS(X)                                                                  \
   X(double, spacing, 0.0026, "m", exclusive(0.0), exclusive(inf),                                        \

@@ -76,10 +76,32 @@ template <int D> class MuIRheology {
     return s - p * Mat<D>::Identity();
   }
 
+  // Eq. 3.6: the rate form above (I > 0.001), and in the quasi-static regime (I ≤ 0.001) the
+  // direction of the deviator E′ of the small strain E instead of D′:
+  //   σ = −P I + (μ(I)P + c) E′/(|E′| + ε),  |E′| = √(½ E′:E′),
+  // with the dissertation's ε for both branches. E′, not E: the shear term is deviatoric, as D′ is.
+  Mat<D> strain_branch_stress(const Mat<D>& velocity_gradient, const Mat<D>& strain, double p) const {
+    const Mat<D> strain_rate = 0.5 * (velocity_gradient + velocity_gradient.transpose());
+    const Mat<D> rate_deviator = strain_rate - (strain_rate.trace() / D) * Mat<D>::Identity();
+    const double shear_rate = std::sqrt(0.5 * rate_deviator.cwiseProduct(rate_deviator).sum());
+    if (p <= 0.0 || inertial_number(shear_rate, p) > quasi_static_inertial_number)
+      return stress(velocity_gradient, p);
+    const Mat<D> deviator = strain - (strain.trace() / D) * Mat<D>::Identity();
+    const double magnitude = std::sqrt(0.5 * deviator.cwiseProduct(deviator).sum());
+    const double strength = friction(shear_rate, p) * p + cohesion_;
+    return strength / (magnitude + epsilon_) * deviator - p * Mat<D>::Identity();
+  }
+
+  // the quasi-static regime of Eq. 3.6 (and of GDR MiDi 2004): I ≤ 0.001
+  static constexpr double quasi_static_inertial_number = 1e-3;
+
+  // I = |D′| d/√(P/ρ_s) (Eq. 2.32) for P > 0.
+  double inertial_number(double shear_rate, double p) const { return shear_rate * d_ * std::sqrt(rho_s_ / p); }
+
   // μ(I) written as μ1 + (μ2 − μ1) I/(I0 + I), which is finite at I = 0.
   double friction(double shear_rate, double p) const {
     if (p <= 0.0) return mu1_ + dmu_;  // I → ∞; irrelevant since μP = 0
-    const double inertial = shear_rate * d_ * std::sqrt(rho_s_ / p);
+    const double inertial = inertial_number(shear_rate, p);
     return mu1_ + dmu_ * inertial / (i0_ + inertial);
   }
 

@@ -168,6 +168,8 @@ template <int D> class Simulation {
   void compute_rates(double dt);
   void wall_velocity_pass();
   template <class Model> void velocity_gradient_and_stress_pass(double dt);
+  template <class Model> void strain_and_stress_pass(double dt);
+  void small_strain_pass(VecArray<D>& reference, MatArray<D>& strain, double reference_time);
   void add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment);
   void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const;
   template <class Model> void wall_stress_pass();

@@ -66,6 +66,7 @@ class ColumnCollapse:
     frame_interval: float = 0.02
     width: float = 0.1  #: out-of-plane width of the quasi-2D sample (m), scales reported energies
     material_preset: str = "table_2_1"  #: a key of MATERIAL_PRESETS: the bulk density of the beads
+    model: str = "mu_i_hypoelastic"  #: the constitutive model, a choice of ``material.model``
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
@@ -129,10 +130,10 @@ class ColumnCollapse:
         return trough_height(x, semi_axes)
 
     def material(self) -> Material:
-        """Glass beads of Table 2.1 with this configuration's friction, water content and bulk density
-        (material_preset)."""
+        """Glass beads of Table 2.1 with this configuration's friction, water content, bulk density
+        (material_preset) and constitutive model."""
         mu1, mu2 = (math.tan(math.radians(a)) for a in self.friction_angles_deg)
-        overrides: dict[str, float] = {"mu1": mu1, "mu2": mu2}
+        overrides: dict[str, float | str] = {"mu1": mu1, "mu2": mu2, "model": self.model}
         if self.material_preset == "packed":
             table = Material()
             overrides["reference_density"] = table.packing_fraction * table.grain_density
