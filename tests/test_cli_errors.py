@@ -108,6 +108,8 @@ BAD_INPUT = [
      "'numerics.cfl'"),
     ("run-leg-wheel-numerics-not-a-number", ["run", "leg-wheel", "--numerics", "freeze_speed=fast",
                                              "--out", "{root}/r.h5"], "freeze_speed"),
+    ("run-leg-wheel-active-radius-without-freeze-speed", ["run", "leg-wheel", "--numerics", "active_radius=0.1",
+                                                          "--out", "{root}/r.h5"], "'numerics.active_radius'"),
     ("run-rover-numerics-spacing", ["run", "rover", "--numerics", "spacing=0.01", "--out", "{root}/r.h5"],
      "one of active_radius"),
     # info and plot

@@ -62,8 +62,9 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
 
 def numerics_setting(text: str) -> tuple[str, bool | int | float]:
     """argparse type: one ``NAME=VALUE`` of terrasph.Numerics (e.g. ``step_at_wave_speed=true``),
-    checked against the parameter's type and range at once. The spacing is a scene option."""
-    from terrasph.config import ConfigError, Numerics
+    checked against the parameter's type and range at once (the rules that link parameters are
+    checked by :func:`numerics_overrides`). The spacing is a scene option."""
+    from terrasph.config import ConfigError, Numerics, parameter
 
     name, sep, raw = text.partition("=")
     allowed = sorted(f.name for f in dataclasses.fields(Numerics) if f.name != "spacing")
@@ -80,10 +81,17 @@ def numerics_setting(text: str) -> tuple[str, bool | int | float]:
                 value = float(raw)
             except ValueError:
                 raise argparse.ArgumentTypeError(f"{name}: expected a number or true/false, got {raw!r}") from None
+    entry = parameter(f"numerics.{name}")
     try:
-        Numerics(**{name: value})
+        value = entry.coerce(value)
     except ConfigError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
+    if entry.kind in ("double", "int"):
+        above = value >= entry.lower if entry.lower_inclusive else value > entry.lower
+        below = value <= entry.upper if entry.upper_inclusive else value < entry.upper
+        if not (above and below):
+            raise argparse.ArgumentTypeError(f"parameter '{entry.qualified_name}' = {value!r} is invalid: "
+                                             f"allowed {entry.allowed}")
     return name, value
 
 
@@ -97,8 +105,14 @@ def add_numerics_option(parser: argparse.ArgumentParser) -> None:
 
 
 def numerics_overrides(settings: list[tuple[str, bool | int | float]]) -> dict[str, bool | int | float]:
-    """The ``--numerics`` settings as a mapping (a later setting of a name wins)."""
-    return dict(settings)
+    """The ``--numerics`` settings as a mapping (a later setting of a name wins), checked together
+    against the rules that link parameters (e.g. active_radius needs freeze_speed): ConfigError
+    naming the parameter, before any work."""
+    from terrasph.config import Numerics
+
+    overrides = dict(settings)
+    Numerics(**overrides)
+    return overrides
 
 
 def check_output_file(path: str | os.PathLike, force: bool, option: str = "--out") -> Path:
