@@ -174,8 +174,8 @@ namespace detail {
 template <typename S>
 struct Workspace {
   Index batch = 0;
-  std::vector<std::vector<S>> z, c, g;
-  std::vector<S> scratch;  // inputs of a batched product in tile order (product_body)
+  std::vector<AlignedVector<S>> z, c, g;
+  AlignedVector<S> scratch;  // inputs of a batched product in tile order (product_body)
 
   Workspace(const Model<S>& m, Index B) : batch(B) {
     Index k_max = 0;
