@@ -22,6 +22,7 @@ torch = pytest.importorskip("torch")
 MODELS = [
     ("standard", 1, 3, 2),
     ("standard", 2, 16, 11),
+    ("standard", 1, 32, 2),  # 16 and 32: the single sequence's step compiled for that size
     ("standard", 1, 37, 2),
     ("standard", 1, 70, 3),
     ("peephole", 1, 5, 2),

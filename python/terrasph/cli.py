@@ -1,4 +1,4 @@
-"""Command line: ``terrasph run SCENE``, ``info``, ``plot``, ``animate``, ``train``, ``predict``, ``make-synthetic-dataset``, ``sweep``.
+"""Command line: ``terrasph run SCENE``, ``info``, ``plot``, ``animate``, ``train``, ``predict``, ``make-synthetic-dataset``, ``dataset``, ``sweep``.
 
 Every expected error — bad configuration (:class:`terrasph.config.ConfigError`), a malformed file
 or model file (``ValueError`` and its subclasses ``ModelFileError``/``LstmFormatError``), a missing

@@ -29,7 +29,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from terrasph import bodies
-from terrasph.config import ConfigError, Numerics, from_mapping
+from terrasph.config import ConfigError, Material, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
@@ -70,6 +70,9 @@ class LegWheel:
     wheel_density: float = 1200.0  #: the wheel's material (kg/m³; a printed polymer)
     motor_gain: float = 20.0  #: velocity servo gain (N·m·s/rad)
     motor_torque: float = 5.0  #: motor torque limit (N·m)
+    mu1_deg: float = 23.0  #: the bed's quasi-static friction angle atan μ1 (degrees; μ(I), Eq. 2.31)
+    mu2_deg: float = 33.0  #: the bed's dynamic friction angle atan μ2 (degrees), >= mu1_deg
+    water_content: float = 0.0  #: the bed's w (kg water per kg grains); > 0: wet beads with cohesion (Table 2.1)
     series_interval: float = 0.01
     frame_interval: float = 0.05
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
@@ -80,6 +83,30 @@ class LegWheel:
         if not self.leg_length < self.start_x < self.bed_width - self.leg_length:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between leg_length and "
                               "bed_width − leg_length (the wheel must start clear of the container)")
+        for name in ("mu1_deg", "mu2_deg"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 <= value < 90):
+                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a number in [0, 90) degrees")
+        if self.mu1_deg > self.mu2_deg:
+            raise ConfigError(f"parameter 'mu1_deg' = {self.mu1_deg!r} is invalid: allowed <= mu2_deg = {self.mu2_deg!r}")
+        try:
+            self.material()  # the material's own checks (the pendular range of the water content)
+        except ConfigError as error:
+            raise ConfigError(f"parameter 'water_content' = {self.water_content!r} is refused by the bed material: "
+                              f"{error}") from None
+
+    def material(self) -> Material:
+        """The bed: chapter 3's 3 mm glass beads with these friction angles and water content (a wet
+        material's densities × (1 + w), as Material.wet)."""
+        from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
+
+        beads = dataclasses.replace(glass_beads(), mu1=math.tan(math.radians(self.mu1_deg)),
+                                    mu2=math.tan(math.radians(self.mu2_deg)))
+        if self.water_content == 0:
+            return beads
+        w = self.water_content
+        return dataclasses.replace(beads, water_content=w, grain_density=beads.grain_density * (1 + w),
+                                   reference_density=beads.reference_density * (1 + w))
 
     def shape(self) -> bodies.BodyShape:
         """The wheel in its own frame (axle at the origin; leg 0 pointing down)."""
@@ -174,15 +201,12 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 
 def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
     """Bed, container, robot and coupling, ready to run."""
-    # the same 3 mm beads as chapter 3; imported here, as the scene registry imports this module
-    from terrasph.scenes.leg_rotation import glass_beads
-
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, scene.gravity), {"wheel": Coupling(shape, config.width)},
                         gravity=scene.gravity)
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
+    return CoupledSimulation(robot, Simulation(scene, config.material(), numerics))
 
 
 def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *, progress: bool = False,

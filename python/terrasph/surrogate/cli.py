@@ -1,4 +1,5 @@
-"""Sub-commands ``terrasph train``, ``terrasph predict`` and ``terrasph make-synthetic-dataset``."""
+"""Sub-commands ``terrasph train``, ``terrasph predict``, ``terrasph make-synthetic-dataset`` and
+``terrasph dataset``."""
 
 from __future__ import annotations
 
@@ -89,6 +90,20 @@ def register(subparsers: Any) -> None:
     add_force_option(p)
     p.set_defaults(handler=_cmd_synthetic)
 
+    p = subparsers.add_parser(
+        "dataset", help="build the surrogate dataset of a leg-wheel sweep's finished runs",
+        description="Take the finished runs of the leg-wheel sweep in SWEEP_DIR (a `terrasph sweep` "
+                    "directory with its manifest.json), resample their driven phase to --dt and write "
+                    "one dataset file per run and dataset.json into --out (docs/surrogate.md §2), ready "
+                    "for `terrasph train`. Failed cases are listed as skipped.")
+    p.add_argument("sweep_dir", metavar="SWEEP_DIR", type=Path)
+    p.add_argument("--out", required=True, type=Path, help="dataset directory to write")
+    p.add_argument("--dt", type=positive_float, default=0.02,
+                   help="sampling interval in s, at most half of every run's driven phase "
+                        "(default: %(default)s)")
+    add_force_option(p)
+    p.set_defaults(handler=_cmd_dataset)
+
 
 def _cmd_train(args: argparse.Namespace) -> int:
     import torch
@@ -155,4 +170,19 @@ def _cmd_synthetic(args: argparse.Namespace) -> int:
     paths = make_dataset(args.out_dir, n_runs=args.runs, seed=args.seed,
                          duration=args.duration, dt=args.dt)
     print(f"wrote {len(paths)} runs to {args.out_dir}")
+    return 0
+
+
+def _cmd_dataset(args: argparse.Namespace) -> int:
+    from terrasph.surrogate.robot_dataset import build_robot_dataset
+
+    if not args.sweep_dir.is_dir():
+        raise FileNotFoundError(f"SWEEP_DIR {args.sweep_dir}: no such directory")
+    if args.out.resolve() == args.sweep_dir.resolve():
+        raise ValueError(f"--out {args.out}: is SWEEP_DIR; write the dataset to a directory of its own")
+    check_output_dir(args.out, args.force, "--out")
+    description = build_robot_dataset(args.sweep_dir, args.out, dt=args.dt, replace=args.force)
+    print(f"wrote {len(description['runs'])} runs to {args.out} (dt {args.dt:g} s; skipped "
+          f"{len(description['skipped_failed'])} failed); features {' '.join(description['features'])}; "
+          f"targets {' '.join(description['targets'])}")
     return 0

@@ -5,8 +5,9 @@ configuration (``config_json``), over the driven phase t ∈ [settle_time, durat
 start at 0 and resampled to a stated Δt (linear interpolation of the SPH samples):
 
 * inputs: ``omega_cmd`` the commanded spin ω(t) (rad/s, the schedule itself, not the measured
-  spin), and the run's fixed parameters: ``load`` (N) and one indicator ``wheel:<morphology>``
-  per morphology of the sweep (1 for the run's own, else 0);
+  spin), and the run's fixed parameters: ``load`` (N), the bed's ``mu1_deg``, ``mu2_deg`` (friction
+  angles, degrees) and ``water_content`` when the sweep varies them, and one indicator
+  ``wheel:<morphology>`` per morphology of the sweep (1 for the run's own, else 0);
 * targets: ``slip`` (Eq. 4.8, clipped to [−1, 1]: it leaves that interval only while the axle is
   pushed backwards), ``sinkage`` (m), and ``forward_speed`` v_x (m/s).
 
@@ -27,19 +28,40 @@ import numpy as np
 from terrasph.schedules import evaluate
 from terrasph.surrogate.dataset import Run, split_runs, write_run
 
-__all__ = ["TARGETS", "build_robot_dataset", "features_of", "robot_run", "split_by_range"]
+__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "features_of", "robot_run", "split_by_range"]
 
 TARGETS = ("slip", "sinkage", "forward_speed")
+#: the leg-wheel's bed parameters that become inputs of a dataset whose runs differ in them
+BED_PARAMETERS = ("mu1_deg", "mu2_deg", "water_content")
 _UNITS = {"omega_cmd": "rad/s", "slip": "1", "sinkage": "m", "forward_speed": "m/s"}
 
 
-def features_of(wheels: Sequence[str]) -> tuple[str, ...]:
-    """Input columns of a dataset whose runs use the morphologies `wheels`."""
-    return ("omega_cmd", "load", *(f"wheel:{w}" for w in sorted(wheels)))
+def features_of(wheels: Sequence[str], bed: Sequence[str] = ()) -> tuple[str, ...]:
+    """Input columns of a dataset whose runs use the morphologies `wheels` and differ in the bed
+    parameters `bed` (of BED_PARAMETERS)."""
+    return ("omega_cmd", "load", *bed, *(f"wheel:{w}" for w in sorted(wheels)))
 
 
-def robot_run(path: str | Path, dt: float, wheels: Sequence[str]) -> Run:
-    """The driven phase of the leg-wheel run file `path` resampled to `dt` (module docstring)."""
+def _bed_value(config: dict[str, Any], name: str) -> float:
+    """A bed parameter of a leg-wheel configuration (its default in runs made before it existed)."""
+    from terrasph.robots.leg_wheel import LegWheel
+
+    return float(config.get(name, LegWheel.__dataclass_fields__[name].default))
+
+
+def _driven_phase(config: dict[str, Any]) -> float:
+    return float(config["duration"]) - float(config["settle_time"])
+
+
+def _check_dt(dt: float, driven: float, where: str | Path) -> None:
+    if not (isinstance(dt, (int, float)) and 0 < dt <= driven / 2):
+        raise ValueError(f"parameter 'dt' = {dt!r} is invalid: allowed in (0, {driven / 2:g}] s "
+                         f"(at least 3 samples of the {driven:g} s driven phase of {where})")
+
+
+def robot_run(path: str | Path, dt: float, wheels: Sequence[str], bed: Sequence[str] = ()) -> Run:
+    """The driven phase of the leg-wheel run file `path` resampled to `dt` (module docstring); the
+    bed parameters `bed` are inputs beside the load."""
     import h5py
 
     with h5py.File(path, "r") as f:
@@ -52,9 +74,7 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str]) -> Run:
         sampled = {"slip": group["slip"][()], "sinkage": group["sinkage"][()],
                    "forward_speed": group["velocity"][()][:, 0]}
     settle, duration = float(config["settle_time"]), float(config["duration"])
-    if not 0 < dt <= (duration - settle) / 2:
-        raise ValueError(f"parameter 'dt' = {dt!r} is invalid: allowed in (0, {(duration - settle) / 2:g}] s "
-                         f"(at least 3 samples of the {duration - settle:g} s driven phase of {path})")
+    _check_dt(dt, duration - settle, path)
     grid = np.arange(0.0, duration - settle + 1e-9 * dt, dt)
     schedule = tuple(tuple(k) for k in config.get("omega_schedule") or ()) or ((0.0, float(config["omega"])),)
     series = {"omega_cmd": evaluate(schedule, grid)}
@@ -62,30 +82,43 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str]) -> Run:
         finite = np.isfinite(values)
         series[name] = np.interp(grid + settle, time[finite], values[finite])
     series["slip"] = np.clip(series["slip"], -1.0, 1.0)
-    params = {"load": float(config["load"]), **{f"wheel:{w}": float(config["wheel"] == w) for w in wheels}}
+    params = {"load": float(config["load"]), **{name: _bed_value(config, name) for name in bed},
+              **{f"wheel:{w}": float(config["wheel"] == w) for w in wheels}}
     return Run(name=Path(path).stem, time=grid, series=series, params=params, units=dict(_UNITS))
 
 
-def build_robot_dataset(sweep_dir: str | Path, out_dir: str | Path, dt: float = 0.02) -> dict[str, Any]:
+def build_robot_dataset(sweep_dir: str | Path, out_dir: str | Path, dt: float = 0.02,
+                        replace: bool = False) -> dict[str, Any]:
     """Writes one dataset file per finished run of the sweep in `sweep_dir` (its manifest names them)
     into `out_dir` (terrasph.surrogate.dataset layout, body "wheel") and ``dataset.json`` (Δt,
-    features, targets, and each run's parameters and drawn input kind); returns that description."""
+    features, targets, and each run's parameters and drawn input kind); returns that description.
+    The manifest, its scene and `dt` (at most half of every run's driven phase) are checked before
+    anything is written; ``replace=True`` then removes the run files and description of an earlier
+    dataset in `out_dir`, so that it holds exactly this one."""
     sweep_dir, out_dir = Path(sweep_dir), Path(out_dir)
+    if not (sweep_dir / "manifest.json").is_file():
+        raise FileNotFoundError(f"{sweep_dir}: no manifest.json (not a `terrasph sweep` directory)")
     manifest = json.loads((sweep_dir / "manifest.json").read_text())
     if manifest["spec"]["scene"] != "leg-wheel":
         raise ValueError(f"{sweep_dir}: a sweep of {manifest['spec']['scene']!r}; the robot dataset needs leg-wheel runs")
     finished = [c for c in manifest["cases"] if c["status"] == "completed"]
     if not finished:
         raise ValueError(f"{sweep_dir}: no finished runs in the manifest")
+    shortest = min(finished, key=lambda c: _driven_phase(c["config"]))
+    _check_dt(dt, _driven_phase(shortest["config"]), f"run {shortest['case_id']}")
     wheels = sorted({c["config"]["wheel"] for c in finished})
+    bed = [name for name in BED_PARAMETERS if len({_bed_value(c["config"], name) for c in finished}) > 1]
     out_dir.mkdir(parents=True, exist_ok=True)
+    for stale in [*out_dir.glob("*.h5"), out_dir / "dataset.json"] if replace else ():
+        stale.unlink(missing_ok=True)
     runs = {}
     for case in finished:
-        run = robot_run(sweep_dir / "runs" / f"{case['case_id']}.h5", dt, wheels)
+        run = robot_run(sweep_dir / "runs" / f"{case['case_id']}.h5", dt, wheels, bed)
         write_run(out_dir / f"{run.name}.h5", run, body="wheel", config=case["config"])
         runs[run.name] = {"load": case["config"]["load"], "wheel": case["config"]["wheel"],
+                          **{name: run.params[name] for name in bed},
                           "input_kind": case["varied"].get("input_kind", "constant")}
-    description = {"dt": dt, "features": list(features_of(wheels)), "targets": list(TARGETS), "wheels": wheels,
+    description = {"dt": dt, "features": list(features_of(wheels, bed)), "targets": list(TARGETS), "wheels": wheels,
                    "skipped_failed": [c["case_id"] for c in manifest["cases"] if c["status"] == "failed"],
                    "runs": runs}
     (out_dir / "dataset.json").write_text(json.dumps(description, indent=1, sort_keys=True))

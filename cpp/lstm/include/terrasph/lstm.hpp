@@ -174,8 +174,8 @@ namespace detail {
 template <typename S>
 struct Workspace {
   Index batch = 0;
-  std::vector<std::vector<S>> z, c, g;
-  std::vector<S> scratch;  // inputs of a batched product in tile order (product_body)
+  std::vector<AlignedVector<S>> z, c, g;
+  AlignedVector<S> scratch;  // inputs of a batched product in tile order (product_body)
 
   Workspace(const Model<S>& m, Index B) : batch(B) {
     Index k_max = 0;
@@ -194,11 +194,29 @@ struct Workspace {
   }
 };
 
+/// One standard layer of one sequence with the hidden size HC fixed at compile time
+/// (fixed_hidden): the arithmetic of layer_step, unrolled.
+template <int HC, typename S>
+TERRASPH_LSTM_INLINE void standard_layer_fixed(const Layer<S>& L, S* z, S* c, S* g) {
+  product_fixed<HC>(L.w_packed, z, L.bias.data(), g);
+  standard_cell(HC, g, c, z + L.input_size);
+}
+
 /// One recurrent layer for all B sequences: gates, cell update, h_t into z's tail.
-template <typename Isa, typename S>
+template <typename Isa, int kBatch, typename S>
 TERRASPH_LSTM_INLINE void layer_step(const Layer<S>& L, CellType cell, Index B, S* z, S* c,
                                      S* g, S* scratch) {
   const Index H = L.hidden_size, ldz = L.input_size + H;
+  if constexpr (kBatch == 1) {
+    if (cell == CellType::Standard && fixed_hidden<S>(H)) {
+      if (H == 16) {
+        standard_layer_fixed<16>(L, z, c, g);
+      } else {
+        standard_layer_fixed<32>(L, z, c, g);
+      }
+      return;
+    }
+  }
   // g = b + W_ih u_t + W_hh h_{t-1}, all four gates
   product(Isa{}, L.w_packed, B, z, ldz, L.bias.data(), 0, g, 4 * H, scratch);
   if (cell == CellType::Standard) {
@@ -215,11 +233,12 @@ TERRASPH_LSTM_INLINE void layer_step(const Layer<S>& L, CellType cell, Index B, 
 }
 
 /// One time step of B sequences: x (B rows of I raw features, leading dimension ldx) ->
-/// y (B rows of O raw targets, leading dimension ldy).
-template <typename Isa, typename S>
+/// y (B rows of O raw targets, leading dimension ldy). kBatch = 1 compiles the loops over the
+/// sequences away for a single stream (the same arithmetic); kBatch = 0 takes B from ws.
+template <typename Isa, int kBatch, typename S>
 TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, const S* x,
                                        Index ldx, S* y, Index ldy) {
-  const Index B = ws.batch, ni = m.input_size(), no = m.output_size();
+  const Index B = kBatch > 0 ? kBatch : ws.batch, ni = m.input_size(), no = m.output_size();
   const std::size_t n_layers = m.layers().size();
   {
     const Index ldz = ni + m.layers()[0].hidden_size;
@@ -230,7 +249,7 @@ TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, cons
   }
   for (std::size_t l = 0; l < n_layers; ++l) {
     const Layer<S>& L = m.layers()[l];
-    layer_step<Isa>(L, m.cell_type(), B, ws.z[l].data(), ws.c[l].data(), ws.g[l].data(),
+    layer_step<Isa, kBatch>(L, m.cell_type(), B, ws.z[l].data(), ws.c[l].data(), ws.g[l].data(),
                     ws.scratch.data());
     if (l + 1 < n_layers) {  // h_t of layer l is the input of layer l + 1
       const Index H = L.hidden_size, ldz = L.input_size + H, ldz_next = H + m.layers()[l + 1].hidden_size;
@@ -243,10 +262,17 @@ TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, cons
   const Index ldz = last.input_size + last.hidden_size;
   const S* h_last = ws.z.back().data() + last.input_size;
   const S *mean = m.output_mean().data(), *scale = m.output_scale().data();
+  const Index H = last.hidden_size;
   for (Index b = 0; b < B; ++b) {  // y = (b_out + W_out h_t) * scale + mean
     S* yb = y + b * ldy;
-    head_dot(m.head_weight_rows().data(), last.hidden_size, no, last.hidden_size,
-             h_last + b * ldz, m.head_bias().data(), yb);
+    const S *w_out = m.head_weight_rows().data(), *b_out = m.head_bias().data();
+    if (kBatch == 1 && H == 16 && fixed_hidden<S>(16)) {  // the same sums, unrolled
+      head_dot(w_out, 16, no, 16, h_last, b_out, yb);
+    } else if (kBatch == 1 && H == 32 && fixed_hidden<S>(32)) {
+      head_dot(w_out, 32, no, 32, h_last, b_out, yb);
+    } else {
+      head_dot(w_out, H, no, H, h_last + b * ldz, b_out, yb);
+    }
     for (Index k = 0; k < no; ++k) yb[k] = yb[k] * scale[k] + mean[k];
   }
 }
@@ -254,7 +280,11 @@ TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, cons
 template <typename S>
 void advance_generic(const Model<S>& m, Workspace<S>& ws, const S* x, Index ldx, S* y,
                      Index ldy) {
-  advance_body<Generic>(m, ws, x, ldx, y, ldy);
+  if (ws.batch == 1) {
+    advance_body<Generic, 1>(m, ws, x, ldx, y, ldy);
+  } else {
+    advance_body<Generic, 0>(m, ws, x, ldx, y, ldy);
+  }
 }
 
 #ifdef TERRASPH_LSTM_AVX2_DISPATCH
@@ -262,7 +292,11 @@ void advance_generic(const Model<S>& m, Workspace<S>& ws, const S* x, Index ldx,
 template <typename S>
 __attribute__((target("avx2,fma"))) void advance_avx2(const Model<S>& m, Workspace<S>& ws,
                                                       const S* x, Index ldx, S* y, Index ldy) {
-  advance_body<Avx2>(m, ws, x, ldx, y, ldy);
+  if (ws.batch == 1) {
+    advance_body<Avx2, 1>(m, ws, x, ldx, y, ldy);
+  } else {
+    advance_body<Avx2, 0>(m, ws, x, ldx, y, ldy);
+  }
 }
 #endif
 

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#include <new>
 #include <vector>
 
 namespace terrasph {
@@ -34,9 +35,11 @@ using Index = Eigen::Index;
 #if defined(__clang__)
 #define TERRASPH_LSTM_UNROLL TERRASPH_LSTM_PRAGMA(unroll)
 #define TERRASPH_LSTM_UNROLL_4 TERRASPH_LSTM_PRAGMA(unroll 4)
+#define TERRASPH_LSTM_UNROLL_64 TERRASPH_LSTM_PRAGMA(unroll 64)
 #else
 #define TERRASPH_LSTM_UNROLL TERRASPH_LSTM_PRAGMA(GCC unroll 16)
 #define TERRASPH_LSTM_UNROLL_4 TERRASPH_LSTM_PRAGMA(GCC unroll 4)
+#define TERRASPH_LSTM_UNROLL_64 TERRASPH_LSTM_PRAGMA(GCC unroll 64)
 #endif
 
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__AVX2__) && \
@@ -97,12 +100,33 @@ TERRASPH_LSTM_INLINE void vstore(S* p, const vec_t<S>& v) {
   std::memcpy(p, &v, sizeof v);
 }
 
+/// Allocator of memory aligned to a cache line (64 bytes): the kernels' vectors then sit at the
+/// same offsets in every process. With malloc's 16-byte alignment, how far a buffer lies from a
+/// cache line depended on earlier allocations, and a hidden-16 step took 15 % longer in some
+/// processes than in others (e.g. with a longer model file path).
+template <typename T>
+struct CacheAligned {
+  using value_type = T;
+  static constexpr std::align_val_t kAlign{64};
+  CacheAligned() = default;
+  template <typename U>
+  CacheAligned(const CacheAligned<U>&) {}
+  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kAlign)); }
+  void deallocate(T* p, std::size_t) { ::operator delete(p, kAlign); }
+  template <typename U>
+  bool operator==(const CacheAligned<U>&) const { return true; }
+  template <typename U>
+  bool operator!=(const CacheAligned<U>&) const { return false; }
+};
+template <typename S>
+using AlignedVector = std::vector<S, CacheAligned<S>>;
+
 /// A weight matrix (rows x cols) in the layout the products stream through: panels of
 /// panel_rows() rows (the last one zero-padded), within a panel column after column.
 template <typename S>
 struct Packed {
   Index rows = 0, cols = 0;
-  std::vector<S> data;
+  AlignedVector<S> data;
 
   template <typename Mat>
   static Packed pack(const Mat& w) {
@@ -186,6 +210,61 @@ TERRASPH_LSTM_INLINE void tile_nv(int nv, const S* w, Index ldw, Index K, const 
   } else if constexpr (NV > 1) {
     tile_nv<NV - 1>(nv, w, ldw, K, z, y0, g, n_rows);
   }
+}
+
+/// Whether a single sequence's step is compiled with the hidden size H as a constant (the
+/// step's loops unrolled, no partial vectors), as RTNeural compiles every size: for the small
+/// sizes, where loop bookkeeping is a large part of a step, and only for whole vectors.
+template <typename S>
+constexpr bool fixed_hidden(Index H) {
+  return (H == 16 || H == 32) && H % lanes<S>() == 0;
+}
+
+/// tile<NV, 1> on whole vectors for one sequence whose last KH columns are the hidden state:
+/// g = y0 + sum_j w(:, j) z_j over the K0 input columns, then over the KH hidden columns
+/// (fully unrolled). The same sums in the same order as tile.
+template <int NV, int KH, typename S>
+TERRASPH_LSTM_INLINE void tile_fixed(const S* w, Index K0, const S* z, const S* y0, S* g) {
+  constexpr int L = lanes<S>();
+  constexpr Index R = panel_rows<S>();
+  vec_t<S> acc[NV];
+  TERRASPH_LSTM_UNROLL
+  for (int v = 0; v < NV; ++v) vload<S>(acc[v], y0 + v * L);
+  TERRASPH_LSTM_UNROLL_4
+  for (Index j = 0; j < K0; ++j) {
+    const S zj = z[j];
+    TERRASPH_LSTM_UNROLL
+    for (int v = 0; v < NV; ++v) {
+      vec_t<S> wv;
+      vload<S>(wv, w + j * R + v * L);
+      acc[v] += wv * zj;
+    }
+  }
+  const S* wh = w + K0 * R;
+  const S* zh = z + K0;
+  TERRASPH_LSTM_UNROLL_64
+  for (int j = 0; j < KH; ++j) {
+    const S zj = zh[j];
+    TERRASPH_LSTM_UNROLL
+    for (int v = 0; v < NV; ++v) {
+      vec_t<S> wv;
+      vload<S>(wv, wh + j * R + v * L);
+      acc[v] += wv * zj;
+    }
+  }
+  TERRASPH_LSTM_UNROLL
+  for (int v = 0; v < NV; ++v) vstore<S>(g + v * L, acc[v]);
+}
+
+/// product_body for one sequence of a layer with the hidden size HC fixed (fixed_hidden):
+/// g[:4 HC] = y0 + W z, z = [u_t ; h_{t-1}], panel P and the following ones.
+template <int HC, int P = 0, typename S>
+TERRASPH_LSTM_INLINE void product_fixed(const Packed<S>& W, const S* z, const S* y0, S* g) {
+  constexpr int n_vec = 4 * HC / lanes<S>();
+  constexpr Index R = panel_rows<S>();
+  tile_fixed<std::min(8, n_vec - 8 * P), HC>(W.data.data() + P * R * W.cols, W.cols - HC, z,
+                                               y0 + P * R, g + P * R);
+  if constexpr (8 * (P + 1) < n_vec) product_fixed<HC, P + 1>(W, z, y0, g);
 }
 
 /// Size of the scratch buffer product_body needs for B sequences and K columns.
@@ -324,9 +403,30 @@ TERRASPH_LSTM_INLINE void sigmoid_v(vec_t<double>& a) {
   for (int k = 0; k < lanes<double>(); ++k) a[k] = 1.0 / (1.0 + std::exp(-a[k]));
 }
 
+/// Sum of the N values at p (N a power of two) as a tree: the upper half added to the lower one,
+/// lane-wise on a vector of N / 2, until two values are left.
+template <typename S, int N>
+TERRASPH_LSTM_INLINE S lane_sum(const S* p) {
+  if constexpr (N == 1) {
+    return p[0];
+  } else if constexpr (N == 2) {
+    return p[0] + p[1];
+  } else {
+    typedef S half __attribute__((vector_size(N / 2 * sizeof(S))));
+    half lo, hi;
+    std::memcpy(&lo, p, sizeof lo);
+    std::memcpy(&hi, p + N / 2, sizeof hi);
+    lo += hi;
+    S t[N / 2];
+    std::memcpy(t, &lo, sizeof lo);
+    return lane_sum<S, N / 2>(t);
+  }
+}
+
 /// y[o] = y0[o] + sum_j w[o * ldw + j] h[j] for o < O (the dense head of one sequence): 4 vector
 /// accumulators over consecutive chunks of h (chunk c into accumulator c mod 4, the last chunk
-/// zero-padded), added as (a0 + a1) + (a2 + a3), then the lanes in order. A fixed order, the
+/// zero-padded), added as (a0 + a1) + (a2 + a3), then the lanes pairwise (halves, quarters, ...)
+/// and the bias. A fixed order, the
 /// same for every sequence of a batch; short dependency chains instead of one of length H.
 template <typename S>
 TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, const S* h,
@@ -355,10 +455,9 @@ TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, cons
       acc[a] += wv * hv;
       j += L;
     }
-    const vec_t<S> sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    S total = y0[o];
-    for (int k = 0; k < L; ++k) total += sum[k];
-    y[o] = total;
+    S lane[L];
+    vstore<S>(lane, (acc[0] + acc[1]) + (acc[2] + acc[3]));
+    y[o] = y0[o] + lane_sum<S, L>(lane);
   }
 }
 
