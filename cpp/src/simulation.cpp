@@ -583,7 +583,11 @@ template <int D> template <bool UseDelta, bool UseXsph, bool KeepPairForces> voi
   const double chi = params_.numerics.xsph;
   const Vec<D> g = params_.domain.gravity;
   const double eos_c = params_.eos_sound_speed();
-  const Vec<D> hydrostatic_gradient = params_.material.reference_density / (eos_c * eos_c) * g;  // ∇ρ^H
+  // ∇ρ^H = s ρ0 g / c² (Antuono et al. 2012's hydrostatic correction; s < 1 when the pressure carries
+  // only part of the weight, as in a geostatic bed whose σ_xx = K0 σ_zz)
+  const double share = params_.numerics.density_diffusion_pressure_share > 0.0
+                           ? params_.numerics.density_diffusion_pressure_share : 1.0;
+  const Vec<D> hydrostatic_gradient = share * params_.material.reference_density / (eos_c * eos_c) * g;
   const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
   const double barrier_radius = 0.75 * params_.numerics.spacing;
   const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;

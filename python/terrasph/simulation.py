@@ -4,6 +4,7 @@ run loop with progress, HDF5 output, scheduled wall removal and safe interruptio
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import os
 import pathlib
@@ -161,8 +162,13 @@ class Simulation:
         position = scene.granular_position
         depth = position[:, 1].max() + 0.5 * scene.spacing - position[:, 1]
         geostatic_hypoelastic = _geostatic_hypoelastic(geostatic, material)
-        if initial_density is None:  # the geostatic hypoelastic state's mean stress is ½(1 + K0) ρ0 g depth
-            ratio = 0.5 * (1.0 + earth_pressure_at_rest(material)) if geostatic_hypoelastic else 1.0
+        # the geostatic hypoelastic state's mean stress is ½(1 + K0) ρ0 g depth: its density and
+        # δ-SPH's hydrostatic correction follow that share of the weight
+        ratio = 0.5 * (1.0 + earth_pressure_at_rest(material)) if geostatic_hypoelastic else 1.0
+        if geostatic_hypoelastic and numerics.density_diffusion_pressure_share == 0.0:
+            numerics = dataclasses.replace(numerics, density_diffusion_pressure_share=ratio)
+            self.numerics = numerics
+        if initial_density is None:
             initial_density = hydrostatic_density(depth, material, scene.gravity, ratio)
         density = np.asarray(initial_density, dtype=float)
         if density.shape != (len(position),):

@@ -105,6 +105,9 @@ template <> struct ChoiceNames<PlasticFlow> {
     "strength of the contact barrier inside walls (r < dx/2), 1 = K = c^2/h; 0 = off")                   \
   X(double, delta_sph, 0.1, "1", inclusive(0.0), inclusive(1.0),                                         \
     "delta of the density diffusion (Eq. 2.42-2.43); 0 = off")                                           \
+  X(double, density_diffusion_pressure_share, 0.0, "1", inclusive(0.0), inclusive(1.0),                  \
+    "share s of the lithostatic weight the pressure carries in delta-SPH's hydrostatic density "         \
+    "correction grad rho_H = s*rho_0*g/c^2; 0 = 1 (a hydrostatic start); a geostatic start sets (1+K0)/2") \
   X(double, xsph, 0.2, "1", inclusive(0.0), inclusive(1.0), "chi of XSPH (Eq. 2.49); 0 = off")           \
   X(int, shepard_interval, 0, "steps", inclusive(0.0), exclusive(inf),                                   \
     "Shepard density filter every N steps (Eq. 2.41); 0 = off")                                          \
