@@ -246,3 +246,19 @@ def test_numerics_reach_the_scene(monkeypatch, scene: str, runner: str) -> None:
     with pytest.raises((SystemExit, KeyboardInterrupt)):
         main(["run", scene, "--numerics", "step_at_wave_speed=true", "freeze_speed=0.005", "--out", "unused.h5"])
     assert seen["numerics"] == {"step_at_wave_speed": True, "freeze_speed": 0.005}
+
+
+def test_plate_model_reaches_the_scene(monkeypatch) -> None:
+    """run plate-intrusion --model drucker_prager builds the beads with that model (the run is replaced)."""
+    from terrasph import scenes_cli
+
+    seen = {}
+
+    def fake_run(config, output, progress):
+        seen["model"] = config.material().model
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(scenes_cli, "run_plate_intrusion", fake_run)
+    with pytest.raises((SystemExit, KeyboardInterrupt)):
+        main(["run", "plate-intrusion", "--model", "drucker_prager", "--out", "unused.h5"])
+    assert seen["model"] == "drucker_prager"

@@ -70,6 +70,7 @@ class PlateIntrusion:
     settle_time: float = 0.2  #: the plate is held still this long before it moves
     sample_travel: float = 0.001  #: plate travel per load sample (each a time average over it)
     frame_interval: float = 0.1
+    model: str = "mu_i_hypoelastic"  #: the constitutive model, a choice of ``material.model``
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
@@ -81,6 +82,7 @@ class PlateIntrusion:
         if not (_is_number(self.settle_time) and math.isfinite(self.settle_time) and self.settle_time >= 0):
             raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
         numerics = self.build_numerics()  # raises ConfigError for bad overrides
+        self.material()  # raises ConfigError for an unknown model
         least = bodies.minimum_thickness(self.spacing, numerics.h_factor)
         if self.thickness is not None and not (_is_number(self.thickness) and math.isfinite(self.thickness)
                                                and least * (1 - 1e-9) <= self.thickness < 0.5 * self.plate_length):
@@ -101,6 +103,10 @@ class PlateIntrusion:
         if not self.max_depth < deepest:
             raise ConfigError(f"parameter 'max_depth' = {self.max_depth!r} is invalid: allowed (0, {deepest:g}) m "
                               "(the plate must stay clear of the floor's kernel support)")
+
+    def material(self) -> Material:
+        """The chapter 3 glass beads (``glass_beads()``) under the configured constitutive model."""
+        return dataclasses.replace(glass_beads(), model=self.model)
 
     def build_numerics(self) -> Numerics:
         """terrasph.Numerics at this spacing with the overrides applied."""
@@ -165,7 +171,7 @@ def build_plate_intrusion(config: PlateIntrusion) -> tuple[Scene, Material, Nume
     half = 0.5 * dx * round(config.plate_thickness / dx)
     centre = (0.5 * right, surface + config.start_gap + half)
     scene.add_body("plate", shape, reference=centre, motion=config.motion(), width=config.width)
-    return scene, glass_beads(), numerics
+    return scene, config.material(), numerics
 
 
 @dataclass
