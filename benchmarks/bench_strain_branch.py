@@ -50,10 +50,8 @@ def settled_bed(model: str, t_end: float) -> tuple[dict[str, float], tuple[np.nd
     x, stress = np.array(sim.position), np.array(sim.stress)
     top = x[:, 1].max() + 0.5 * DX
     centre = (x[:, 0] > 0.15 * WIDTH) & (x[:, 0] < 0.85 * WIDTH)
-    rows = np.round(x[centre, 1] / DX - 0.5).astype(int)
-    sigma_zz = stress[centre, 1, 1]
     rho = float(np.mean(sim.density))
-    scatter = np.mean([sigma_zz[rows == r].std() for r in np.unique(rows)]) / (rho * G * HEIGHT)
+    scatter = analysis.vertical_stress_scatter(x, stress, DX, (0.15 * WIDTH, 0.85 * WIDTH)) / (rho * G * HEIGHT)
     z, sigma_v = analysis.vertical_stress_profile(x, stress, DX, (0.15 * WIDTH, 0.85 * WIDTH))
     slope, _, _ = analysis.fit_line(top - z, sigma_v)
     deep = centre & (x[:, 1] < top - 2 * DX)

@@ -214,3 +214,16 @@ def analysis_lattice(i0: int, i1: int, k0: int, k1: int, dx: float) -> np.ndarra
     """Cell-centred lattice points of columns i0..i1-1 and rows k0..k1-1."""
     i, k = np.meshgrid(np.arange(i0, i1), np.arange(k0, k1))
     return np.column_stack([(i.ravel() + 0.5) * dx, (k.ravel() + 0.5) * dx])
+
+
+def test_vertical_stress_scatter_is_the_mean_within_layer_spread() -> None:
+    """Layers of a lattice with σ_zz = −ρg·depth ± a (alternating along x): every layer's std is a,
+    so the scatter is a; particles outside x_range do not count."""
+    dx, a = 0.01, 7.0
+    xs, zs = np.meshgrid(np.arange(10) * dx + 0.5 * dx, np.arange(6) * dx + 0.5 * dx)
+    x, z = xs.ravel(), zs.ravel()
+    sign = np.where(np.arange(x.size) % 2 == 0, 1.0, -1.0)
+    stress = np.zeros((x.size, 2, 2))
+    stress[:, 1, 1] = -1500.0 * 9.81 * (0.06 - z) + a * sign
+    stress[x > 0.08, 1, 1] += 1e6  # outside the range
+    assert analysis.vertical_stress_scatter(np.c_[x, z], stress, dx, (0.0, 0.08)) == pytest.approx(a, rel=1e-9)

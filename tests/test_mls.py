@@ -62,11 +62,8 @@ def _layer_scatter(sim: Simulation) -> tuple[float, float]:
     """(mean over lattice rows of the std of σ_zz in the row, central 70 % of the width, relative
     to ρgH; relative error of the lithostatic slope of −σ_zz against depth)."""
     x, stress = np.array(sim.position), np.array(sim.stress)
-    centre = (x[:, 0] > 0.15 * WIDTH) & (x[:, 0] < 0.85 * WIDTH)
-    rows = np.round(x[centre, 1] / DX - 0.5).astype(int)
-    sigma_zz = stress[centre, 1, 1]
     rho = float(np.mean(sim.density))
-    scatter = np.mean([sigma_zz[rows == r].std() for r in np.unique(rows)]) / (rho * G * HEIGHT)
+    scatter = analysis.vertical_stress_scatter(x, stress, DX, (0.15 * WIDTH, 0.85 * WIDTH)) / (rho * G * HEIGHT)
     z, sigma_v = analysis.vertical_stress_profile(x, stress, DX, (0.15 * WIDTH, 0.85 * WIDTH))
     slope, _, _ = analysis.fit_line(x[:, 1].max() + 0.5 * DX - z, sigma_v)
     return scatter, slope / (rho * G) - 1.0

@@ -350,6 +350,26 @@ def vertical_stress_profile(
     return centres[filled], sums[filled] / counts[filled]
 
 
+def vertical_stress_scatter(
+    position: np.ndarray,
+    stress: np.ndarray,
+    spacing: float,
+    x_range: tuple[float, float],
+) -> float:
+    """Particle-to-particle scatter of σ_zz at fixed depth (Pa): the standard deviation of σ_zz
+    within each horizontal layer of :func:`vertical_stress_profile`, averaged over the layers."""
+    points = _points("position", position)
+    sigma = _stress("stress", stress)
+    bounds = np.asarray(x_range, dtype=float)
+    inside = (points[:, 0] >= bounds[0]) & (points[:, 0] <= bounds[1])
+    if not np.any(inside):
+        raise ValueError(f"x_range {tuple(bounds)} contains no particle")
+    z = points[inside, 1]
+    layer = _bin_index(z, _lattice_edges(z, _positive("spacing", spacing)))
+    sigma_zz = sigma[inside, 1, 1]
+    return float(np.mean([sigma_zz[layer == k].std() for k in np.unique(layer)]))
+
+
 def deposit_front(position: np.ndarray, spacing: float, min_thickness: float, *, floor: float = 0.0,
                   bed_height: Callable[[np.ndarray], np.ndarray] | None = None) -> float:
     """Front of a deposit: the right edge of the first surface-profile bin, going right from the
