@@ -7,14 +7,19 @@ References, independent of the code under test:
   the grains' centre of mass (the grains' moment balance; the side walls' thrusts, equal and
   opposite at equal heights, add no moment), time-averaged over 0.04–0.12 s, within 0.2 % [measured 4e-5];
 * tracking is a read-out: a run that tracks the wall loads is bitwise the run that does not;
+* an interrupted run that tracks them resumes bitwise (the checkpoint keeps the running impulses);
 * the momentum balance with a robot part beside the container is in test_robot_coupling.py.
 """
 
 from __future__ import annotations
 
+import os
+import signal
+
 import numpy as np
 import pytest
 from terrasph.bodies import plate
+from terrasph.checkpoint import CheckpointError
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import read_run
@@ -85,9 +90,56 @@ def test_bad_wall_load_requests_are_refused(tmp_path) -> None:
     with pytest.raises(ConfigError, match=r"active domain on \(numerics.freeze_speed > 0\)"):
         active.track_wall_loads()
     sim.track_wall_loads()
-    with pytest.raises(ConfigError, match=r"parameter 'resume' is invalid .* tracks wall loads"):
-        sim.run(0.01, output=tmp_path / "x.h5", resume=True, progress=False)
-    assert sim.step_count == 0
+    sim.advance(1.0, max_steps=5)
+    saved = sim.checkpoint(tmp_path / "tracked.checkpoint.h5")
+    untracked = Simulation(bed_in_container(), MATERIAL, Numerics(spacing=DX))
+    with pytest.raises(CheckpointError, match=r"does not fit this simulation: .*call track_wall_loads before restoring"):
+        untracked.restore(saved)
+    elsewhere = Simulation(bed_in_container(), MATERIAL, Numerics(spacing=DX))
+    elsewhere.track_wall_loads(about=(0.01, 0.0))
+    with pytest.raises(CheckpointError, match=r"does not fit this simulation: .*about another point"):
+        elsewhere.restore(saved)
+    tracking = Simulation(bed_in_container(), MATERIAL, Numerics(spacing=DX))
+    tracking.track_wall_loads()
+    with pytest.raises(CheckpointError, match=r"does not fit this simulation: .*does not track wall loads"):
+        tracking.restore(untracked.checkpoint(tmp_path / "untracked.checkpoint.h5"))
+
+
+def _interrupt_after_frames(frames: int):
+    """An on_frame callback that sends this process SIGINT at the `frames`-th frame (the run stops
+    at the next step boundary and checkpoints)."""
+    seen = [0]
+
+    def on_frame(_: Simulation) -> None:
+        seen[0] += 1
+        if seen[0] == frames:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    return on_frame
+
+
+def test_an_interrupted_run_that_tracks_wall_loads_resumes_bitwise(tmp_path) -> None:
+    """Checkpoints keep the tracked loads (the last force and torque and the running impulses): the
+    resumed run's wall series, frames and body series equal the uninterrupted run's bit for bit."""
+    def tracked_run(out, *, resume: bool = False, on_frame=None) -> None:
+        sim = Simulation(bed_in_container(with_plate=True), MATERIAL, Numerics(spacing=DX), width=WIDTH)
+        sim.track_wall_loads(about=(0.05, 0.0))
+        sim.run(0.06, output=out, frame_interval=0.01, body_interval=0.007, progress=False,
+                checkpoint_every=None, resume=resume, on_frame=on_frame)
+
+    straight, stopped = tmp_path / "straight.h5", tmp_path / "stopped.h5"
+    tracked_run(straight)
+    with pytest.raises(KeyboardInterrupt):
+        tracked_run(stopped, on_frame=_interrupt_after_frames(3))
+    assert read_run(stopped).series["walls/container"]["time"][-1] < 0.05
+    tracked_run(stopped, resume=True)
+    a, b = read_run(stopped), read_run(straight)
+    for group in ("walls/container", "bodies/plate"):
+        assert set(a.series[group]) == set(b.series[group])
+        for name, values in b.series[group].items():
+            assert np.array_equal(a.series[group][name], values), f"{group}/{name}"
+    assert np.array_equal(a.times, b.times)
+    assert np.array_equal(a.fields["velocity"], b.fields["velocity"])
 
 
 def test_a_coupled_run_samples_the_fixed_walls_loads(tmp_path) -> None:
@@ -107,6 +159,4 @@ def test_a_coupled_run_samples_the_fixed_walls_loads(tmp_path) -> None:
     assert np.allclose(floor["averaged_over"][1:], np.diff(floor["time"]), rtol=0, atol=1e-12)
     weight = float(coupled.sim.mass.sum()) * coupled.sim.width * G
     assert floor["force"][1:, 1] == pytest.approx(-weight, rel=0.02)
-    with pytest.raises(ConfigError, match=r"parameter 'resume' is invalid .* tracks wall loads"):
-        run_coupled(coupled, 0.05, output=out, resume=True)
     assert "robot/actuators" not in series

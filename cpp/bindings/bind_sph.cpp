@@ -331,8 +331,22 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
              std::vector<std::pair<double, std::int32_t>> removals;
              for (const WallRemoval& r : s.pending_wall_removals()) removals.emplace_back(r.time, r.group);
              d["removals"] = removals;
+             py::list wall_loads;  // empty unless tracked
+             for (const WallLoad<D>& load : s.wall_loads()) {
+               py::dict l;
+               l["group"] = load.group;
+               l["force"] = Vec<D>(load.force);
+               l["torque"] = load.torque;
+               l["impulse"] = Vec<D>(load.impulse);
+               l["angular_impulse"] = load.angular_impulse;
+               l["impulse_time"] = load.impulse_time;
+               wall_loads.append(l);
+             }
+             d["wall_loads"] = py::dict(py::arg("tracked") = s.tracks_wall_loads(),
+                                        py::arg("point") = Vec<D>(s.wall_load_point()), py::arg("loads") = wall_loads);
              return d;
-           }, "The whole State in storage order (copies): granular and wall fields, counters, bodies, removals.")
+           }, "The whole State in storage order (copies): granular and wall fields, counters, bodies, removals, "
+              "tracked wall loads.")
       .def("restore", [](Sim& s, const py::dict& state) {
              fields_from_dict(s.granular().fields, state["granular"].cast<py::dict>(), "granular");
              fields_from_dict(s.walls().fields, state["walls"].cast<py::dict>(), "wall");
@@ -342,6 +356,25 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
              for (const auto& [time, group] : state["removals"].cast<std::vector<std::pair<double, std::int32_t>>>())
                removals.push_back({time, group});
              s.restore(counters_from_dict(state["counters"].cast<py::dict>()), bodies, std::move(removals));
+             const py::dict wall_loads = state.contains("wall_loads") ? state["wall_loads"].cast<py::dict>() : py::dict();
+             const bool saved_tracked = wall_loads.contains("tracked") && wall_loads["tracked"].cast<bool>();
+             if (saved_tracked) {
+               std::vector<WallLoad<D>> loads;
+               for (const auto& item : wall_loads["loads"].cast<py::list>()) {
+                 const py::dict l = item.cast<py::dict>();
+                 WallLoad<D> load;
+                 load.group = l["group"].cast<std::int32_t>();
+                 load.force = l["force"].cast<Vec<D>>();
+                 load.torque = l["torque"].cast<double>();
+                 load.impulse = l["impulse"].cast<Vec<D>>();
+                 load.angular_impulse = l["angular_impulse"].cast<double>();
+                 load.impulse_time = l["impulse_time"].cast<double>();
+                 loads.push_back(load);
+               }
+               s.restore_wall_loads(wall_loads["point"].cast<Vec<D>>(), loads);
+             } else if (s.tracks_wall_loads()) {
+               throw std::invalid_argument("the saved state does not track wall loads, this simulation does");
+             }
            }, py::arg("state"), "Continue from a State made by state(): nothing is recomputed.")
       .def("permute_storage", [](Sim& s, const std::string& set, const std::vector<Index>& order) {
              std::vector<Index> check(order);

@@ -830,6 +830,17 @@ template <int D> void Simulation<D>::reset_wall_load_impulses() {
   }
 }
 
+template <int D> void Simulation<D>::restore_wall_loads(const Vec<D>& point, const std::vector<WallLoad<D>>& loads) {
+  if (!tracks_wall_loads_)
+    throw std::invalid_argument("the saved state tracks wall loads: call track_wall_loads before restoring it");
+  if (point != wall_load_point_)
+    throw std::invalid_argument("the saved wall loads are about another point than this simulation's track_wall_loads");
+  bool same_groups = loads.size() == wall_loads_.size();
+  for (size_t k = 0; same_groups && k < loads.size(); ++k) same_groups = loads[k].group == wall_loads_[k].group;
+  if (!same_groups) throw std::invalid_argument("the saved wall loads belong to other wall groups");
+  wall_loads_ = loads;
+}
+
 // Force and clockwise torque about the tracking point of the grains on each fixed wall group
 // (Eq. 3.24–3.25), summed in the fixed order of accumulate_body_loads: with the body loads and
 // the weight they balance the grains' momentum, Σ m_i a_i = M g − Σ F_bodies − Σ F_walls.

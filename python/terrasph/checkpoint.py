@@ -2,7 +2,8 @@
 
 A checkpoint holds every registered particle field of both particle sets in the core's storage
 order (so the restored run sums in the same order), the counters, the bodies' state and motion,
-the wall-removal schedule, the configuration the state belongs to, and the run loop's progress.
+the wall-removal schedule, the tracked fixed-wall loads, the configuration the state belongs to,
+and the run loop's progress.
 A restored simulation continues bit for bit like the one that never stopped: nothing is
 recomputed on restore, and the neighbour lists are rebuilt at the positions they were built at.
 
@@ -74,7 +75,8 @@ def write_checkpoint(path: str | os.PathLike[str], state: Mapping[str, Any], con
     arrays = {f"{part}/{name}": np.asarray(values)
               for part in _PARTICLE_SETS for name, values in state[part].items()}
     texts = {"counters": _json(state["counters"]), "bodies": _json(state["bodies"]),
-             "removals": _json(state["removals"]), "config": _json(config), "progress": _json(progress or {})}
+             "removals": _json(state["removals"]), "wall_loads": _json(state["wall_loads"]),
+             "config": _json(config), "progress": _json(progress or {})}
     tmp = target.with_name(target.name + ".tmp")
     with h5py.File(tmp, "w") as file:
         file.attrs["format"] = FORMAT
@@ -105,6 +107,8 @@ def read_checkpoint(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[
                                       f"version {FORMAT_VERSION} (written by terrasph "
                                       f"{file.attrs.get('terrasph_version', '?')})")
             texts = {name: str(file.attrs[name]) for name in ("counters", "bodies", "removals", "config", "progress")}
+            if "wall_loads" in file.attrs:  # absent from checkpoints written before wall loads were kept
+                texts["wall_loads"] = str(file.attrs["wall_loads"])
             arrays: dict[str, np.ndarray] = {}
             for part in _PARTICLE_SETS:
                 for name, dataset in file[part].items():
@@ -123,6 +127,7 @@ def read_checkpoint(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[
     state["counters"] = json.loads(texts["counters"])
     state["bodies"] = json.loads(texts["bodies"])
     state["removals"] = [tuple(r) for r in json.loads(texts["removals"])]
+    state["wall_loads"] = json.loads(texts.get("wall_loads", '{"tracked": false}'))
     return state, json.loads(texts["config"]), json.loads(texts["progress"])
 
 

@@ -416,7 +416,8 @@ class Simulation:
         Every `body_interval` (s) each body's pose and load, averaged over the interval, is
         appended to ``/series/bodies/<name>`` and to ``RunResult.bodies``; after
         :meth:`track_wall_loads`, each fixed wall's load likewise to ``/series/walls/<name>`` and
-        ``RunResult.walls`` (not kept in checkpoints yet, so such a run cannot be resumed).
+        ``RunResult.walls`` (kept in checkpoints: call :meth:`track_wall_loads` with the same point
+        before resuming).
 
         With ``stop_when_at_rest = r`` the run ends once t ≥ `min_time` and the kinetic energy per
         unit mass ½|v|² (mean) drops below r·g·Δx — a bed whose grains move less than about
@@ -437,9 +438,6 @@ class Simulation:
 
         from terrasph.io import RunWriter, read_run, write_xdmf
 
-        if resume and self.core.tracks_wall_loads:
-            raise ConfigError("parameter 'resume' is invalid for a simulation that tracks wall loads: "
-                              "checkpoints do not keep them yet")
         saved = self.restore(checkpoint_path(output)) if resume else {}
         if not (t_end > self.time):
             raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")

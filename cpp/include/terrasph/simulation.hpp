@@ -135,6 +135,9 @@ template <int D> class Simulation {
   const Vec<D>& wall_load_point() const { return wall_load_point_; }
   const std::vector<WallLoad<D>>& wall_loads() const { return wall_loads_; }  // by group, ascending
   void reset_wall_load_impulses();
+  // Continues tracked wall loads from a saved state: the groups and the point must be this
+  // simulation's (track_wall_loads was called with the saved point).
+  void restore_wall_loads(const Vec<D>& point, const std::vector<WallLoad<D>>& loads);
 
   // --- state restore (the fields are written through granular()/walls() first) ---
   // Sets the scalar state, the bodies' dynamic state and the removal schedule, then rebuilds the

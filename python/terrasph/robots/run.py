@@ -91,7 +91,7 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     `memory` (plain data), which is checkpointed with the run. Returns the robot series by group
     name (the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
     the grains on each fixed wall (:meth:`terrasph.Simulation.wall_loads`) is sampled too, as
-    ``walls/<name>`` (such a run cannot be resumed: checkpoints do not keep wall loads yet).
+    ``walls/<name>`` (kept in checkpoints: track them again, about the same point, before resuming).
 
     As :meth:`terrasph.Simulation.run`: with an `output`, the SPH State, MuJoCo's state (qpos,
     qvel, act, ctrl, warm start, time), the coupling's memory and `memory` go to
@@ -112,9 +112,6 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     check_run_options({"frame_interval": frame_interval, "series_interval": series_interval}, checkpoint_every,
                       resume, output)
 
-    if resume and coupled.sim.core.tracks_wall_loads:
-        raise ConfigError("parameter 'resume' is invalid for a simulation that tracks wall loads: "
-                          "checkpoints do not keep them yet")
     memory = {} if memory is None else memory
     saved = coupled.restore(checkpoint_path(output)) if resume else {}
     memory.update(saved.get("memory", {}))
