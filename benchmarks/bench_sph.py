@@ -131,7 +131,7 @@ def features(size: int, steps: int, repeats: int, only: list[str], cpu: bool = F
 
 def scaling(sizes: list[int], steps: int, repeats: int, numerics: dict[str, bool | int | float]) -> None:
     """CPU time per particle-step on one thread against the particle count (issue 12: flat within
-    15 %). CPU time of this process, the best of `repeats` rounds interleaved over the sizes, so
+    15 %), and the core's own storage per particle (`sim.core.memory_bytes`). CPU time of this process, the best of `repeats` rounds interleaved over the sizes, so
     that other processes' load (which wall time feels in full) moves every size alike."""
     _core.set_num_threads(1)
     sims = {size: bed(size, Material(), Numerics(spacing=SPACING, **numerics)) for size in sizes}
@@ -144,10 +144,11 @@ def scaling(sizes: list[int], steps: int, repeats: int, numerics: dict[str, bool
             sim.advance(1e9, max_steps=steps)
             best[size] = min(best[size], (time.process_time() - start) / steps / len(sim.mass))
     smallest = best[sizes[0]]
-    print("| granular particles | CPU ns per particle-step (1 thread) | ratio to the smallest |")
-    print("|---|---|---|")
+    print("| granular particles | CPU ns per particle-step (1 thread) | ratio to the smallest | core bytes per particle |")
+    print("|---|---|---|---|")
     for size, sim in sims.items():
-        print(f"| {len(sim.mass)} | {1e9 * best[size]:.0f} | {best[size] / smallest:.2f} |", flush=True)
+        print(f"| {len(sim.mass)} | {1e9 * best[size]:.0f} | {best[size] / smallest:.2f} "
+              f"| {sim.core.memory_bytes / len(sim.mass):.0f} |", flush=True)
 
 
 def phases(size: int, threads: int, steps: int) -> None:

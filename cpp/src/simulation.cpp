@@ -30,17 +30,10 @@ template <class F, class... Rest> auto dispatch_flags(F&& f, bool first, Rest...
   return dispatch_flags([&](auto... tail) { return f(std::false_type{}, tail...); }, rest...);
 }
 
-// The ∇v pass takes neighbours in batches of at most kPairBatch: their |x_ij|² are gathered into
-// an array so that the kernel is evaluated in SIMD lanes; the pair terms are then summed one by
-// one in list order, so every sum is the plain loop's (thread-count independent).
+// Both granular pair passes take neighbours in batches of at most kPairBatch: x_ij and |x_ij|² are
+// gathered into arrays so that the kernel is evaluated in SIMD lanes; the pair terms are then summed
+// one by one in list order, so every sum is the plain loop's (thread-count independent).
 constexpr int kPairBatch = 32;
-
-// |x_i − x_j|² of the neighbours j[0..count) of a particle at xi.
-template <int D>
-void squared_distances(const std::int32_t* j, int count, const Vec<D>& xi, const VecArray<D>& position,
-                       std::array<double, kPairBatch>& r2) {
-  for (int k = 0; k < count; ++k) r2[k] = (xi - row_vec<D>(position, j[k])).squaredNorm();
-}
 
 // Constants of the pair terms of the continuity and momentum equations.
 template <int D> struct ForceConstants {
@@ -48,13 +41,35 @@ template <int D> struct ForceConstants {
   Vec<D> hydrostatic_gradient;  // ∇ρ^H = ρ0 g / c², c of the EOS
 };
 
-// The granular pairs' share of Dρ_i/Dt, Dv_i/Dt and the XSPH sum of particle i, in list order,
-// with W and (dW/dr)/r as cached by the ∇v pass. A pair beyond the support has both 0, so all
-// its terms are exact zeros: adding them is cheaper than a mispredicted branch.
+// One batch of a particle's neighbours j[0..count): x_ij, |x_ij|² and (dW/dr)/r, and W_ij when
+// WithValue, the kernel evaluated in SIMD lanes. Both passes of a step gather on the same positions,
+// so they see the same values without a per-pair cache (16 bytes a listed pair); a pair beyond the
+// support gets 0 for both.
+template <int D> struct PairBatch {
+  std::array<Vec<D>, kPairBatch> x;
+  std::array<double, kPairBatch> r2, value, gradient_factor;
+};
+
+template <int D, bool WithValue>
+void gather_pairs(const WendlandC2<D>& kernel, const std::int32_t* j, int count, const Vec<D>& xi,
+                  const VecArray<D>& position, PairBatch<D>& batch) {
+  for (int k = 0; k < count; ++k) {
+    batch.x[k] = xi - row_vec<D>(position, j[k]);
+    batch.r2[k] = batch.x[k].squaredNorm();
+  }
+  for (int k = 0; k < count; ++k) {
+    if constexpr (WithValue) kernel.pair_value_and_gradient_factor(batch.r2[k], batch.value[k], batch.gradient_factor[k]);
+    else batch.gradient_factor[k] = kernel.pair_gradient_factor_without_value(batch.r2[k]);
+  }
+}
+
+// The granular pairs' share of Dρ_i/Dt, Dv_i/Dt and the XSPH sum of particle i, in list order. A
+// pair beyond the support has W = (dW/dr)/r = 0, so all its terms are exact zeros: adding them is
+// cheaper than a mispredicted branch.
 template <int D, bool UseDelta, bool UseXsph>
 void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
-                         const std::vector<double>& kernel_value, const std::vector<double>& gradient_factor,
-                         const ForceConstants<D>& constants, Vec<D>& acc, Vec<D>& xsph, double& drho) {
+                         const WendlandC2<D>& kernel, const ForceConstants<D>& constants, Vec<D>& acc,
+                         Vec<D>& xsph, double& drho) {
   namespace term = pair_terms;
   const ForceConstants<D> c = constants;
   const Vec<D> xi = row_vec<D>(p.position, i);
@@ -63,22 +78,29 @@ void add_granular_forces(Index i, const GranularParticles<D>& p, const Neighbour
   const Mat<D> si = row_mat<D>(p.stress_over_rho2, i);
   Vec<D> a = acc, x = xsph;  // local accumulators
   double r = drho;
-  for (Index s = list.offsets[i]; s < list.offsets[i + 1]; ++s) {
-    const double grad_factor = gradient_factor[s];
-    const std::int32_t j = list.indices[s];
-    const Vec<D> xij = xi - row_vec<D>(p.position, j);
-    const double r2 = xij.squaredNorm();
-    const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
-    const Vec<D> vij = vi - row_vec<D>(p.velocity, j);
-    const double m_j = p.mass[j];
-    const double rho_j = p.density[j];
-    const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
-    r += term::continuity<D>(m_j, vij, grad_w);
-    if constexpr (UseDelta)  // x_ji = −x_ij
-      r += term::density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
-    const double pi_ij = term::artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
-    a.noalias() += term::momentum<D>(m_j, si, row_mat<D>(p.stress_over_rho2, j), pi_ij, grad_w);
-    if constexpr (UseXsph) x += term::xsph<D>(c.chi, m_j, inv_rho_mean, kernel_value[s], vij);
+  const Index end = list.offsets[i + 1];
+  for (Index first = list.offsets[i]; first < end; first += kPairBatch) {
+    const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
+    const std::int32_t* js = list.indices.data() + first;
+    PairBatch<D> batch;
+    gather_pairs<D, UseXsph>(kernel, js, count, xi, p.position, batch);  // W only for XSPH
+    for (int k = 0; k < count; ++k) {
+      const double grad_factor = batch.gradient_factor[k];
+      const std::int32_t j = js[k];
+      const Vec<D>& xij = batch.x[k];
+      const double r2 = batch.r2[k];
+      const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
+      const Vec<D> vij = vi - row_vec<D>(p.velocity, j);
+      const double m_j = p.mass[j];
+      const double rho_j = p.density[j];
+      const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
+      r += term::continuity<D>(m_j, vij, grad_w);
+      if constexpr (UseDelta)  // x_ji = −x_ij
+        r += term::density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
+      const double pi_ij = term::artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
+      a.noalias() += term::momentum<D>(m_j, si, row_mat<D>(p.stress_over_rho2, j), pi_ij, grad_w);
+      if constexpr (UseXsph) x += term::xsph<D>(c.chi, m_j, inv_rho_mean, batch.value[k], vij);
+    }
   }
   acc = a;
   xsph = x;
@@ -396,9 +418,8 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
   });
 }
 
-// The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. Also caches W_ij and
-// (dW/dr)/r of every listed pair for the force pass; a pair beyond the support gets 0 for both
-// and adds exact zeros here, which is cheaper than a branch on it. Neighbours go in batches:
+// The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. A pair beyond the
+// support adds exact zeros, which is cheaper than a branch on it. Neighbours go in batches:
 // |x_ij|² gathered, the kernel evaluated in SIMD lanes, then the terms summed in list order.
 template <int D>
 void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) {
@@ -409,14 +430,11 @@ void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>
   for (Index first = granular_granular_.offsets[i]; first < end; first += kPairBatch) {
     const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
     const std::int32_t* j = granular_granular_.indices.data() + first;
-    std::array<double, kPairBatch> r2;
-    squared_distances<D>(j, count, xi, granular_.position, r2);
-    double* kernel_value = pair_kernel_value_.data() + first;
-    double* gradient_factor = pair_gradient_factor_.data() + first;
-    for (int k = 0; k < count; ++k) kernel_.pair_value_and_gradient_factor(r2[k], kernel_value[k], gradient_factor[k]);
+    PairBatch<D> batch;
+    gather_pairs<D, false>(kernel_, j, count, xi, granular_.position, batch);
     for (int k = 0; k < count; ++k) {
-      const Vec<D> xij = xi - row_vec<D>(granular_.position, j[k]);
-      const double vf = granular_.volume[j[k]] * gradient_factor[k];
+      const Vec<D>& xij = batch.x[k];
+      const double vf = granular_.volume[j[k]] * batch.gradient_factor[k];
       g.noalias() += (vf * (row_vec<D>(granular_.velocity, j[k]) - vi)) * xij.transpose();
       if (correct) m.noalias() -= (vf * xij) * xij.transpose();
     }
@@ -452,8 +470,6 @@ template <class Model>
 void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
   const Model& model = std::get<Model>(model_);
   const bool correct = params_.numerics.kernel_gradient_correction;
-  pair_kernel_value_.resize(granular_granular_.indices.size());
-  pair_gradient_factor_.resize(granular_granular_.indices.size());
   for_each_particle(granular_.size(), [&](Index i) {
     if (frozen(i)) return;
     Mat<D> grad = Mat<D>::Zero();
@@ -611,8 +627,7 @@ template <int D> template <bool UseDelta, bool UseXsph, bool KeepPairForces> voi
     Vec<D> acc = Vec<D>::Zero();
     Vec<D> xsph = Vec<D>::Zero();
     double drho = 0.0;
-    add_granular_forces<D, UseDelta, UseXsph>(i, granular_, granular_granular_, pair_kernel_value_,
-                                              pair_gradient_factor_, constants, acc, xsph, drho);
+    add_granular_forces<D, UseDelta, UseXsph>(i, granular_, granular_granular_, kernel_, constants, acc, xsph, drho);
     double nearest_wall2 = std::numeric_limits<double>::infinity();
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];
@@ -1094,7 +1109,6 @@ template <int D> std::size_t Simulation<D>::memory_bytes() const {
   };
   return granular_.fields.bytes() + walls_.fields.bytes() + list_bytes(granular_granular_) +
          list_bytes(granular_wall_) + list_bytes(wall_granular_) +
-         (pair_kernel_value_.capacity() + pair_gradient_factor_.capacity()) * sizeof(double) +
          static_cast<std::size_t>(pair_wall_force_.size()) * sizeof(double);
 }
 

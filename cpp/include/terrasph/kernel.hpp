@@ -54,6 +54,15 @@ template <int D> struct WendlandC2 {
     gradient = gradient_coefficient * s3;
   }
 
+  // The gradient of pair_value_and_gradient_factor alone, rounded exactly as there (for the passes
+  // that do not need W).
+  double pair_gradient_factor_without_value(double r2) const {
+    const double q = std::sqrt(r2) * inv_h;
+    const double s = cut_off(r2, 1.0 - 0.5 * q);
+    const double s3 = s * s * s;
+    return gradient_coefficient * s3;
+  }
+
   // (dW/dr)/r alone from r², without a branch; rounds exactly as gradient_factor(√r²).
   double pair_gradient_factor(double r2) const {
     const double q = std::sqrt(r2) * inv_h;

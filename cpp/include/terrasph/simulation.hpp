@@ -223,10 +223,6 @@ template <int D> class Simulation {
   NeighbourList granular_granular_;
   NeighbourList granular_wall_;
   NeighbourList wall_granular_;
-  // W and (dW/dr)/r of every listed granular pair at the current positions, written by the
-  // ∇v pass and read by the force pass (0 beyond the support)
-  std::vector<double> pair_kernel_value_;
-  std::vector<double> pair_gradient_factor_;
   // active domain: walls whose granular neighbours are all frozen (this step and the last), whose
   // passes are skipped; derived each step, reset at neighbour builds
   std::vector<std::uint8_t> wall_idle_;
