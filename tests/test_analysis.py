@@ -227,3 +227,49 @@ def test_vertical_stress_scatter_is_the_mean_within_layer_spread() -> None:
     stress[:, 1, 1] = -1500.0 * 9.81 * (0.06 - z) + a * sign
     stress[x > 0.08, 1, 1] += 1e6  # outside the range
     assert analysis.vertical_stress_scatter(np.c_[x, z], stress, dx, (0.0, 0.08)) == pytest.approx(a, rel=1e-9)
+
+
+# -- shear strain from displacements (Falk & Langer 1998 fit, Shimizu et al. 2007 invariant) ------
+def _lattice(nx: int = 20, nz: int = 12, spacing: float = 0.002) -> np.ndarray:
+    return np.mgrid[0:nx, 0:nz].reshape(2, -1).T.astype(float) * spacing
+
+
+def test_shear_strain_of_a_simple_shear_is_the_closed_form() -> None:
+    # x' = x + γz: F = [[1, γ], [0, 1]], E = ½(FᵀF − I) = [[0, γ/2], [γ/2, γ²/2]],
+    # η² = E_xz² + (E_xx² + E_zz² + (E_xx − E_zz)²)/6 = γ²/4 + γ⁴/12
+    reference = _lattice()
+    for gamma in (0.01, 0.3, 1.5):
+        current = reference + np.column_stack([gamma * reference[:, 1], np.zeros(len(reference))])
+        eta = analysis.shear_strain(reference, current, 2.5 * 0.002)
+        assert np.allclose(eta, np.sqrt(gamma**2 / 4 + gamma**4 / 12), rtol=1e-10, atol=0)
+
+
+def test_shear_strain_of_a_stretch_and_of_a_rigid_motion() -> None:
+    reference = _lattice()
+    # x' = (1 + e)x: E_xx = ((1 + e)² − 1)/2, E_zz = E_xz = 0, η = |E_xx|/√3
+    e = 0.05
+    stretched = reference * np.array([1 + e, 1.0])
+    expected = ((1 + e) ** 2 - 1) / 2 / np.sqrt(3)
+    assert np.allclose(analysis.shear_strain(reference, stretched, 0.005), expected, rtol=1e-10)
+    angle = 0.8
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    moved = reference @ rotation.T + np.array([0.3, -0.1])
+    assert np.nanmax(analysis.shear_strain(reference, moved, 0.005)) < 1e-12
+
+
+def test_shear_strain_is_local_and_refuses_bad_input() -> None:
+    reference = _lattice(40, 10)
+    # shear only the right half: particles well inside the left half see none
+    current = reference.copy()
+    right = reference[:, 0] > 0.04
+    current[right, 0] += 0.2 * reference[right, 1]
+    eta = analysis.shear_strain(reference, current, 0.005)
+    assert np.all(eta[reference[:, 0] < 0.03] < 1e-12)
+    assert np.allclose(eta[reference[:, 0] > 0.05], np.sqrt(0.2**2 / 4 + 0.2**4 / 12), rtol=1e-10)
+    # a particle with no neighbour within the radius has no strain to report
+    lonely = np.vstack([reference, [[1.0, 1.0]]])
+    assert np.isnan(analysis.shear_strain(lonely, lonely, 0.005)[-1])
+    with pytest.raises(ValueError, match="current"):
+        analysis.shear_strain(reference, reference[:-1], 0.005)
+    with pytest.raises(ValueError, match="radius"):
+        analysis.shear_strain(reference, reference, 0.0)

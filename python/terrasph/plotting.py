@@ -16,7 +16,15 @@ from matplotlib.figure import Figure, SubFigure
 
 from terrasph.analysis import fit_line
 
-__all__ = ["plot_convergence", "plot_leg_loads", "plot_particles", "plot_profiles", "plot_series", "plot_yield_locus"]
+__all__ = [
+    "plot_convergence",
+    "plot_fields",
+    "plot_leg_loads",
+    "plot_particles",
+    "plot_profiles",
+    "plot_series",
+    "plot_yield_locus",
+]
 
 PathLike = str | os.PathLike[str]
 _DPI = 150
@@ -108,6 +116,26 @@ def plot_particles(
     axes.set_aspect("equal")
     axes.set_xlabel("x (m)")
     axes.set_ylabel("z (m)")
+    return _finish(figure, path)
+
+
+def plot_fields(
+    position: np.ndarray,
+    fields: Sequence[tuple[np.ndarray, str]],
+    *,
+    walls: np.ndarray | None = None,
+    title: str = "",
+    path: PathLike | None = None,
+) -> Figure:
+    """One particle panel per (values, label) of ``fields``, stacked, e.g. the speed and the shear
+    strain of a frame (labels with units, such as ``"|v| (m/s)"``); walls in grey on each panel."""
+    if not fields:
+        raise ValueError("fields must hold at least one (values, label) pair")
+    figure = Figure(figsize=(6.4, 3.0 * len(fields)), layout="constrained")
+    for axes, (values, label) in zip(figure.subplots(len(fields), 1, squeeze=False)[:, 0], fields, strict=True):
+        plot_particles(position, values, walls=walls, label=label, ax=axes)
+    if title:
+        figure.suptitle(title)
     return _finish(figure, path)
 
 

@@ -11,9 +11,10 @@ from typing import Any
 
 import numpy as np
 
+from terrasph.cli_common import positive_float, positive_int
 from terrasph.io import RunData, read_run, write_xdmf
 
-__all__ = ["describe_run", "plot_run", "register"]
+__all__ = ["describe_run", "plot_fields", "plot_profiles_over_time", "plot_run", "register"]
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -26,10 +27,19 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     info.set_defaults(handler=_cmd_info)
     plot = subparsers.add_parser("plot", help="write a run's figure (PNG) and XDMF sidecar from its file",
                                  description="Write RUN.png (the scene's figure: the surface profile of a collapse, "
-                                             "body loads of a leg or plate, else the last frame) and RUN.xdmf "
+                                             "body loads of a leg or plate, trajectory, slip and sinkage of a "
+                                             "robot, else the last frame) and RUN.xdmf "
                                              "beside RUN.h5, replacing them; works for interrupted and unstable "
                                              "runs too.")
     plot.add_argument("run", metavar="RUN.h5", type=Path)
+    plot.add_argument("--profiles", type=positive_int, metavar="N",
+                      help="also write RUN.profiles.png: the grains' free surface at N frames spread evenly over "
+                           "the run, the first and the last included (Fig. 2.3's profiles over time)")
+    plot.add_argument("--fields", action="store_true",
+                      help="also write RUN.fields.png: speed, pressure and the von Mises shear strain since the "
+                           "first frame, at the frame nearest --time")
+    plot.add_argument("--time", type=positive_float, metavar="T",
+                      help="simulated time (s) of the --fields frame; default: the last frame")
     plot.set_defaults(handler=_cmd_plot)
 
 
@@ -109,6 +119,8 @@ def plot_run(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     png = path.with_suffix(".png")
     scene = run.config.get("scene")
     bodies = [name for name in run.series if name.startswith("bodies/")]
+    robot_parts = sorted(name.split("/", 1)[1] for name in run.series  # coupled bodies, not the actuators
+                         if name.startswith("robot/") and "sinkage" in run.series[name])
     final = run.frame(-1)["position"]
     title = f"{scene or 'run'}, {_status(run)} at t = {run.times[-1]:.3g} s"
     if scene == "column-collapse":
@@ -123,6 +135,11 @@ def plot_run(path: str | os.PathLike[str]) -> tuple[Path, Path]:
         plotting.plot_leg_loads([(series["angle"][turning], series["force"][turning, 1],
                                   series["force"][turning, 0], run.config["leg_rotation"]["leg"])],
                                 path=png, title=title)
+    elif robot_parts:  # a MuJoCo-coupled robot: the figure its run drew (trajectory, slip, sinkage)
+        from terrasph.robots.plots import plot_robot
+
+        scene_config = run.config.get(str(scene).replace("-", "_"), {})
+        plot_robot(run.series, robot_parts, png, settle_time=scene_config.get("settle_time"), title=title)
     elif bodies:
         series = run.series[bodies[0]]
         plotting.plot_series(series["time"], {"F_x (N)": series["force"][:, 0], "F_z (N)": series["force"][:, 1]},
@@ -133,11 +150,70 @@ def plot_run(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     return png, write_xdmf(path)
 
 
+#: Neighbourhood of the least-squares deformation gradient of shear_strain, in lattice spacings:
+#: 2.5Δx holds the 20 nearest lattice neighbours (Falk & Langer 1998 use ~2.5 diameters).
+STRAIN_RADIUS_SPACINGS = 2.5
+
+
+def plot_profiles_over_time(path: str | os.PathLike[str], count: int) -> Path:
+    """Writes RUN.profiles.png, the grains' free surface at `count` frames spread evenly over the
+    run (first and last included), with the bed of a curved-bed column; returns its path."""
+    from terrasph import analysis, plotting
+
+    path = Path(path)
+    run = _frames_of(path)
+    dx = float(run.config["spacing"])
+    frames = sorted({round(k) for k in np.linspace(0, run.n_frames - 1, min(count, run.n_frames))})
+    profiles = [(*analysis.surface_profile(run.frame(k)["position"], dx), f"t = {run.times[k]:.2f} s")
+                for k in frames]
+    png = path.with_suffix(".profiles.png")
+    plotting.plot_profiles(profiles, path=png)
+    return png
+
+
+def plot_fields(path: str | os.PathLike[str], time: float | None = None) -> Path:
+    """Writes RUN.fields.png at the frame nearest `time` (default: the last): the grains' speed,
+    pressure and von Mises shear strain since the first frame (:func:`terrasph.analysis.shear_strain`
+    over STRAIN_RADIUS_SPACINGS lattice spacings); returns its path."""
+    from terrasph import analysis, plotting
+
+    path = Path(path)
+    run = _frames_of(path)
+    k = run.n_frames - 1 if time is None else int(np.argmin(np.abs(np.asarray(run.times) - time)))
+    frame = run.frame(k)
+    dx = float(run.config["spacing"])
+    strain = analysis.shear_strain(run.frame(0)["position"], frame["position"], STRAIN_RADIUS_SPACINGS * dx)
+    fields = [(np.linalg.norm(frame["velocity"], axis=1), "|v| (m/s)")]
+    if "pressure" in frame:
+        fields.append((frame["pressure"], "pressure (Pa)"))
+    fields.append((strain, "shear strain η since t = 0"))
+    walls = frame.get("wall_position", run.static.get("walls/position"))
+    png = path.with_suffix(".fields.png")
+    plotting.plot_fields(frame["position"], fields, walls=walls, path=png,
+                         title=f"{run.config.get('scene', 'run')} at t = {run.times[k]:.3g} s")
+    return png
+
+
+def _frames_of(path: Path) -> RunData:
+    """The run file at `path`, which must hold a frame; ValueError naming it if it holds none."""
+    run = _read(path)
+    if run.n_frames == 0:
+        raise ValueError(f"{path}: no frame written, nothing to plot")
+    return run
+
+
 def _status(run: RunData) -> str:
     return str(run.group_attrs.get("/run", {}).get("status", "running"))
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
+    if args.time is not None and not args.fields:
+        raise ValueError("--time chooses the frame of --fields: give --fields too")
     png, xdmf = plot_run(args.run)
-    print(f"wrote {png} and {xdmf}")
+    written = [png, xdmf]
+    if args.profiles:
+        written.append(plot_profiles_over_time(args.run, args.profiles))
+    if args.fields:
+        written.append(plot_fields(args.run, args.time))
+    print(f"wrote {', '.join(map(str, written[:-1]))} and {written[-1]}")
     return 0
