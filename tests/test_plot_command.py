@@ -86,3 +86,18 @@ def test_a_robot_run_gets_its_trajectory_slip_and_sinkage_figure(tmp_path, monke
     monkeypatch.setattr(plots, "plot_robot", lambda series, bodies, png, **kw: calls.append((list(bodies), kw)))
     assert main(["plot", str(path)]) == 0
     assert calls == [(["wheel"], {"settle_time": 0.2, "title": calls[0][1]["title"]})]
+
+
+def test_fields_leave_out_a_wall_removed_before_the_frame(sheared_run, monkeypatch) -> None:
+    import h5py
+
+    with h5py.File(sheared_run, "r+") as f:  # a floor (group 0) and a gate (group 1) removed at t = 0
+        f["static/walls/position"] = np.array([[0.0, -0.001], [0.01, -0.001], [0.07, 0.01]])
+        f["static/walls/group"] = np.array([0, 0, 1], dtype=np.int32)
+        config = '{"scene": "column-collapse", "spacing": 0.002, "walls": [{"name": "floor", "remove_at": null}, ' \
+                 '{"name": "gate", "remove_at": 0.0}]}'
+        f.attrs["config_json"] = config
+    drawn = {}
+    monkeypatch.setattr(plotting, "plot_fields", lambda position, fields, **kw: drawn.update(kw))
+    assert main(["plot", str(sheared_run), "--fields"]) == 0
+    assert drawn["walls"].tolist() == [[0.0, -0.001], [0.01, -0.001]]

@@ -187,11 +187,22 @@ def plot_fields(path: str | os.PathLike[str], time: float | None = None) -> Path
     if "pressure" in frame:
         fields.append((frame["pressure"], "pressure (Pa)"))
     fields.append((strain, "shear strain η since t = 0"))
-    walls = frame.get("wall_position", run.static.get("walls/position"))
+    walls = frame.get("wall_position", _fixed_walls_at(run, float(run.times[k])))
     png = path.with_suffix(".fields.png")
     plotting.plot_fields(frame["position"], fields, walls=walls, path=png,
                          title=f"{run.config.get('scene', 'run')} at t = {run.times[k]:.3g} s")
     return png
+
+
+def _fixed_walls_at(run: RunData, time: float) -> np.ndarray | None:
+    """Positions of the static wall particles still in place at `time` (a gate removed at t0 is
+    gone after it); group k of /static/walls/group is the k-th wall of the configuration."""
+    position, group = run.static.get("walls/position"), run.static.get("walls/group")
+    if position is None or group is None:
+        return position
+    removed = [k for k, wall in enumerate(run.config.get("walls", []))
+               if wall.get("remove_at") is not None and wall["remove_at"] <= time]
+    return position[~np.isin(group, removed)]
 
 
 def _frames_of(path: Path) -> RunData:
