@@ -9,7 +9,7 @@ resists extraction with the prism's weight only (ratio 1); frictional strength m
         [--max-depth 0.04] [--numerics NAME=VALUE ...]
 
 With ``--buried H`` the plate starts buried instead, its top face H below the surface of the bed
-that settles on it (an intact overburden), and is pulled straight up by ``--pull`` at 2 cm/s: the
+that settles on it (an intact overburden), and is pulled straight up by ``--pull`` at ``--speed``: the
 plane-strain strip-anchor uplift test. It prints the load at rest before the pull (the weight the
 plate carries), the peak extraction load, and both against the dead weight γHBW and the
 vertical-slip-surface estimate γHBW(1 + K0 tan φ·H/B) (``anchor_uplift_references``).
@@ -26,7 +26,7 @@ import time
 import numpy as np
 from terrasph.cli_common import add_numerics_option, numerics_overrides
 from terrasph.scene import GRAVITY
-from terrasph.scenes.plate_intrusion import PlateIntrusion, anchor_uplift_references, run_plate_intrusion
+from terrasph.scenes.plate_intrusion import PlateIntrusion, run_plate_intrusion
 
 DEPTHS = (0.01, 0.02, 0.03)
 
@@ -36,6 +36,7 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=["mu_i_hypoelastic", "drucker_prager"])
     parser.add_argument("--spacing", type=float, default=0.0025)
     parser.add_argument("--max-depth", type=float, default=0.04)
+    parser.add_argument("--speed", type=float, default=0.02, help="plate speed (m/s)")
     parser.add_argument("--buried", type=float, default=None, help="start buried, top face this deep (m)")
     parser.add_argument("--pull", type=float, default=0.015, help="buried start: upward travel (m)")
     parser.add_argument("--settle", type=float, default=0.3, help="buried start: settling time (s)")
@@ -49,7 +50,7 @@ def main() -> None:
           "| extraction / prism | extraction / penetration | CPU s |")
     print("|---|---|---|---|---|---|---|---|")
     for model in args.models:
-        config = PlateIntrusion(spacing=args.spacing, max_depth=args.max_depth, model=model,
+        config = PlateIntrusion(spacing=args.spacing, max_depth=args.max_depth, model=model, speed=args.speed,
                                 numerics=numerics_overrides(args.numerics))
         start = time.process_time()
         result = run_plate_intrusion(config, output=None, progress=False, plot=False)
@@ -74,7 +75,7 @@ def buried(args: argparse.Namespace) -> None:
     for model in args.models:
         geostatic = args.geostatic and model == "mu_i_hypoelastic"
         config = PlateIntrusion(spacing=args.spacing, model=model, buried_depth=args.buried, pull_distance=args.pull,
-                                settle_time=args.settle, geostatic=geostatic,
+                                settle_time=args.settle, geostatic=geostatic, speed=args.speed,
                                 numerics=numerics_overrides(args.numerics))
         start = time.process_time()
         result = run_plate_intrusion(config, output=None, progress=False, plot=False)
@@ -84,15 +85,13 @@ def buried(args: argparse.Namespace) -> None:
         rest = -float(np.mean(series["force"][at_rest, 1]))
         depth, force = result.stroke("up")
         uplift = (config.buried_depth + config.plate_thickness) - depth
-        k = int(np.argmax(-force))
-        material = config.material()
-        refs = anchor_uplift_references(config.buried_depth, config.plate_length, config.width,
-                                        material.reference_density, float(np.arctan(material.mu1)))
+        peak_uplift, peak = result.extraction_peak()
+        refs = result.uplift_references()
         dead, slip = refs["dead_weight"], refs["vertical_slip"]
         start_name = "geostatic" if (geostatic or model == "drucker_prager") else "isotropic"
         print(f"| {model} | {start_name} | {1000 * config.buried_depth:.0f} | {1000 * config.plate_length:.0f} "
-              f"| {rest:.3f} | {-force[k]:.3f} | {1000 * uplift[k]:.1f} | {dead:.3f} | {slip:.3f} | {rest / dead:.2f} "
-              f"| {-force[k] / dead:.2f} | {-force[k] / slip:.2f} | {result.leaked_particles} | {cpu:.0f} |", flush=True)
+              f"| {rest:.3f} | {peak:.3f} | {1000 * peak_uplift:.1f} | {dead:.3f} | {slip:.3f} | {rest / dead:.2f} "
+              f"| {peak / dead:.2f} | {peak / slip:.2f} | {result.leaked_particles} | {cpu:.0f} |", flush=True)
         for target in (0.5e-3, 1e-3, 2e-3, 5e-3, 10e-3):
             if target <= uplift.max():
                 print(f"|   uplift {1000 * target:g} mm | | | | | {-float(np.interp(target, uplift[::-1], force[::-1])):.3f} "

@@ -23,7 +23,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from terrasph.config import ConfigError
-from terrasph.scenes.plate_intrusion import PlateIntrusion, anchor_uplift_references, run_plate_intrusion
+from terrasph.scene import Scene
+from terrasph.scenes.plate_intrusion import (
+    PlateIntrusion,
+    anchor_uplift_references,
+    build_plate_intrusion,
+    run_plate_intrusion,
+)
 
 BURIED = dict(buried_depth=0.03, pull_distance=0.004, settle_time=0.2, bed_width=0.14, bed_depth=0.07,
               numerics={"step_at_wave_speed": True})
@@ -41,6 +47,23 @@ def test_bad_pull_distance_is_refused(distance: float) -> None:
         PlateIntrusion(**{**BURIED, "pull_distance": distance})
 
 
+def test_buried_plate_sits_in_the_bed_in_place_of_its_grains() -> None:
+    config = PlateIntrusion(**BURIED)
+    scene, _, _ = build_plate_intrusion(config)
+    dx = config.spacing
+    plate = scene.bodies[0].position
+    assert plate[:, 1].max() + 0.5 * dx == pytest.approx(scene.surface_level - config.buried_depth)
+    grains = scene.granular_position
+    gaps = np.sqrt(((grains[:, None, :] - plate[None]) ** 2).sum(-1)).min(axis=1)
+    assert gaps.min() == pytest.approx(dx)  # the bed touches the plate as it touches a wall
+    full = Scene(spacing=dx)
+    full.add_bed_in_container(config.bed_width, config.bed_depth, 0.05, layers=3)
+    assert len(full.granular_position) - len(grains) == len(plate)  # only the grains on its sites went
+    rows = config.motion().rows()  # hold for the settling, then straight up at the speed
+    assert rows == [(config.settle_time, 0.0, 0.0, 0.0), (pytest.approx(config.pull_distance / config.speed), 0.0,
+                                                          config.speed, 0.0)]
+
+
 def test_references_for_a_strip_anchor() -> None:
     refs = anchor_uplift_references(0.03, 0.04, 0.0254, 1638.0, np.radians(23.0))
     dead = 1638.0 * 9.81 * 0.03 * 0.04 * 0.0254
@@ -53,11 +76,8 @@ def test_references_for_a_strip_anchor() -> None:
 def test_buried_plate_resists_more_than_the_dead_weight() -> None:
     config = PlateIntrusion(**BURIED)
     result = run_plate_intrusion(config, output=None, progress=False, plot=False)
-    _, force = result.stroke("up")
-    peak = float(np.max(-force))
-    material = config.material()
-    refs = anchor_uplift_references(config.buried_depth, config.plate_length, config.width,
-                                    material.reference_density, float(np.arctan(material.mu1)))
+    _, peak = result.extraction_peak()
+    refs = result.uplift_references()
     assert peak >= 1.15 * refs["dead_weight"]
     assert peak == pytest.approx(refs["vertical_slip"], rel=0.25)
     assert result.leaked_particles == 0

@@ -277,8 +277,41 @@ class PlateResult:
         up_d, up_f = self.stroke("up")
         return np.interp(depths, down_d, down_f) - np.interp(depths, up_d, up_f)
 
+    def extraction_peak(self) -> tuple[float, float]:
+        """Buried start: (uplift in m, load in N) of the largest downward load of the beads on the
+        plate during the pull (the up stroke's most negative F_z, sign flipped); uplift is the
+        plate's travel from its buried position at that sample's window middle."""
+        depth, force = self.stroke("up")
+        if len(force) == 0:
+            raise ValueError("no sample of the up stroke")
+        k = int(np.argmax(-force))
+        start = (self.config.buried_depth or 0.0) + self.config.plate_thickness
+        return float(start - depth[k]), float(-force[k])
+
+    def uplift_references(self) -> dict[str, float]:
+        """Buried start: :func:`anchor_uplift_references` for this plate, bed and material
+        (H = buried_depth, B = plate_length, W = width, γ = ρ0 g, φ = atan μ1)."""
+        if self.config.buried_depth is None:
+            raise ValueError("uplift references need a buried start (buried_depth)")
+        return anchor_uplift_references(self.config.buried_depth, self.config.plate_length, self.config.width,
+                                        self.bulk_density, float(np.arctan(self.config.material().mu1)))
+
     def summary(self) -> dict[str, Any]:
-        """Flat dict for tables and HDF5 attributes; the fit starts at `fit_from` (FIT_FROM_DEPTH)."""
+        """Flat dict for tables and HDF5 attributes; the fit starts at `fit_from` (FIT_FROM_DEPTH).
+        A buried start has no down stroke: its summary holds the peak extraction load and the
+        uplift references instead of the fit."""
+        run = {"samples": len(self.depth), "granular_particles": self.granular_particles,
+               "leaked_particles": self.leaked_particles, "steps": self.run.steps, "time": self.run.time,
+               "wall_time": self.run.wall_time, "status": self.run.status}
+        if self.config.buried:
+            uplift, peak = self.extraction_peak()
+            refs = self.uplift_references()
+            return {"speed": self.config.speed, "buried_depth": self.config.buried_depth,
+                    "pull_distance": self.config.pull_distance, "spacing": self.config.spacing,
+                    "plate_thickness": self.config.plate_thickness, "peak_extraction": peak,
+                    "peak_uplift": uplift, "dead_weight": refs["dead_weight"],
+                    "vertical_slip": refs["vertical_slip"], "peak_over_dead_weight": peak / refs["dead_weight"],
+                    "peak_over_vertical_slip": peak / refs["vertical_slip"], **run}
         fit_from = min(FIT_FROM_DEPTH, 0.25 * self.config.max_depth)
         slope, intercept, r_squared = self.fit(fit_from)
         _, down_force = self.stroke("down")
@@ -358,12 +391,28 @@ def anchor_uplift_references(depth: float, breadth: float, width: float, bulk_de
 
 
 def plot_intrusion(result: PlateResult, *, path: str | os.PathLike[str] | None = None) -> Figure:
-    """F_z against depth for the down and up strokes with the down-stroke line fit (matplotlib
-    Figure, no pyplot); saved to `path` when given."""
+    """F_z against depth for the down and up strokes with the down-stroke line fit, or for a buried
+    start the extraction load against uplift with the dead weight and vertical-slip references
+    (matplotlib Figure, no pyplot); saved to `path` when given."""
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(6.4, 4.0), layout="constrained")
     axes = figure.add_subplot()
+    if result.config.buried:  # the pull only: load against uplift, with the references
+        depth, force = result.stroke("up")
+        uplift = (result.config.buried_depth or 0.0) + result.config.plate_thickness - depth
+        axes.plot(1e3 * uplift, -force, "s-", ms=3, label="extraction load (down)")
+        refs = result.uplift_references()
+        axes.axhline(refs["dead_weight"], color="k", ls="--", label="dead weight γHBW")
+        axes.axhline(refs["vertical_slip"], color="k", ls=":", label="vertical slip γHBW(1 + K0 tan φ H/B)")
+        axes.set_xlabel("uplift of the plate (mm)")
+        axes.set_ylabel("load of the beads on the plate, down (N)")
+        axes.set_title(f"buried plate {1e3 * result.config.plate_length:g} mm at H = "
+                       f"{1e3 * (result.config.buried_depth or 0.0):g} mm, v = {1e3 * result.config.speed:g} mm/s")
+        axes.legend()
+        if path is not None:
+            figure.savefig(path, dpi=150)
+        return figure
     for phase, style in (("down", "o-"), ("up", "s-")):
         depth, force = result.stroke(phase)
         axes.plot(1e3 * depth, force, style, ms=3, label=f"{phase} stroke")
