@@ -130,7 +130,7 @@ class PlateIntrusion:
             raise ConfigError(f"parameter 'plate_length' = {self.plate_length!r} is invalid: allowed <= bed_width/3 "
                               f"= {self.bed_width / 3:g} m (side walls at least one plate length from its ends)")
         deepest = self.bed_depth - self.plate_thickness - 2 * wall_layers_needed(numerics.h_factor) * self.spacing
-        if not self.max_depth < deepest:
+        if self.buried_depth is None and not self.max_depth < deepest:  # a buried start does not use it
             raise ConfigError(f"parameter 'max_depth' = {self.max_depth!r} is invalid: allowed (0, {deepest:g}) m "
                               "(the plate must stay clear of the floor's kernel support)")
 
