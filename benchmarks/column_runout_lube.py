@@ -6,7 +6,7 @@ same particle count at a named resolution), Table 2.1's beads with Î¼1 = tan 21Â
 DEPOSIT_THICKNESS_GRAIN_DIAMETERS grain diameters); each run until at rest (or --t-end).
 
     python benchmarks/column_runout_lube.py [--aspects 0.5 1 2 4 6] [--resolution coarse]
-        [--wall-friction 0 0.384] [--numerics NAME=VALUE ...] [--t-end 3]
+        [--wall-friction 0 0.384] [--model mu_i_hypoelastic] [--numerics NAME=VALUE ...] [--t-end 3]
 
 Prints a Markdown table; the CPU time is the process's, per run.
 """
@@ -36,11 +36,12 @@ def lube_fit(aspect: float) -> float:
     return low + (high - low) * (aspect - 1.8) / (2.8 - 1.8)
 
 
-def column(aspect: float, resolution: str, numerics: dict, t_end: float) -> ColumnCollapse:
+def column(aspect: float, resolution: str, numerics: dict, t_end: float,
+           model: str = "mu_i_hypoelastic") -> ColumnCollapse:
     """The column of aspect ratio a with the area COLUMN_AREA."""
     width = math.sqrt(COLUMN_AREA / aspect)
     return ColumnCollapse(column_width=width, column_height=aspect * width, resolution=resolution,
-                          floor_length=0.6, t_end=t_end, numerics=numerics)
+                          floor_length=0.6, t_end=t_end, numerics=numerics, model=model)
 
 
 def main() -> None:
@@ -49,6 +50,7 @@ def main() -> None:
     parser.add_argument("--resolution", default="coarse")
     parser.add_argument("--wall-friction", type=float, nargs="+", default=[0.0, 0.384])
     parser.add_argument("--t-end", type=float, default=3.0)
+    parser.add_argument("--model", default="mu_i_hypoelastic", help="material.model of the column")
     add_numerics_option(parser)
     args = parser.parse_args()
     base = numerics_overrides(args.numerics)
@@ -57,7 +59,8 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for mu_w in args.wall_friction:
         for aspect in args.aspects:
-            config = column(aspect, args.resolution, {**base, "wall_friction_coefficient": mu_w}, args.t_end)
+            config = column(aspect, args.resolution, {**base, "wall_friction_coefficient": mu_w}, args.t_end,
+                            args.model)
             start = time.process_time()
             result = run_column_collapse(config, output=None, progress=False, plot=False)
             cpu = time.process_time() - start
