@@ -10,7 +10,8 @@ diameters thick) must lie within ±25 % of the quasi-2D fits of Lube, Huppert, S
 
 Toe: the 7 × 8 cm column at the fit level, with and without wall friction: the five front-most
 grains (the one-particle toe and any grain ahead of it) move slower than 1 cm/s at t = 0.6 s
-[≤ 0.7 mm/s] and by less than Δx/2 between 0.6 and 1.0 s [0.6 mm without friction, 0.0 with it]:
+[0.05 mm/s without friction, 0.7 mm/s with it] and by less than Δx/2 = 1.16 mm between 0.6 and
+1.0 s [0.013 mm, 0.13 mm]:
 the toe comes to rest, it does not slide on.
 
 About 25 s of CPU in all.
