@@ -106,6 +106,7 @@ FEATURES: dict[str, tuple[dict, dict]] = {
     "strain-based quasi-static branch of Eq. 3.6 (mu_i_strain)": ({"model": "mu_i_strain"},
                                                                    {"delta_sph": 0.0, "xsph": 0.0}),
     "default (hypoelastic, δ, XSPH)": ({}, {}),
+    "default + Coulomb wall friction (μ_w = 0.384)": ({}, {"wall_friction_coefficient": 0.384}),
 }
 
 

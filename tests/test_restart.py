@@ -4,7 +4,8 @@ never stopped.
 References, all exact: 2N steps straight against N steps, a checkpoint, a restore **in a new
 Python process** and N more steps — every registered field of both particle sets (np.array_equal),
 the counters, and the bodies' state — for the column collapse (with the gate removal scheduled
-between the two halves), the rotating leg and the plate intrusion. A Ctrl-C (SIGINT) in the middle
+between the two halves), the rotating leg, the plate intrusion and a buried plate pulled up with
+Coulomb wall friction on. A Ctrl-C (SIGINT) in the middle
 of ``terrasph run`` followed by ``terrasph resume`` gives the same frames and series as the run that
 was never interrupted, each frame once and in order. Unusable checkpoints are refused with a
 :class:`CheckpointError` that says why, never a crash.
@@ -35,7 +36,17 @@ CASES = {
     "leg-rotation": LegRotation(settle_time=0.002, omega=2.0, bed_depth=0.07, bed_width=0.12),
     "plate-intrusion": PlateIntrusion(spacing=0.005, bed_width=0.12, bed_depth=0.07, settle_time=0.002,
                                       speed=0.2, max_depth=0.02),
+    # Coulomb wall friction (its regularisation reads the last step's dt, a saved counter) on a
+    # buried plate that is pulled up: the friction acts on the floor, the walls and the body
+    "plate-intrusion, buried, wall friction": PlateIntrusion(
+        spacing=0.005, bed_width=0.12, bed_depth=0.07, settle_time=0.002, speed=0.2, buried_depth=0.02,
+        pull_distance=0.01, numerics={"wall_friction_coefficient": 0.4}),
 }
+
+
+def scene_name(case: str) -> str:
+    """The registered scene a case configures (the case name up to its first comma)."""
+    return case.split(",")[0]
 
 _BUILDERS = {"column-collapse": "build_column_collapse", "leg-rotation": "build_leg_rotation",
              "plate-intrusion": "build_plate_intrusion"}
@@ -60,7 +71,7 @@ def build(name: str) -> Simulation:
     import terrasph.scenes as scenes
 
     config = CASES[name]
-    scene, material, numerics = getattr(scenes, _BUILDERS[name])(config)
+    scene, material, numerics = getattr(scenes, _BUILDERS[scene_name(name)])(config)
     return Simulation(scene, material, numerics, width=config.width)
 
 
@@ -85,7 +96,7 @@ def test_restart_in_a_new_process_is_bitwise_identical(tmp_path, name) -> None:
         assert first_half.core.state()["removals"]
     first_half.checkpoint(tmp_path / "half.h5")
     config_json = json.dumps(dataclasses.asdict(CASES[name]))
-    subprocess.run([sys.executable, "-c", _CONTINUE, name, config_json, str(tmp_path / "half.h5"),
+    subprocess.run([sys.executable, "-c", _CONTINUE, scene_name(name), config_json, str(tmp_path / "half.h5"),
                     str(tmp_path / "end.h5"), str(STEPS)], check=True)
     continued, _, _ = read_checkpoint(tmp_path / "end.h5")
     reference = straight.core.state()
@@ -197,6 +208,6 @@ def test_resume_of_a_file_without_checkpoint_is_a_one_line_error(tmp_path) -> No
 
 def test_scene_registry_round_trips_every_scene_configuration() -> None:
     for name, config in CASES.items():
-        entry = SCENES[name]
+        entry = SCENES[scene_name(name)]
         restored = entry.config_from(json.loads(json.dumps(dataclasses.asdict(config))))
         assert restored == config

@@ -186,9 +186,11 @@ template <int D> void Simulation<D>::compose_passes() {
       stress_pass_ = &Simulation::template velocity_gradient_and_stress_pass<Model>;
     wall_stress_pass_ = &Simulation::template wall_stress_pass<Model>;
   }, model_);
-  force_pass_ = dispatch_flags([](auto delta, auto xsph, auto keep) -> ForcePass {
-    return &Simulation::template force_pass<decltype(delta)::value, decltype(xsph)::value, decltype(keep)::value>;
-  }, params_.numerics.delta_sph > 0.0, params_.numerics.xsph > 0.0, keeps_pair_forces());
+  force_pass_ = dispatch_flags([](auto delta, auto xsph, auto keep, auto friction) -> ForcePass {
+    return &Simulation::template force_pass<decltype(delta)::value, decltype(xsph)::value, decltype(keep)::value,
+                                            decltype(friction)::value>;
+  }, params_.numerics.delta_sph > 0.0, params_.numerics.xsph > 0.0, keeps_pair_forces(),
+     params_.numerics.wall_friction_coefficient > 0.0);
 }
 
 // A wall particle is interior when another particle of its wall group sits one spacing further
@@ -385,7 +387,7 @@ template <int D> void Simulation<D>::compute_rates(double dt) {
   lap(t.velocity_gradient_and_stress);
   (this->*wall_stress_pass_)();
   lap(t.wall_stress);
-  (this->*force_pass_)();
+  (this->*force_pass_)(dt);
   if (!bodies_.empty()) accumulate_body_loads(dt);
   if (tracks_wall_loads_) accumulate_wall_loads(dt);
   lap(t.forces);
@@ -587,9 +589,14 @@ void Simulation<D>::wall_stress_pass() {
 // the XSPH velocity correction (Eq. 2.49), fused into one gather over each particle's pairs.
 // KeepPairForces: the force of each granular–wall pair on the wall is kept for Eq. 3.24–3.25, for
 // the walls of bodies and, when wall loads are tracked, for all walls.
+// UseWallFriction: Coulomb friction on every wall (pair_terms::coulomb_wall_friction) replaces the
+// tangential part of each granular–wall pair force; dt is the step the rates are for (0 on an
+// evaluation only: the last step's).
 // Leak diagnostic: a granular particle closer than Δx/2 to an interior wall particle has got past
 // the wall's surface row.
-template <int D> template <bool UseDelta, bool UseXsph, bool KeepPairForces> void Simulation<D>::force_pass() {
+template <int D>
+template <bool UseDelta, bool UseXsph, bool KeepPairForces, bool UseWallFriction>
+void Simulation<D>::force_pass(double dt) {
   const double h = kernel_.h;
   const double h2x4 = 4.0 * h * h;
   const double alpha = params_.numerics.artificial_viscosity;
@@ -610,6 +617,13 @@ template <int D> template <bool UseDelta, bool UseXsph, bool KeepPairForces> voi
   const double barrier_reach2 = barrier_strength > 0.0 ? barrier_radius * barrier_radius : 0.0;  // 0: off
   const ForceConstants<D> constants{h, alpha, c0, delta_h_c0, chi, hydrostatic_gradient};
   const bool keep_every_wall = tracks_wall_loads_;
+  [[maybe_unused]] const double wall_friction = params_.numerics.wall_friction_coefficient;
+  [[maybe_unused]] const double friction_dt = dt > 0.0 ? dt : counters_.last_dt;
+  struct FrictionPair {  // a granular–wall pair of grain i: list slot, N_iw, slip v_t
+    Index slot;
+    double normal;
+    Vec<D> slip;
+  };
   struct Partial {
     double max_acc2 = 0.0;
     std::int64_t penetrating = 0, newly_penetrated = 0;
@@ -629,6 +643,10 @@ template <int D> template <bool UseDelta, bool UseXsph, bool KeepPairForces> voi
     double drho = 0.0;
     add_granular_forces<D, UseDelta, UseXsph>(i, granular_, granular_granular_, kernel_, constants, acc, xsph, drho);
     double nearest_wall2 = std::numeric_limits<double>::infinity();
+    // wall friction: the pairs' normal parts and slips, gathered in list order (per thread, reused)
+    static thread_local std::vector<FrictionPair> friction_pairs;
+    [[maybe_unused]] double normal_sum = 0.0;  // N_i
+    if constexpr (UseWallFriction) friction_pairs.clear();
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];
       const bool kept = KeepPairForces && (keep_every_wall || walls_.body[w] >= 0);
@@ -648,8 +666,25 @@ template <int D> template <bool UseDelta, bool UseXsph, bool KeepPairForces> voi
       const double pi_iw = term::artificial_viscosity(approach, r2, h, alpha_wall, c0, 2.0 / (rho_i + walls_.density[w]));
       Vec<D> pair_acc = term::momentum<D>(m_w, si, row_mat<D>(walls_.stress_over_rho2, w), pi_iw, grad_w);
       if (r2 < barrier_reach2) pair_acc += term::wall_barrier(std::sqrt(r2), barrier_radius, barrier_strength) * xiw;
+      if constexpr (UseWallFriction) {  // keep the normal part; the friction below is the tangential one
+        const Vec<D> n = row_vec<D>(walls_.normal, w);
+        const double along = pair_acc.dot(n);
+        pair_acc = along * n;
+        const double normal = std::max(along, 0.0);
+        normal_sum += normal;
+        friction_pairs.push_back({s, normal, viw - viw.dot(n) * n});
+      }
       acc.noalias() += pair_acc;
       if (kept) row_vec<D>(pair_wall_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
+    }
+    if constexpr (UseWallFriction) {
+      const double regularisation_speed = wall_friction * normal_sum * friction_dt;
+      for (const FrictionPair& pair : friction_pairs) {
+        const Vec<D> friction = term::coulomb_wall_friction<D>(wall_friction, pair.normal, pair.slip, regularisation_speed);
+        acc.noalias() += friction;
+        if (KeepPairForces && (keep_every_wall || walls_.body[granular_wall_.indices[pair.slot]] >= 0))
+          row_vec<D>(pair_wall_force_, pair.slot) -= granular_.mass[i] * friction;  // Eq. 3.24, reaction
+      }
     }
     if (nearest_wall2 < inside_wall2) {
       ++partial.penetrating;

@@ -116,6 +116,11 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
                        help=f"settling pause before the plate moves, in s (default {default.settle_time:g})")
     plate.add_argument("--depth", type=float, default=default.max_depth,
                        help=f"deepest depth of the plate underside below the surface in m (default {default.max_depth:g})")
+    plate.add_argument("--buried", type=float, default=None, metavar="H",
+                       help="start buried instead, the plate's top face H m below the surface, and only pull "
+                            "it up (a strip anchor); default: start above the surface")
+    plate.add_argument("--pull", type=float, default=default.pull_distance,
+                       help=f"with --buried: upward travel of the plate in m (default {default.pull_distance:g})")
     model = parameter("material.model")
     plate.add_argument("--model", choices=list(model.choices), default=default.model,
                        help=f"constitutive model of the beads (default {default.model}); {model.doc}")
@@ -126,7 +131,8 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
 def _run_plate(args: argparse.Namespace) -> int:
     spacing = args.spacing if args.spacing is not None else plate_intrusion.RESOLUTIONS[args.resolution]
     config = PlateIntrusion(spacing=spacing, speed=args.speed, max_depth=args.depth, settle_time=args.settle,
-                            model=args.model, numerics=numerics_overrides(args.numerics))
+                            model=args.model, buried_depth=args.buried, pull_distance=args.pull,
+                            numerics=numerics_overrides(args.numerics))
     _prepare(args)
     result = run_plate_intrusion(config, output=args.out, progress=not args.no_progress)
     return _print_summary(result.summary(), args.out, result.plot)

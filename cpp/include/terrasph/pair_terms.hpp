@@ -69,4 +69,23 @@ inline double wall_barrier(double r, double r0, double strength) {
   return strength * gap * gap / r;
 }
 
+// Coulomb friction of a grain on a wall (numerics.wall_friction_coefficient μ_w), per granular–wall
+// pair iw, replacing the tangential part of the pair's acceleration a_iw:
+//   a_f,iw = −μ_w N_iw v_t / max(|v_t|, v_ε),   v_ε = μ_w N_i Δt,
+// N_iw = max(n_w·a_iw, 0) the normal part of the pair acceleration (pushing the grain off the wall),
+// N_i = Σ_w N_iw over the grain's wall pairs, v_t = v_iw − (v_iw·n_w) n_w the slip velocity.
+// Sliding (|v_t| ≥ v_ε), Σ_w a_f,iw has magnitude μ_w N_i: Coulomb's kinetic friction |τ| = μ_w σ_n,
+// the basal friction tan δ of granular avalanches (Savage & Hutter 1989, J. Fluid Mech. 199:177).
+// Slower, it falls linearly with the slip and is at most what stops the slip within the step Δt
+// (on a flat wall |Σ a_f| = min(μ_w N_i, |v_t|/Δt)), so a grain at rest is not driven and the
+// explicit step never reverses the slip: the friction update of explicit contact algorithms, which
+// limit the tangential impulse to μ times the normal one and to the impulse that sticks the
+// surfaces (Bardenhagen et al. 2001, CMES 2(4):509, for the material point method).
+template <int D>
+inline Vec<D> coulomb_wall_friction(double mu, double normal, const Vec<D>& slip, double regularisation_speed) {
+  const double scale = std::max(slip.norm(), regularisation_speed);
+  if (!(scale > 0.0)) return Vec<D>::Zero();
+  return (-mu * normal / scale) * slip;
+}
+
 }  // namespace terrasph::pair_terms

@@ -103,6 +103,10 @@ template <> struct ChoiceNames<PlasticFlow> {
     "alpha_Pi for granular-wall pairs, which keeps grains out of walls")                                 \
   X(double, wall_barrier, 1.0, "1", inclusive(0.0), exclusive(inf),                                      \
     "strength of the contact barrier inside walls (r < dx/2), 1 = K = c^2/h; 0 = off")                   \
+  X(double, wall_friction_coefficient, 0.0, "1", inclusive(0.0), exclusive(inf),                         \
+    "mu_w, Coulomb friction on every wall: the tangential part of each granular-wall pair force becomes " \
+    "-mu_w N v_t/max(|v_t|, mu_w N_i dt), never reversing the slip within a step; 0 = off (the walls' own " \
+    "shear terms)")                                                                                      \
   X(double, delta_sph, 0.1, "1", inclusive(0.0), inclusive(1.0),                                         \
     "delta of the density diffusion (Eq. 2.42-2.43); 0 = off")                                           \
   X(double, density_diffusion_pressure_share, 0.0, "1", inclusive(0.0), inclusive(1.0),                  \

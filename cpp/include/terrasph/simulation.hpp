@@ -153,7 +153,7 @@ template <int D> class Simulation {
 
  private:
   using StressPass = void (Simulation::*)(double);
-  using ForcePass = void (Simulation::*)();
+  using ForcePass = void (Simulation::*)(double);
 
   void compose_passes();
   void step(double dt);
@@ -176,7 +176,7 @@ template <int D> class Simulation {
   void add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment);
   void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const;
   template <class Model> void wall_stress_pass();
-  template <bool UseDelta, bool UseXsph, bool KeepPairForces> void force_pass();
+  template <bool UseDelta, bool UseXsph, bool KeepPairForces, bool UseWallFriction> void force_pass(double dt);
   bool keeps_pair_forces() const { return !bodies_.empty() || tracks_wall_loads_; }
   int attach_body(std::int32_t wall_group, RigidBody<D> body);
   void move_bodies(double time);

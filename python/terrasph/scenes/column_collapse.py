@@ -27,8 +27,10 @@ __all__ = ["BEDS", "MATERIAL_PRESETS", "RESOLUTIONS", "ColumnCollapse", "ColumnR
 #: for the 2 mm beads; 0.1·H0 for the 8 cm column). A physical thickness, not a fraction of H0, so
 #: that tall columns' fronts are not cut into the real deposit (issue 13). The thin tail beyond it is
 #: not resolved: one to three particles thick, with no overburden, so P ≈ 0 and no basal friction,
-#: it slides on as a resolution artefact and lengthens with refinement (docs/design_decisions.md).
-#: Its reach is reported separately as `toe_front`.
+#: it runs far during the collapse as a resolution artefact (it does come to rest, by ~0.6 s on the
+#: 7 × 8 cm column) and lengthens with refinement (docs/design_decisions.md, docs/chapter2.md).
+#: Its reach is reported separately as `toe_front`; ``numerics.wall_friction_coefficient`` stops
+#: it earlier and shorter.
 DEPOSIT_THICKNESS_GRAIN_DIAMETERS = 4.0
 
 #: Target numbers of interior (granular) particles: the dissertation's 475 / 1036 / 2310 (Fig. 2.5d)

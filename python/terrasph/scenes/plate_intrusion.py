@@ -14,6 +14,14 @@ intrusion, Katsuragi & Durian 2007, Nature Phys. 3:420; in soil mechanics the be
 q = γ D N_q + ½ γ B N_γ, with N_q = e^{π tan φ} tan²(45° + φ/2) ≈ 9–26 for φ = 23–33°,
 Terzaghi 1943). :meth:`PlateResult.fit` gives the slope k of F_z against depth and
 :meth:`PlateResult.alpha` = k / (ρ0 g L W), the α of that scaling.
+
+**Buried start** (``buried_depth`` = H, issue 13): the plate is placed in the bed with its top face
+H below the surface before anything moves, so the grains above it form an intact column that
+settles on it; after ``settle_time`` it is pulled straight up by ``pull_distance`` at ``speed``.
+This is the plane-strain strip-anchor uplift test of soil mechanics, to compare with the dead
+weight of the grains above, γHB, and the vertical-slip-surface estimate γHB(1 + K tan φ·H/B)
+(:func:`anchor_uplift_references`). The default (``buried_depth=None``) pushes the plate in from
+above the surface first, so what lies above it on the way up is the loosened refill of its crater.
 """
 
 from __future__ import annotations
@@ -40,7 +48,8 @@ from terrasph.simulation import RunResult, Simulation
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["RESOLUTIONS", "PlateIntrusion", "PlateResult", "build_plate_intrusion", "plot_intrusion", "run_plate_intrusion"]
+__all__ = ["RESOLUTIONS", "PlateIntrusion", "PlateResult", "anchor_uplift_references", "build_plate_intrusion",
+           "plot_intrusion", "run_plate_intrusion"]
 
 #: Wall height above the free surface (m): room for the plate above the bed and for heaped grains.
 WALL_FREEBOARD = 0.05
@@ -72,6 +81,11 @@ class PlateIntrusion:
     frame_interval: float = 0.1
     model: str = "mu_i_hypoelastic"  #: the constitutive model, a choice of ``material.model``
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    #: None: start above the surface, push in to max_depth, pull out (default). H (m): start buried,
+    #: the plate's top face H below the surface, grains placed above it; held, then pulled up
+    buried_depth: float | None = None
+    pull_distance: float = 0.015  #: buried start: the upward travel of the plate (m)
+    geostatic: bool = False  #: start the hypoelastic μ(I) geostatic (Simulation's ``geostatic``)
 
     def __post_init__(self) -> None:
         for name in ("speed", "max_depth", "spacing", "plate_length", "width", "bed_width", "bed_depth",
@@ -93,6 +107,22 @@ class PlateIntrusion:
                                          and self.spacing * (1 - 1e-9) <= self.gap <= WALL_FREEBOARD / 2):
             raise ConfigError(f"parameter 'gap' = {self.gap!r} is invalid: allowed [{self.spacing:g}, "
                               f"{WALL_FREEBOARD / 2:g}] m (at least one spacing above the surface)")
+        if not isinstance(self.geostatic, bool):
+            raise ConfigError(f"parameter 'geostatic' = {self.geostatic!r} is invalid: allowed True or False")
+        if self.buried_depth is not None:
+            lowest = 2 * self.spacing
+            # the underside must stay clear of the floor's kernel support, as for max_depth
+            floor_clear = self.bed_depth - self.plate_thickness - 2 * wall_layers_needed(numerics.h_factor) * self.spacing
+            if not (_is_number(self.buried_depth) and math.isfinite(self.buried_depth)
+                    and lowest * (1 - 1e-9) <= self.buried_depth < floor_clear):
+                raise ConfigError(f"parameter 'buried_depth' = {self.buried_depth!r} is invalid: allowed "
+                                  f"[{lowest:g}, {floor_clear:g}) m (at least two particle rows above the "
+                                  "plate; its underside clear of the floor's kernel support)")
+            if not (_is_number(self.pull_distance) and math.isfinite(self.pull_distance)
+                    and 0 < self.pull_distance <= self.buried_depth + WALL_FREEBOARD / 2):
+                raise ConfigError(f"parameter 'pull_distance' = {self.pull_distance!r} is invalid: allowed "
+                                  f"(0, {self.buried_depth + WALL_FREEBOARD / 2:g}] m (buried_depth + half the "
+                                  "wall freeboard)")
         if not 2 * self.spacing <= 0.5 * self.plate_length:
             raise ConfigError(f"parameter 'plate_length' = {self.plate_length!r} is invalid: allowed >= "
                               f"{4 * self.spacing:g} m (4 spacings)")
@@ -100,7 +130,7 @@ class PlateIntrusion:
             raise ConfigError(f"parameter 'plate_length' = {self.plate_length!r} is invalid: allowed <= bed_width/3 "
                               f"= {self.bed_width / 3:g} m (side walls at least one plate length from its ends)")
         deepest = self.bed_depth - self.plate_thickness - 2 * wall_layers_needed(numerics.h_factor) * self.spacing
-        if not self.max_depth < deepest:
+        if self.buried_depth is None and not self.max_depth < deepest:  # a buried start does not use it
             raise ConfigError(f"parameter 'max_depth' = {self.max_depth!r} is invalid: allowed (0, {deepest:g}) m "
                               "(the plate must stay clear of the floor's kernel support)")
 
@@ -120,13 +150,24 @@ class PlateIntrusion:
         return bodies.minimum_thickness(self.spacing, self.build_numerics().h_factor)
 
     @property
+    def buried(self) -> bool:
+        """Whether the plate starts buried in the bed (``buried_depth`` given)."""
+        return self.buried_depth is not None
+
+    @property
     def start_gap(self) -> float:
-        """Height of the plate's underside above the free surface at the start (m)."""
+        """Height of the plate's underside above the free surface at the start (m); negative for
+        a buried start (−(buried_depth + thickness))."""
+        if self.buried_depth is not None:
+            return -(self.buried_depth + self.plate_thickness)
         return self.spacing if self.gap is None else self.gap
 
     @property
     def stroke(self) -> float:
-        """Travel of one stroke, from the start to the deepest point (m)."""
+        """Travel of one stroke (m): from the start to the deepest point, or the buried start's
+        pull distance."""
+        if self.buried_depth is not None:
+            return self.pull_distance
         return self.start_gap + self.max_depth
 
     @property
@@ -141,14 +182,22 @@ class PlateIntrusion:
         return self.stroke_time / max(1, round(self.stroke / self.sample_travel))
 
     @property
+    def strokes(self) -> int:
+        """2 (down and up) from above the surface, 1 (up) from a buried start."""
+        return 1 if self.buried else 2
+
+    @property
     def duration(self) -> float:
-        """Settling pause plus both strokes (s)."""
-        return self.settle_time + 2 * self.stroke_time
+        """Settling pause plus the strokes (s)."""
+        return self.settle_time + self.strokes * self.stroke_time
 
     def motion(self) -> Motion:
-        """Hold, down at `speed` through the stroke, up at `speed` back to the start, then hold."""
+        """Hold, down at `speed` through the stroke, up at `speed` back to the start, then hold; from
+        a buried start: hold, then up at `speed` by `pull_distance`."""
         pieces: list[Hold | Move] = [Hold(self.settle_time)] if self.settle_time > 0 else []
-        pieces += [Move(self.stroke_time, (0.0, -self.speed)), Move(self.stroke_time, (0.0, self.speed))]
+        if not self.buried:
+            pieces.append(Move(self.stroke_time, (0.0, -self.speed)))
+        pieces.append(Move(self.stroke_time, (0.0, self.speed)))
         return Motion(tuple(pieces))
 
 
@@ -157,7 +206,8 @@ def _is_number(value: object) -> bool:
 
 
 def build_plate_intrusion(config: PlateIntrusion) -> tuple[Scene, Material, Numerics]:
-    """The bed in its rough container, the plate above its centre, the material and the numerics."""
+    """The bed in its rough container, the plate above its centre (or buried under it, with the
+    grains within Δx of the plate removed), the material and the numerics."""
     dx = config.spacing
     numerics = config.build_numerics()
     layers = wall_layers_needed(numerics.h_factor)
@@ -170,7 +220,10 @@ def build_plate_intrusion(config: PlateIntrusion) -> tuple[Scene, Material, Nume
     # the reference point is the plate's centre; its underside is half the realised rows below it
     half = 0.5 * dx * round(config.plate_thickness / dx)
     centre = (0.5 * right, surface + config.start_gap + half)
-    scene.add_body("plate", shape, reference=centre, motion=config.motion(), width=config.width)
+    plate = scene.add_body("plate", shape, reference=centre, motion=config.motion(), width=config.width,
+                           clear_granular=not config.buried)
+    if config.buried:  # the plate's particles sit on lattice sites: remove the grains on them only,
+        scene.clear_granular_near(plate.position, 0.5 * dx)  # so the bed touches it at Δx all round
     return scene, config.material(), numerics
 
 
@@ -224,8 +277,41 @@ class PlateResult:
         up_d, up_f = self.stroke("up")
         return np.interp(depths, down_d, down_f) - np.interp(depths, up_d, up_f)
 
+    def extraction_peak(self) -> tuple[float, float]:
+        """Buried start: (uplift in m, load in N) of the largest downward load of the beads on the
+        plate during the pull (the up stroke's most negative F_z, sign flipped); uplift is the
+        plate's travel from its buried position at that sample's window middle."""
+        depth, force = self.stroke("up")
+        if len(force) == 0:
+            raise ValueError("no sample of the up stroke")
+        k = int(np.argmax(-force))
+        start = (self.config.buried_depth or 0.0) + self.config.plate_thickness
+        return float(start - depth[k]), float(-force[k])
+
+    def uplift_references(self) -> dict[str, float]:
+        """Buried start: :func:`anchor_uplift_references` for this plate, bed and material
+        (H = buried_depth, B = plate_length, W = width, γ = ρ0 g, φ = atan μ1)."""
+        if self.config.buried_depth is None:
+            raise ValueError("uplift references need a buried start (buried_depth)")
+        return anchor_uplift_references(self.config.buried_depth, self.config.plate_length, self.config.width,
+                                        self.bulk_density, float(np.arctan(self.config.material().mu1)))
+
     def summary(self) -> dict[str, Any]:
-        """Flat dict for tables and HDF5 attributes; the fit starts at `fit_from` (FIT_FROM_DEPTH)."""
+        """Flat dict for tables and HDF5 attributes; the fit starts at `fit_from` (FIT_FROM_DEPTH).
+        A buried start has no down stroke: its summary holds the peak extraction load and the
+        uplift references instead of the fit."""
+        run = {"samples": len(self.depth), "granular_particles": self.granular_particles,
+               "leaked_particles": self.leaked_particles, "steps": self.run.steps, "time": self.run.time,
+               "wall_time": self.run.wall_time, "status": self.run.status}
+        if self.config.buried:
+            uplift, peak = self.extraction_peak()
+            refs = self.uplift_references()
+            return {"speed": self.config.speed, "buried_depth": self.config.buried_depth,
+                    "pull_distance": self.config.pull_distance, "spacing": self.config.spacing,
+                    "plate_thickness": self.config.plate_thickness, "peak_extraction": peak,
+                    "peak_uplift": uplift, "dead_weight": refs["dead_weight"],
+                    "vertical_slip": refs["vertical_slip"], "peak_over_dead_weight": peak / refs["dead_weight"],
+                    "peak_over_vertical_slip": peak / refs["vertical_slip"], **run}
         fit_from = min(FIT_FROM_DEPTH, 0.25 * self.config.max_depth)
         slope, intercept, r_squared = self.fit(fit_from)
         _, down_force = self.stroke("down")
@@ -243,7 +329,8 @@ def _strokes(series: dict[str, np.ndarray], config: PlateIntrusion) -> tuple[np.
     """Depth at the window middle, F_z, phase and window end of the samples inside one stroke."""
     time = series["time"]
     depth = series["sinkage"]
-    start, turn, end = config.settle_time, config.settle_time + config.stroke_time, config.duration
+    start, end = config.settle_time, config.duration
+    turn = start if config.buried else start + config.stroke_time  # a buried start has only the up stroke
     tol = 1e-6 * config.sample_interval
     begin = time[:-1]  # window k runs from sample k-1 to sample k; the plate moves linearly, so
     stop = time[1:]  # the mean depth over it is the mean of its end depths
@@ -265,7 +352,7 @@ def run_plate_intrusion(config: PlateIntrusion = PlateIntrusion(), *, output: st
     time (see :meth:`terrasph.simulation.Simulation.run`).
     """
     scene, material, numerics = build_plate_intrusion(config)
-    sim = Simulation(scene, material, numerics, width=config.width)
+    sim = Simulation(scene, material, numerics, width=config.width, geostatic=config.geostatic)
     run = sim.run(config.duration if until is None else until, output=output, resume=resume,
                   frame_interval=config.frame_interval, progress=progress,
                   body_interval=config.sample_interval,
@@ -283,13 +370,49 @@ def run_plate_intrusion(config: PlateIntrusion = PlateIntrusion(), *, output: st
     return result
 
 
+def anchor_uplift_references(depth: float, breadth: float, width: float, bulk_density: float,
+                             friction_angle: float, gravity: float = GRAVITY) -> dict[str, float]:
+    """Uplift resistance of a plane-strain strip anchor of breadth B whose top face lies H below
+    the surface of a cohesionless bed of unit weight γ = ρ g, for an out-of-plane width W (N):
+
+    * ``dead_weight`` γHBW, the grains right above the plate;
+    * ``vertical_slip`` γHBW(1 + K tan φ·H/B) with K = K0 = 1 − sin φ: the prism above the plate
+      lifted along two vertical slip surfaces, each carrying the shear ∫0^H K γ z tan φ dz. The
+      vertical slip surface model goes back to Majer (1955) and is the form Murray & Geddes (1987)
+      compare with their strip-anchor tests in sand; Dickin (1994, Soils and Foundations 34(2):41)
+      found it "alone in providing sensible predictions" for pipes in loose sand, and White, Cheuk &
+      Bolton (2008, Géotechnique 58(10):771) build their limit-equilibrium solution for pipes and
+      strip anchors on it (with a dilation-dependent K; K0 is the at-rest, no-dilation choice).
+    """
+    k0 = 1.0 - math.sin(friction_angle)
+    dead = bulk_density * gravity * depth * breadth * width
+    return {"dead_weight": dead, "vertical_slip": dead * (1.0 + k0 * math.tan(friction_angle) * depth / breadth),
+            "k0": k0}
+
+
 def plot_intrusion(result: PlateResult, *, path: str | os.PathLike[str] | None = None) -> Figure:
-    """F_z against depth for the down and up strokes with the down-stroke line fit (matplotlib
-    Figure, no pyplot); saved to `path` when given."""
+    """F_z against depth for the down and up strokes with the down-stroke line fit, or for a buried
+    start the extraction load against uplift with the dead weight and vertical-slip references
+    (matplotlib Figure, no pyplot); saved to `path` when given."""
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(6.4, 4.0), layout="constrained")
     axes = figure.add_subplot()
+    if result.config.buried:  # the pull only: load against uplift, with the references
+        depth, force = result.stroke("up")
+        uplift = (result.config.buried_depth or 0.0) + result.config.plate_thickness - depth
+        axes.plot(1e3 * uplift, -force, "s-", ms=3, label="extraction load (down)")
+        refs = result.uplift_references()
+        axes.axhline(refs["dead_weight"], color="k", ls="--", label="dead weight γHBW")
+        axes.axhline(refs["vertical_slip"], color="k", ls=":", label="vertical slip γHBW(1 + K0 tan φ H/B)")
+        axes.set_xlabel("uplift of the plate (mm)")
+        axes.set_ylabel("load of the beads on the plate, down (N)")
+        axes.set_title(f"buried plate {1e3 * result.config.plate_length:g} mm at H = "
+                       f"{1e3 * (result.config.buried_depth or 0.0):g} mm, v = {1e3 * result.config.speed:g} mm/s")
+        axes.legend()
+        if path is not None:
+            figure.savefig(path, dpi=150)
+        return figure
     for phase, style in (("down", "o-"), ("up", "s-")):
         depth, force = result.stroke(phase)
         axes.plot(1e3 * depth, force, style, ms=3, label=f"{phase} stroke")
