@@ -74,7 +74,10 @@ def main() -> None:
                    f"-I{args.rtneural}", f"-I{ROOT / 'cpp/lstm/include'}",
                    "-isystem", eigen_include(), str(ROOT / "benchmarks/lstm_vs_rtneural.cpp"),
                    "-o", str(exe)]
-            subprocess.run(cmd, check=True, capture_output=True, text=True)
+            build = subprocess.run(cmd, capture_output=True, text=True)
+            if build.returncode != 0:
+                raise SystemExit(f"building with {flags!r} failed:\n{shlex.join(cmd)}\n"
+                                 + "\n".join(build.stderr.splitlines()[:20]))
             out = subprocess.run([str(exe), str(args.steps), str(args.repeats),
                                   *map(str, models)], check=True, capture_output=True,
                                  text=True).stdout
