@@ -6,8 +6,9 @@ because the summation order does not change: the one-sequence kernel and the bat
 compute every product element as y0 + w_0 z_0 + ... + w_{K-1} z_{K-1} in column order with one
 multiply-add per term, and the gate nonlinearities apply the same vector instructions to every
 element wherever it sits (cpp/lstm/include/terrasph/lstm_kernels.hpp). Batch sizes around the
-tile width (6 sequences on AVX2), hidden sizes that are not multiples of the vector width and
-more outputs than one vector holds reach every edge of the tiles.
+tile width (6 sequences), hidden sizes that are not multiples of the vector width (slices of 1-4
+vectors of rows with AVX-512, e.g. the 40-row W_co at hidden 40 takes 3) and more outputs than one
+vector holds reach every edge of the tiles.
 """
 
 from __future__ import annotations

@@ -4,8 +4,8 @@
 // One arithmetic for one sequence and for a batch. Every matrix product (gates, peepholes)
 // computes each output element as  y = y0 + w_0 z_0 + w_1 z_1 + ... + w_{K-1} z_{K-1},  summed
 // in that order, one multiply-add per term, whatever the register tile (one sequence: 8 vectors
-// of rows; a batch: 2 vectors of rows times up to kBatchTile sequences). The dense head
-// (head_dot) and the element-wise code run the same instructions on every sequence and every
+// of rows; a batch: kBatchRowVecs vectors of rows times up to kBatchTile sequences). The dense
+// head (head_dot) and the element-wise code run the same instructions on every sequence and every
 // element (vector lanes compute what any other lane computes; a row's last partial vector is
 // zero-padded). A batch of B sequences therefore gives, bit for bit, the results of B single
 // sequences (tests/test_lstm_batch.py).
@@ -80,9 +80,13 @@ template <typename S>
 constexpr int panel_rows() {
   return 8 * lanes<S>();
 }
-/// Sequences per register tile of the batched product (2 row vectors x kBatchTile
-/// accumulators: 12 of the 16 AVX2 registers, 24 of the 32 AVX-512 ones).
-constexpr int kBatchTile = kSimdBytes == 64 ? 12 : 6;
+/// Register tile of the batched product: kBatchRowVecs vectors of rows x kBatchTile sequences of
+/// accumulators, 2 x 6 = 12 of the 16 AVX2 registers, 4 x 6 = 24 of the 32 AVX-512 ones. Per
+/// column a tile loads kBatchRowVecs weight vectors and broadcasts kBatchTile inputs for
+/// kBatchRowVecs x kBatchTile multiply-adds; on AVX-512 4 x 6 (10 loads per 24 FMAs) was 3-7 %
+/// faster at hidden 64/128 than 2 x 12 (14 loads), docs/lstm.md §7.
+constexpr int kBatchRowVecs = kSimdBytes == 64 ? 4 : 2;
+constexpr int kBatchTile = 6;
 
 /// A vector of lanes<S>() values.
 template <typename S>
@@ -201,6 +205,18 @@ TERRASPH_LSTM_INLINE void tile_nb(int nb, const S* w, Index ldw, Index K, const 
   }
 }
 
+// tile<nv, nb> for a run-time nv in [1, NV] and nb in [1, NB].
+template <int NV, int NB, typename S>
+TERRASPH_LSTM_INLINE void tile_nv_nb(int nv, int nb, const S* w, Index ldw, Index K, const S* z,
+                                     Index kz, const S* y0, Index ld0, S* g, Index ldg,
+                                     Index n_rows) {
+  if (nv == NV) {
+    tile_nb<NV, NB>(nb, w, ldw, K, z, kz, y0, ld0, g, ldg, n_rows);
+  } else if constexpr (NV > 1) {
+    tile_nv_nb<NV - 1, NB>(nv, nb, w, ldw, K, z, kz, y0, ld0, g, ldg, n_rows);
+  }
+}
+
 // tile<nv, 1> for a run-time nv in [1, NV].
 template <int NV, typename S>
 TERRASPH_LSTM_INLINE void tile_nv(int nv, const S* w, Index ldw, Index K, const S* z,
@@ -277,8 +293,9 @@ inline Index product_scratch(Index B, Index K) {
 /// the bias, which thus costs no separate copy). One sequence: whole panels, 8 vectors of rows
 /// per pass over the weights. Several:
 /// Z is first copied into `scratch` (product_scratch(B, cols) values) in blocks of kBatchTile
-/// sequences, column after column, so a tile reads it sequentially; then slices of 2 vectors
-/// of rows meet each block, so every weight loaded serves kBatchTile sequences.
+/// sequences, column after column, so a tile reads it sequentially; then slices of
+/// kBatchRowVecs vectors of rows meet each block, so every weight loaded serves kBatchTile
+/// sequences.
 template <typename S>
 TERRASPH_LSTM_INLINE void product_body(const Packed<S>& W, Index B, const S* Z, Index ldz,
                                        const S* Y0, Index ld0, S* G, Index ldg, S* scratch) {
@@ -302,17 +319,16 @@ TERRASPH_LSTM_INLINE void product_body(const Packed<S>& W, Index B, const S* Z, 
   for (Index r0 = 0; r0 < W.rows; r0 += R) {
     const S* panel = W.data.data() + r0 * K;
     const Index n_rows = std::min(R, W.rows - r0);
-    for (Index s = 0; s < n_rows; s += 2 * L) {
-      const Index rows_s = std::min<Index>(2 * L, n_rows - s);
+    constexpr Index RS = kBatchRowVecs * L;  // rows of a slice
+    for (Index s = 0; s < n_rows; s += RS) {
+      const Index rows_s = std::min<Index>(RS, n_rows - s);
+      const int nv = static_cast<int>((rows_s + L - 1) / L);
       for (Index b0 = 0; b0 < B; b0 += NB) {
         const int nb = static_cast<int>(std::min<Index>(NB, B - b0));
         const S* y0 = Y0 + b0 * ld0 + r0 + s;
         S* g = G + b0 * ldg + r0 + s;
-        if (rows_s > L) {
-          tile_nb<2, NB>(nb, panel + s, R, K, scratch + b0 * K, NB, y0, ld0, g, ldg, rows_s);
-        } else {
-          tile_nb<1, NB>(nb, panel + s, R, K, scratch + b0 * K, NB, y0, ld0, g, ldg, rows_s);
-        }
+        tile_nv_nb<kBatchRowVecs, NB>(nv, nb, panel + s, R, K, scratch + b0 * K, NB, y0, ld0, g, ldg,
+                                      rows_s);
       }
     }
   }
