@@ -12,6 +12,9 @@
 // Best of 60 short timings, single-threaded: on a shared machine run it beside the benchmark it
 // qualifies and state the load (timings longer than a time slice would all include other
 // processes' turns and understate both figures).
+#if !defined(__AVX2__) || !defined(__FMA__)
+#error "fma_peak.cpp needs AVX2 and FMA: build with -march=native on a CPU that has them"
+#endif
 #include <immintrin.h>
 
 #include <algorithm>
