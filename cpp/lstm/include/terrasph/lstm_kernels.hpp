@@ -461,8 +461,10 @@ TERRASPH_LSTM_INLINE void head_dot(const S* w, Index ldw, Index O, Index H, cons
         acc[a] += wv * hv;
       }
     }
+    // the last 1-4 chunks (fewer than 4 L values are left), the very last zero-padded; a 4th
+    // chunk (H mod 4 L > 3 L, e.g. H = 13 in double with AVX2) was once dropped
     TERRASPH_LSTM_UNROLL
-    for (int a = 0; a < 3; ++a) {  // the last 1-3 chunks, the very last zero-padded
+    for (int a = 0; a < 4; ++a) {
       if (j >= H) break;
       const Index n = std::min<Index>(L, H - j);
       vec_t<S> wv, hv;
