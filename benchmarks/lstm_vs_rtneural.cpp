@@ -127,8 +127,8 @@ void bench(const char* path, int steps, int repeats) {
   double diff = 0;
   for (std::size_t k = 0; k < y_ts.size(); ++k)
     diff = std::max(diff, static_cast<double>(std::abs(y_ts[k] - y_rt[k])));
-  std::printf("%d %.1f %.1f %.3g %d\n", H, best_ts / steps * 1e9, best_rt / steps * 1e9, diff,
-              model->uses_avx2() ? 1 : 0);
+  std::printf("%d %.1f %.1f %.3g %s\n", H, best_ts / steps * 1e9, best_rt / steps * 1e9, diff,
+              model->kernel_isa());
 }
 
 }  // namespace
