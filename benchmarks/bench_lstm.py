@@ -118,7 +118,7 @@ def main() -> None:
           f"float32, {N_IN} inputs, {N_OUT} outputs")
     print(f"# {platform.processor() or platform.machine()}, torch {torch.__version__} "
           f"(threads: 1 and default {n_default}), C++ engine single-threaded"
-          f"{', AVX2+FMA kernels' if make_models(4, 1, 'standard')[1].uses_avx2 else ''}")
+          f", {make_models(4, 1, 'standard')[1].kernel_isa} kernels")
     print(f"# streaming: >= {args.steps} steps/timing; throughput: T = {args.seq_len}; "
           f"best of {args.repeats}, C++ / torch 1 thread / torch {n_default} threads interleaved")
     tn = f"t{n_default}"

@@ -6,7 +6,9 @@ seeded standard-cell model per hidden size (4 inputs, 2 outputs, the weights of
 benchmarks/bench_lstm.py), compiles benchmarks/lstm_vs_rtneural.cpp once per flag set (both
 engines in one program, so the same flags), and prints ns per streaming step of each side, best
 of --repeats timings of --steps steps, interleaved, with the largest output difference (the two
-agree to float rounding if the weights were transferred right).
+agree to float rounding if the weights were transferred right) and the kernel variant terrasph
+ran ("generic": the flags' own; a baseline build such as plain -O3 chooses "avx2" or "avx512" at
+run time, capped by the environment variable TERRASPH_LSTM_ISA).
 
     python benchmarks/bench_lstm_rtneural.py --rtneural PATH/TO/RTNeural \\
         [--flags "-O3" "-O3 -march=native"] [--steps 2000] [--repeats 30] [--cxx g++]
@@ -67,21 +69,24 @@ def main() -> None:
         print("# streaming step, ns (best of {} x {} steps, interleaved); 4 -> H -> 2, float32"
               .format(args.repeats, args.steps))
         print(f"{'flags':<20} {'H':>4} {'terrasph':>10} {'RTNeural':>10} {'RTN/terrasph':>12} "
-              f"{'max |dy|':>9}")
+              f"{'max |dy|':>9} {'kernels':>8}")
         for flags in args.flags:
             exe = Path(tmp) / "lstm_vs_rtneural"
             cmd = [args.cxx, "-std=c++17", *shlex.split(flags), "-DNDEBUG",
                    f"-I{args.rtneural}", f"-I{ROOT / 'cpp/lstm/include'}",
                    "-isystem", eigen_include(), str(ROOT / "benchmarks/lstm_vs_rtneural.cpp"),
                    "-o", str(exe)]
-            subprocess.run(cmd, check=True, capture_output=True, text=True)
+            build = subprocess.run(cmd, capture_output=True, text=True)
+            if build.returncode != 0:
+                raise SystemExit(f"building with {flags!r} failed:\n{shlex.join(cmd)}\n"
+                                 + "\n".join(build.stderr.splitlines()[:20]))
             out = subprocess.run([str(exe), str(args.steps), str(args.repeats),
                                   *map(str, models)], check=True, capture_output=True,
                                  text=True).stdout
             for line in out.strip().splitlines():
-                hidden, t_ts, t_rt, diff, _ = line.split()
+                hidden, t_ts, t_rt, diff, isa = line.split()
                 print(f"{flags:<20} {hidden:>4} {float(t_ts):>10.1f} {float(t_rt):>10.1f} "
-                      f"{float(t_rt) / float(t_ts):>12.2f} {float(diff):>9.2g}", flush=True)
+                      f"{float(t_rt) / float(t_ts):>12.2f} {float(diff):>9.2g} {isa:>8}", flush=True)
 
 
 if __name__ == "__main__":

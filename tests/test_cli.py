@@ -137,3 +137,100 @@ def test_leg_that_would_hit_the_floor_is_refused(tmp_path) -> None:
                      "--no-progress", timeout=120)
     assert result.returncode == 2
     assert "bed_depth" in result.stderr
+
+
+def _run_subparser_choices() -> dict:
+    """The scenes `terrasph run` offers: its sub-parsers by name."""
+    import argparse
+
+    run = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)).choices["run"]
+    return next(a for a in run._actions if isinstance(a, argparse._SubParsersAction)).choices
+
+
+def test_run_offers_every_registered_scene_through_run_case(tmp_path, monkeypatch) -> None:
+    """`terrasph run` lists exactly the registry's scenes, and each one's command reaches run_case with
+    a configuration of that scene's type and the --out path (run_case replaced by a recorder)."""
+    from terrasph import scenes_cli
+    from terrasph.scenes import SCENES, CaseSummary
+
+    assert sorted(_run_subparser_choices()) == sorted(SCENES)
+    calls = []
+
+    def recorder(scene, config, out, *, progress=False):
+        calls.append((scene, config, out, progress))
+        summary = CaseSummary({"status": "completed", "scene": scene})
+        summary.plot = f"{out}.png"
+        return summary
+
+    monkeypatch.setattr(scenes_cli, "run_case", recorder)
+    for name, entry in SCENES.items():
+        out = str(tmp_path / f"{name}.h5")
+        assert main(["run", name, "--out", out, "--no-progress"]) == 0
+        scene, config, called_out, progress = calls[-1]
+        assert (scene, called_out, progress) == (name, out, False)
+        assert type(config) is entry.config_type
+    assert len(calls) == len(SCENES)
+
+
+def _h5_contents(path) -> dict:
+    """Every dataset (bytes) and attribute of an HDF5 file by path, without the run's wall-clock
+    records (wall time series and attributes, timestamps, the run's own host and process)."""
+    import h5py
+    import numpy as np
+
+    clock = ("wall", "timestamp", "created", "started", "finished", "date", "host", "pid")
+    items: dict = {}
+
+    def visit(name, obj) -> None:
+        if isinstance(obj, h5py.Dataset) and not any(word in name.split("/")[-1].lower() for word in clock):
+            data = obj[()]
+            items[f"{name}:data"] = (data.dtype.str, data.shape, np.ascontiguousarray(data).tobytes()) \
+                if isinstance(data, np.ndarray) else data
+        for key, value in obj.attrs.items():
+            if not any(word in key.lower() for word in clock):
+                items[f"{name}@{key}"] = value.tobytes() if isinstance(value, np.ndarray) else value
+
+    with h5py.File(path, "r") as f:
+        visit("/", f)
+        f.visititems(visit)
+    return items
+
+
+def test_cli_run_and_run_case_write_the_same_file(tmp_path) -> None:
+    """0.02 s of the coarse collapse, once by `terrasph run` and once by run_case on the
+    configuration the run file records: the same file content (datasets bit for bit, attributes,
+    the configuration) apart from wall-clock records, and the same summary."""
+    via_cli, via_case = tmp_path / "cli.h5", tmp_path / "case.h5"
+    result = run_cli("run", "column-collapse", "--t-end", "0.02", "--out", str(via_cli), "--no-progress",
+                     "--threads", "1")
+    assert result.returncode == 0, result.stderr
+    cli_summary = json.loads(result.stdout)
+    code = ("import json, sys; from terrasph import _core; from terrasph.scenes import run_case; "
+            "_core.set_num_threads(1); config = json.loads(sys.argv[1]); "
+            "print(json.dumps({**run_case('column-collapse', config, sys.argv[2]), 'plot': None}))")
+    import h5py
+
+    with h5py.File(via_cli, "r") as f:
+        config = json.loads(str(f.attrs["config_json"]))["column_collapse"]
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
+    case = subprocess.run([sys.executable, "-c", code, json.dumps(config), str(via_case)], capture_output=True,
+                          text=True, timeout=300, env=env)
+    assert case.returncode == 0, case.stderr
+    case_summary = json.loads(case.stdout)
+    cli_items, case_items = _h5_contents(via_cli), _h5_contents(via_case)
+    assert sorted(cli_items) == sorted(case_items)
+    assert any(key.endswith(":data") for key in cli_items)
+    different = [key for key in cli_items if not _same(cli_items[key], case_items[key])]
+    assert different == []
+    for summary in (cli_summary, case_summary):
+        summary.pop("wall_time"), summary.pop("output", None), summary.pop("plot")
+    assert cli_summary == case_summary
+
+
+def _same(a, b) -> bool:
+    import numpy as np
+
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(a, b)
+    return bool(a == b)

@@ -220,29 +220,28 @@ def test_plate_resolution_sets_the_spacing(monkeypatch) -> None:
 
     seen = {}
 
-    def fake_run(config, output, progress):
+    def fake_run_case(scene, config, out, *, progress=False):
         seen["spacing"] = config.spacing
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(scenes_cli, "run_plate_intrusion", fake_run)
+    monkeypatch.setattr(scenes_cli, "run_case", fake_run_case)
     with pytest.raises(SystemExit):
         main(["run", "plate-intrusion", "--resolution", "fine", "--out", "unused.h5"])
     assert seen["spacing"] == RESOLUTIONS["fine"] != RESOLUTIONS["coarse"]
 
 
-@pytest.mark.parametrize("scene, runner", [("column-collapse", "run_column_collapse"), ("leg-wheel", "run_leg_wheel")])
-def test_numerics_reach_the_scene(monkeypatch, scene: str, runner: str) -> None:
+@pytest.mark.parametrize("scene", ["column-collapse", "leg-wheel"])
+def test_numerics_reach_the_scene(monkeypatch, scene: str) -> None:
     """--numerics NAME=VALUE ... lands in the scene configuration's numerics (the run is replaced)."""
     from terrasph import scenes_cli
-    from terrasph.robots import cli as robots_cli
 
     seen = {}
 
-    def fake_run(config, *args, **kwargs):
+    def fake_run_case(scene, config, out, *, progress=False):
         seen["numerics"] = config.numerics
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(robots_cli if scene == "leg-wheel" else scenes_cli, runner, fake_run)
+    monkeypatch.setattr(scenes_cli, "run_case", fake_run_case)
     with pytest.raises((SystemExit, KeyboardInterrupt)):
         main(["run", scene, "--numerics", "step_at_wave_speed=true", "freeze_speed=0.005", "--out", "unused.h5"])
     assert seen["numerics"] == {"step_at_wave_speed": True, "freeze_speed": 0.005}
@@ -254,11 +253,11 @@ def test_plate_model_reaches_the_scene(monkeypatch) -> None:
 
     seen = {}
 
-    def fake_run(config, output, progress):
+    def fake_run_case(scene, config, out, *, progress=False):
         seen["model"] = config.material().model
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(scenes_cli, "run_plate_intrusion", fake_run)
+    monkeypatch.setattr(scenes_cli, "run_case", fake_run_case)
     with pytest.raises((SystemExit, KeyboardInterrupt)):
         main(["run", "plate-intrusion", "--model", "drucker_prager", "--out", "unused.h5"])
     assert seen["model"] == "drucker_prager"

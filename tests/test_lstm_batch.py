@@ -6,8 +6,9 @@ because the summation order does not change: the one-sequence kernel and the bat
 compute every product element as y0 + w_0 z_0 + ... + w_{K-1} z_{K-1} in column order with one
 multiply-add per term, and the gate nonlinearities apply the same vector instructions to every
 element wherever it sits (cpp/lstm/include/terrasph/lstm_kernels.hpp). Batch sizes around the
-tile width (6 sequences on AVX2), hidden sizes that are not multiples of the vector width and
-more outputs than one vector holds reach every edge of the tiles.
+tile width (6 sequences), hidden sizes that are not multiples of the vector width (slices of 1-4
+vectors of rows with AVX-512, e.g. the 40-row W_co at hidden 40 takes 3) and more outputs than one
+vector holds reach every edge of the tiles.
 """
 
 from __future__ import annotations
@@ -143,3 +144,57 @@ def test_predict_sequences_batches_equal_lengths_and_keeps_order() -> None:
     assert [name for name, _ in got] == ["a", "b", "c", "d", "e"]
     for (_, xs), (_, y) in zip(seqs, got):
         np.testing.assert_array_equal(y, model.predict(xs))
+
+
+_VARIANT_SCRIPT = """
+import json, sys
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from lstm_helpers import inputs, make_net, model_bytes, torch_predict
+from terrasph._core import lstm
+
+report = []
+for cell, layers, hidden in (("standard", 1, 16), ("standard", 1, 37), ("peephole", 2, 13), ("standard", 1, 70)):
+    net = make_net(cell, hidden, layers, seed=hidden, normalise=True)
+    for cls, dtype in ((lstm.Model32, "float32"), (lstm.Model64, "float64")):
+        if dtype == "float64":
+            net = net.double()
+        model = cls.from_bytes(model_bytes(net))
+        x = inputs(hidden, 13, 30).astype(dtype)
+        batch = model.predict(x)
+        singles = np.stack([model.predict(xb) for xb in x])
+        report.append({"case": f"{cell}-{layers}x{hidden}-{dtype}", "isa": model.kernel_isa,
+                       "bitwise": bool(np.array_equal(batch, singles)),
+                       "err": float(np.max(np.abs(batch - torch_predict(net, x))))})
+    net.float()
+print(json.dumps(report))
+"""
+
+
+@pytest.mark.parametrize("cap", ["generic", "avx2", "avx512"])
+def test_every_kernel_variant_batches_bitwise_within_parity(cap: str) -> None:
+    """Each run-time kernel variant this CPU can run (the other tests run the widest; the
+    environment variable TERRASPH_LSTM_ISA caps the choice): a batch of 13 equals its sequences
+    one by one bit for bit, and matches PyTorch within the parity bounds (1e-5 float32, 1e-10
+    float64), in a fresh process per variant."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    lstm = core_lstm()
+    widest = lstm.Model32.from_bytes(model_bytes(make_net("standard", 4, 1, 0))).kernel_isa
+    if cap != "generic" and widest in ("generic", "avx2") and (cap, widest) != ("avx2", "avx2"):
+        pytest.skip(f"this build or CPU runs at most the {widest!r} kernels")
+    env = dict(os.environ, TERRASPH_LSTM_ISA=cap, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    tests = str(Path(__file__).resolve().parent)
+    result = subprocess.run([sys.executable, "-c", _VARIANT_SCRIPT, tests], capture_output=True, text=True,
+                            timeout=300, env=env)
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    # a capped choice runs that variant; a build without run-time choice runs its own ("generic")
+    assert {r["isa"] for r in report} == ({"generic"} if widest == "generic" else {cap})
+    for r in report:
+        assert r["bitwise"], r
+        assert r["err"] <= (1e-5 if r["case"].endswith("float32") else 1e-10), r

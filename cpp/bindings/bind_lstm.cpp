@@ -195,6 +195,10 @@ void bind_precision(py::module_& m, const std::string& suffix) {
       .def_property_readonly("dtype", [dtype](const ModelT&) { return dtype; })
       .def_property_readonly("uses_avx2", &ModelT::uses_avx2,
                              "True if the kernels run their AVX2+FMA variant, chosen at run time.")
+      .def_property_readonly("kernel_isa", &ModelT::kernel_isa,
+                             "The kernel variant the model runs: 'generic' (the build's own flags), "
+                             "or, chosen at run time by a baseline build, 'avx2' or 'avx512' (at "
+                             "most the one the environment variable TERRASPH_LSTM_ISA names).")
       .def(
           "predict",
           [](const std::shared_ptr<ModelT>& self, const CArray<Scalar>& x) {

@@ -1,31 +1,57 @@
-"""``terrasph run SCENE``: run a ready-made scene with a progress bar, HDF5 output and a plot."""
+"""``terrasph run SCENE``: run a ready-made scene with a progress bar, HDF5 output and a plot.
+
+The scenes offered are those of the registry (:data:`terrasph.scenes.SCENES`), each with its own
+options (:data:`SCENE_OPTIONS`); every one runs through :func:`terrasph.scenes.run_case`, the entry
+point the sweeps and the tests share."""
 
 from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from typing import Any
 
 from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
                                  numerics_overrides)
 from terrasph.config import parameter
-from terrasph.robots.cli import register_robot_scenes
-from terrasph.scenes import leg_rotation, plate_intrusion
-from terrasph.scenes.column_collapse import (
-    BEDS,
-    RESOLUTIONS,
-    ColumnCollapse,
-    run_column_collapse,
-)
-from terrasph.scenes.plate_intrusion import PlateIntrusion, run_plate_intrusion
+from terrasph.robots.cli import register_leg_wheel, register_rover
+from terrasph.scenes import SCENES, leg_rotation, plate_intrusion, run_case, scene_entry
+from terrasph.scenes.column_collapse import BEDS, RESOLUTIONS, ColumnCollapse
+from terrasph.scenes.plate_intrusion import PlateIntrusion
 
-__all__ = ["register"]
+__all__ = ["SCENE_OPTIONS", "register"]
+
+#: A scene's command-line options: adds ``run NAME`` with its options to the scenes' sub-parsers and
+#: returns it; the parser's default ``scene_values`` turns the parsed options into the scene's
+#: configuration values (its fields by name).
+SceneOptions = Callable[[argparse._SubParsersAction], argparse.ArgumentParser]
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Adds the ``run`` command and its scenes."""
+    """Adds the ``run`` command with every registered scene, and ``resume``."""
     run = subparsers.add_parser("run", help="run a ready-made scene", description="Run a ready-made scene.")
     scenes = run.add_subparsers(dest="scene", required=True, metavar="SCENE")
+    missing = [name for name in SCENES if name not in SCENE_OPTIONS]
+    unknown = [name for name in SCENE_OPTIONS if name not in SCENES]
+    if missing or unknown:  # a programming error: the registry and the options must agree
+        raise LookupError(f"terrasph run: registered scenes without options {missing}, options of "
+                          f"unregistered scenes {unknown}")
+    for name, add_options in SCENE_OPTIONS.items():  # the order `terrasph run --help` lists them in
+        add_options(scenes).set_defaults(handler=_run_scene)
+    _register_resume(subparsers)
+
+
+def _run_scene(args: argparse.Namespace) -> int:
+    """Runs the chosen scene through run_case: its configuration from the options (checked), then
+    ``--out`` and ``--threads``, then the run; prints its summary."""
+    config = scene_entry(args.scene).config_from(args.scene_values(args))
+    _prepare(args)
+    summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
+    return _print_summary(summary, args.out, summary.plot)
+
+
+def _register_column(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
+    """Adds ``run column-collapse``."""
     column = scenes.add_parser("column-collapse", help="granular column collapse (dissertation ch. 2)",
                                description="Dry or wet granular column collapse on a rough floor.")
     column.add_argument("--resolution", choices=list(RESOLUTIONS), default="coarse",
@@ -51,11 +77,15 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     column.add_argument("--t-end", type=float, default=1.0,
                         help="simulated time limit in s; the run stops earlier once at rest (default %(default)s)")
     _add_run_options(column, default_output="column_collapse.h5")
-    column.set_defaults(handler=_run_column)
-    _register_plate(scenes)
-    _register_leg(scenes)
-    register_robot_scenes(scenes)
-    _register_resume(subparsers)
+    column.set_defaults(scene_values=_column_values)
+    return column
+
+
+def _column_values(args: argparse.Namespace) -> dict[str, Any]:
+    return {"resolution": args.resolution, "spacing": args.spacing,
+            "friction_angles_deg": (args.mu1_deg, args.mu2_deg), "water_content": args.water_content,
+            "t_end": args.t_end, "bed": args.bed, "bed_radius": args.bed_radius, "bed_axes": tuple(args.bed_axes),
+            "model": args.model, "numerics": numerics_overrides(args.numerics)}
 
 
 def _add_run_options(parser: argparse.ArgumentParser, default_output: str) -> None:
@@ -88,18 +118,7 @@ def _print_summary(summary: dict[str, Any], output: str, plot: str | None) -> in
     return 0
 
 
-def _run_column(args: argparse.Namespace) -> int:
-    config = ColumnCollapse(resolution=args.resolution, spacing=args.spacing,
-                            friction_angles_deg=(args.mu1_deg, args.mu2_deg),
-                            water_content=args.water_content, t_end=args.t_end, bed=args.bed,
-                            bed_radius=args.bed_radius, bed_axes=tuple(args.bed_axes), model=args.model,
-                            numerics=numerics_overrides(args.numerics))
-    _prepare(args)
-    result = run_column_collapse(config, output=args.out, progress=not args.no_progress)
-    return _print_summary(result.summary(), args.out, result.plot)
-
-
-def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Adds ``run plate-intrusion``."""
     default = PlateIntrusion()
     plate = scenes.add_parser("plate-intrusion", help="horizontal plate pushed into a bed and pulled out",
@@ -125,20 +144,18 @@ def _register_plate(scenes: argparse._SubParsersAction[argparse.ArgumentParser])
     plate.add_argument("--model", choices=list(model.choices), default=default.model,
                        help=f"constitutive model of the beads (default {default.model}); {model.doc}")
     _add_run_options(plate, default_output="plate_intrusion.h5")
-    plate.set_defaults(handler=_run_plate)
+    plate.set_defaults(scene_values=_plate_values)
+    return plate
 
 
-def _run_plate(args: argparse.Namespace) -> int:
+def _plate_values(args: argparse.Namespace) -> dict[str, Any]:
     spacing = args.spacing if args.spacing is not None else plate_intrusion.RESOLUTIONS[args.resolution]
-    config = PlateIntrusion(spacing=spacing, speed=args.speed, max_depth=args.depth, settle_time=args.settle,
-                            model=args.model, buried_depth=args.buried, pull_distance=args.pull,
-                            numerics=numerics_overrides(args.numerics))
-    _prepare(args)
-    result = run_plate_intrusion(config, output=args.out, progress=not args.no_progress)
-    return _print_summary(result.summary(), args.out, result.plot)
+    return {"spacing": spacing, "speed": args.speed, "max_depth": args.depth, "settle_time": args.settle,
+            "model": args.model, "buried_depth": args.buried, "pull_distance": args.pull,
+            "numerics": numerics_overrides(args.numerics)}
 
 
-def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Adds ``run leg-rotation``."""
     default = leg_rotation.LegRotation()
     leg = scenes.add_parser("leg-rotation", help="robot leg rotated through glass beads (dissertation ch. 3)",
@@ -154,16 +171,23 @@ def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
     leg.add_argument("--settle", type=float, default=default.settle_time, help="settling pause in s (default 2)")
     leg.add_argument("--bed-depth", type=float, default=default.bed_depth, help="bed depth in m (default 0.15)")
     _add_run_options(leg, default_output="leg_rotation.h5")
-    leg.set_defaults(handler=_run_leg)
+    leg.set_defaults(scene_values=_leg_values)
+    return leg
 
 
-def _run_leg(args: argparse.Namespace) -> int:
-    config = leg_rotation.LegRotation(leg=args.leg, omega=args.omega, foot_ratio=args.foot_ratio,
-                                      resolution=args.resolution, settle_time=args.settle, bed_depth=args.bed_depth,
-                                      numerics=numerics_overrides(args.numerics))
-    _prepare(args)
-    result = leg_rotation.run_leg_rotation(config, output=args.out, progress=not args.no_progress)
-    return _print_summary(result.summary(), args.out, result.plot)
+def _leg_values(args: argparse.Namespace) -> dict[str, Any]:
+    return {"leg": args.leg, "omega": args.omega, "foot_ratio": args.foot_ratio, "resolution": args.resolution,
+            "settle_time": args.settle, "bed_depth": args.bed_depth, "numerics": numerics_overrides(args.numerics)}
+
+
+#: The options of every registered scene, by name, in the order ``terrasph run --help`` lists them.
+SCENE_OPTIONS: dict[str, SceneOptions] = {
+    "column-collapse": _register_column,
+    "plate-intrusion": _register_plate,
+    "leg-rotation": _register_leg,
+    "leg-wheel": register_leg_wheel,
+    "rover": register_rover,
+}
 
 
 def _register_resume(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -1,22 +1,20 @@
-"""``terrasph run leg-wheel`` and ``terrasph run rover``: the robot scenes from the command line."""
+"""``terrasph run leg-wheel`` and ``terrasph run rover``: the robot scenes' options on the command line.
+
+Each scene's parser stores, as ``scene_values``, the function that turns its parsed options into the
+scene's configuration values; ``terrasph run`` then runs the scene through
+:func:`terrasph.scenes.run_case` (terrasph.scenes_cli)."""
 
 from __future__ import annotations
 
 import argparse
-import json
+from typing import Any
 
 from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
                                  numerics_overrides, positive_float)
-from terrasph.robots.leg_wheel import WHEELS, LegWheel, run_leg_wheel
-from terrasph.robots.rover import Rover, run_rover
+from terrasph.robots.leg_wheel import WHEELS, LegWheel
+from terrasph.robots.rover import Rover
 
-__all__ = ["register_robot_scenes"]
-
-
-def register_robot_scenes(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Adds ``leg-wheel`` and ``rover`` to the scenes of ``terrasph run``."""
-    _register_leg_wheel(scenes)
-    _register_rover(scenes)
+__all__ = ["register_leg_wheel", "register_rover"]
 
 
 def _add_common(parser: argparse.ArgumentParser, defaults: LegWheel | Rover, output: str) -> None:
@@ -49,7 +47,7 @@ def _add_common(parser: argparse.ArgumentParser, defaults: LegWheel | Rover, out
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
-def _common_values(args: argparse.Namespace) -> dict[str, object]:
+def _common_values(args: argparse.Namespace) -> dict[str, Any]:
     """The configuration values both robot scenes take from the options; checks ``--out`` and
     applies ``--threads`` first."""
     check_output_file(args.out, args.force)
@@ -63,7 +61,8 @@ def _common_values(args: argparse.Namespace) -> dict[str, object]:
             "duration": args.t_end, "numerics": numerics_overrides(args.numerics)}
 
 
-def _register_leg_wheel(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def register_leg_wheel(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
+    """Adds ``run leg-wheel``."""
     parser = scenes.add_parser("leg-wheel", help="hybrid leg-wheel driven through glass beads (dissertation ch. 4)",
                                description="One leg-wheel, free in x and z, carrying a load, paused and then "
                                            "driven clockwise by a motor through a bed of 3 mm glass beads "
@@ -71,27 +70,20 @@ def _register_leg_wheel(scenes: argparse._SubParsersAction[argparse.ArgumentPars
     defaults = LegWheel()
     _add_common(parser, defaults, "leg_wheel.h5")
     parser.add_argument("--load", type=positive_float, default=defaults.load, help="vertical load in N (default %(default)s)")
-    parser.set_defaults(handler=_run_leg_wheel)
+    parser.set_defaults(scene_values=_leg_wheel_values)
+    return parser
 
 
-def _run_leg_wheel(args: argparse.Namespace) -> int:
-    config = LegWheel(**_common_values(args), load=args.load)
-    result = run_leg_wheel(config, args.out, progress=not args.no_progress, plot=True)
-    print(json.dumps({**result.summary(), "output": args.out, "plot": result.plot}, indent=2))
-    return 0
+def _leg_wheel_values(args: argparse.Namespace) -> dict[str, Any]:
+    return {**_common_values(args), "load": args.load}
 
 
-def _register_rover(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def register_rover(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
+    """Adds ``run rover``."""
     parser = scenes.add_parser("rover", help="planar rover with two driven leg-wheels crossing a bed",
                                description="The example MJCF rover (terrasph.robots.ROVER): a chassis and two "
                                            "leg-wheels on driven hinges, paused and then driven clockwise across "
                                            "a bed of 3 mm glass beads (docs/robots.md).")
     _add_common(parser, Rover(), "rover.h5")
-    parser.set_defaults(handler=_run_rover)
-
-
-def _run_rover(args: argparse.Namespace) -> int:
-    config = Rover(**_common_values(args))
-    result = run_rover(config, args.out, progress=not args.no_progress, plot=True)
-    print(json.dumps({**result.summary(), "output": args.out, "plot": result.plot}, indent=2))
-    return 0
+    parser.set_defaults(scene_values=_common_values)
+    return parser

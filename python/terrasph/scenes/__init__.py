@@ -35,7 +35,7 @@ from terrasph.scenes.plate_intrusion import (
     run_plate_intrusion,
 )
 
-__all__ = ["RESOLUTIONS", "SCENES", "ColumnCollapse", "LegRotation", "PlateIntrusion", "SceneEntry",
+__all__ = ["RESOLUTIONS", "SCENES", "CaseSummary", "ColumnCollapse", "LegRotation", "PlateIntrusion", "SceneEntry",
            "build_column_collapse", "build_leg_rotation", "build_plate_intrusion", "run_case", "run_column_collapse",
            "run_leg_rotation", "run_plate_intrusion", "scene_entry", "scene_of_run"]
 
@@ -88,14 +88,28 @@ def scene_entry(name: str) -> SceneEntry:
     return SCENES[name]
 
 
-def run_case(scene: str, config: Mapping[str, Any], out: str | os.PathLike[str]) -> dict[str, Any]:
-    """Runs the registered `scene` with the configuration `config` (its fields by name; unknown names
-    refused) into the run file `out`, without progress bar; returns the run's summary. The one entry
-    point that ``terrasph sweep``, its workers and the tests share."""
+class CaseSummary(dict):
+    """A run's summary (a plain JSON-ready dict, as the scene's ``summary()`` gives it) that also
+    carries the path of the figure the run drew beside its file, as ``plot`` (None if none)."""
+
+    plot: str | None = None
+
+
+def run_case(scene: str, config: Mapping[str, Any] | Any, out: str | os.PathLike[str], *,
+             progress: bool = False) -> CaseSummary:
+    """Runs the registered `scene` with the configuration `config` into the run file `out`; returns
+    the run's summary (with the figure's path as ``.plot``). `config` is the scene's fields by name
+    (unknown names refused) or an instance of the scene's configuration class. The one entry point
+    that ``terrasph run SCENE``, ``terrasph sweep``, its workers and the tests share; `progress`
+    shows the run's progress bar (the command line's, off for sweeps)."""
     entry = scene_entry(scene)
-    result = entry.run(entry.config_from(config), output=out, progress=False)
-    # the chapter 2–3 scenes return a result object, the robot scenes a dict with its summary
-    return dict(result.summary() if hasattr(result, "summary") else result["summary"])
+    if not isinstance(config, entry.config_type):
+        config = entry.config_from(config)
+    result = entry.run(config, output=out, progress=progress)
+    # the chapter 2–3 scenes return a result object, the robot scenes a RobotRun: both have summary()
+    summary = CaseSummary(result.summary() if hasattr(result, "summary") else result["summary"])
+    summary.plot = getattr(result, "plot", None)
+    return summary
 
 
 def scene_of_run(config_json: str) -> tuple[SceneEntry, Any]:

@@ -73,6 +73,7 @@ class Model {
       in_inv_scale_[j] = static_cast<Scalar>(1.0 / d.input_scale[static_cast<std::size_t>(j)]);
     out_mean_ = to_vector(d.output_mean, output_size_, "output_mean");
     out_scale_ = to_vector(d.output_scale, output_size_, "output_scale");
+    const Eigen::Index panel = detail::panel_rows_for<Scalar>(isa_);  // the chosen kernels' layout
     Eigen::Index in = input_size_;
     for (const LayerData& ld : d.layers) {
       Layer<Scalar> L;
@@ -93,10 +94,10 @@ class Model {
         L.w_co = to_matrix(ld.w_co, H, H, "weight_co");
         Matrix cif(2 * H, H);
         cif << L.w_ci, L.w_cf;
-        L.w_cif_packed = detail::Packed<Scalar>::pack(cif);
-        L.w_co_packed = detail::Packed<Scalar>::pack(L.w_co);
+        L.w_cif_packed = detail::Packed<Scalar>::pack(cif, panel);
+        L.w_co_packed = detail::Packed<Scalar>::pack(L.w_co, panel);
       }
-      L.w_packed = detail::Packed<Scalar>::pack(L.w);
+      L.w_packed = detail::Packed<Scalar>::pack(L.w, panel);
       layers_.push_back(std::move(L));
       in = H;
     }
@@ -133,7 +134,15 @@ class Model {
   /// The head weight row-major (O rows of H_last), as detail::head_dot reads it.
   const std::vector<Scalar>& head_weight_rows() const { return w_out_rows_; }
   /// True if the kernels run the variant compiled for AVX2 + FMA, chosen at run time.
-  bool uses_avx2() const { return use_avx2_; }
+  bool uses_avx2() const { return isa_ == detail::KernelIsa::Avx2; }
+  /// The kernel variant this model runs: "generic" (the build's own flags), or, chosen at run
+  /// time by a baseline build, "avx2" (AVX2 + FMA) or "avx512" (AVX-512 F).
+  const char* kernel_isa() const {
+    return isa_ == detail::KernelIsa::Avx512 ? "avx512"
+           : isa_ == detail::KernelIsa::Avx2 ? "avx2"
+                                             : "generic";
+  }
+  detail::KernelIsa isa() const { return isa_; }
 
  private:
   static Vector to_vector(const std::vector<double>& v, Eigen::Index n, const char* what) {
@@ -164,7 +173,7 @@ class Model {
   Matrix w_out_;
   Vector b_out_;
   std::vector<Scalar> w_out_rows_;
-  bool use_avx2_ = detail::default_use_avx2();
+  detail::KernelIsa isa_ = detail::default_isa();
 };
 
 namespace detail {
@@ -196,23 +205,24 @@ struct Workspace {
 
 /// One standard layer of one sequence with the hidden size HC fixed at compile time
 /// (fixed_hidden): the arithmetic of layer_step, unrolled.
-template <int HC, typename S>
+template <typename K, int HC, typename S>
 TERRASPH_LSTM_INLINE void standard_layer_fixed(const Layer<S>& L, S* z, S* c, S* g) {
-  product_fixed<HC>(L.w_packed, z, L.bias.data(), g);
-  standard_cell(HC, g, c, z + L.input_size);
+  K::template product_fixed<HC>(L.w_packed, z, L.bias.data(), g);
+  K::standard_cell(HC, g, c, z + L.input_size);
 }
 
 /// One recurrent layer for all B sequences: gates, cell update, h_t into z's tail.
 template <typename Isa, int kBatch, typename S>
 TERRASPH_LSTM_INLINE void layer_step(const Layer<S>& L, CellType cell, Index B, S* z, S* c,
                                      S* g, S* scratch) {
+  using K = Simd<Isa::bytes>;
   const Index H = L.hidden_size, ldz = L.input_size + H;
   if constexpr (kBatch == 1) {
-    if (cell == CellType::Standard && fixed_hidden<S>(H)) {
+    if (cell == CellType::Standard && K::template fixed_hidden<S>(H)) {
       if (H == 16) {
-        standard_layer_fixed<16>(L, z, c, g);
+        standard_layer_fixed<K, 16>(L, z, c, g);
       } else {
-        standard_layer_fixed<32>(L, z, c, g);
+        standard_layer_fixed<K, 32>(L, z, c, g);
       }
       return;
     }
@@ -220,16 +230,17 @@ TERRASPH_LSTM_INLINE void layer_step(const Layer<S>& L, CellType cell, Index B, 
   // g = b + W_ih u_t + W_hh h_{t-1}, all four gates
   product(Isa{}, L.w_packed, B, z, ldz, L.bias.data(), 0, g, 4 * H, scratch);
   if (cell == CellType::Standard) {
-    for (Index b = 0; b < B; ++b) standard_cell(H, g + b * 4 * H, c + b * H, z + b * ldz + ldz - H);
+    for (Index b = 0; b < B; ++b)
+      K::standard_cell(H, g + b * 4 * H, c + b * H, z + b * ldz + ldz - H);
     return;
   }
   // + W_ci c_{t-1} (4.9), + W_cf c_{t-1} (4.10)
   product(Isa{}, L.w_cif_packed, B, c, H, g, 4 * H, g, 4 * H, scratch);
-  for (Index b = 0; b < B; ++b) peephole_cell_state(H, g + b * 4 * H, c + b * H);
+  for (Index b = 0; b < B; ++b) K::peephole_cell_state(H, g + b * 4 * H, c + b * H);
   // + W_co c_t (4.12)
   product(Isa{}, L.w_co_packed, B, c, H, g + 3 * H, 4 * H, g + 3 * H, 4 * H, scratch);
   for (Index b = 0; b < B; ++b)
-    peephole_output(H, g + b * 4 * H + 3 * H, c + b * H, z + b * ldz + ldz - H);
+    K::peephole_output(H, g + b * 4 * H + 3 * H, c + b * H, z + b * ldz + ldz - H);
 }
 
 /// One time step of B sequences: x (B rows of I raw features, leading dimension ldx) ->
@@ -238,6 +249,7 @@ TERRASPH_LSTM_INLINE void layer_step(const Layer<S>& L, CellType cell, Index B, 
 template <typename Isa, int kBatch, typename S>
 TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, const S* x,
                                        Index ldx, S* y, Index ldy) {
+  using K = Simd<Isa::bytes>;
   const Index B = kBatch > 0 ? kBatch : ws.batch, ni = m.input_size(), no = m.output_size();
   const std::size_t n_layers = m.layers().size();
   {
@@ -266,12 +278,12 @@ TERRASPH_LSTM_INLINE void advance_body(const Model<S>& m, Workspace<S>& ws, cons
   for (Index b = 0; b < B; ++b) {  // y = (b_out + W_out h_t) * scale + mean
     S* yb = y + b * ldy;
     const S *w_out = m.head_weight_rows().data(), *b_out = m.head_bias().data();
-    if (kBatch == 1 && H == 16 && fixed_hidden<S>(16)) {  // the same sums, unrolled
-      head_dot(w_out, 16, no, 16, h_last, b_out, yb);
-    } else if (kBatch == 1 && H == 32 && fixed_hidden<S>(32)) {
-      head_dot(w_out, 32, no, 32, h_last, b_out, yb);
+    if (kBatch == 1 && H == 16 && K::template fixed_hidden<S>(16)) {  // the same sums, unrolled
+      K::head_dot(w_out, 16, no, 16, h_last, b_out, yb);
+    } else if (kBatch == 1 && H == 32 && K::template fixed_hidden<S>(32)) {
+      K::head_dot(w_out, 32, no, 32, h_last, b_out, yb);
     } else {
-      head_dot(w_out, H, no, H, h_last + b * ldz, b_out, yb);
+      K::head_dot(w_out, H, no, H, h_last + b * ldz, b_out, yb);
     }
     for (Index k = 0; k < no; ++k) yb[k] = yb[k] * scale[k] + mean[k];
   }
@@ -298,6 +310,17 @@ __attribute__((target("avx2,fma"))) void advance_avx2(const Model<S>& m, Workspa
     advance_body<Avx2, 0>(m, ws, x, ldx, y, ldy);
   }
 }
+// And for AVX-512 (F, with AVX2 + FMA): vectors of 16 floats, panels of 128 rows.
+template <typename S>
+__attribute__((target("avx512f,avx2,fma"))) void advance_avx512(const Model<S>& m,
+                                                                Workspace<S>& ws, const S* x,
+                                                                Index ldx, S* y, Index ldy) {
+  if (ws.batch == 1) {
+    advance_body<Avx512, 1>(m, ws, x, ldx, y, ldy);
+  } else {
+    advance_body<Avx512, 0>(m, ws, x, ldx, y, ldy);
+  }
+}
 #endif
 
 /// One time step with the kernel variant the model chose for this CPU.
@@ -305,7 +328,11 @@ template <typename S>
 inline void advance(const Model<S>& m, Workspace<S>& ws, const S* x, Index ldx, S* y,
                     Index ldy) {
 #ifdef TERRASPH_LSTM_AVX2_DISPATCH
-  if (m.uses_avx2()) {
+  if (m.isa() == KernelIsa::Avx512) {
+    advance_avx512(m, ws, x, ldx, y, ldy);
+    return;
+  }
+  if (m.isa() == KernelIsa::Avx2) {
     advance_avx2(m, ws, x, ldx, y, ldy);
     return;
   }
