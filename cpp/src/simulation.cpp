@@ -619,10 +619,11 @@ void Simulation<D>::force_pass(double dt) {
   const bool keep_every_wall = tracks_wall_loads_;
   [[maybe_unused]] const double wall_friction = params_.numerics.wall_friction_coefficient;
   [[maybe_unused]] const double friction_dt = dt > 0.0 ? dt : counters_.last_dt;
-  struct FrictionPair {  // a granular–wall pair of grain i: list slot, N_iw, slip v_t
+  struct FrictionPair {  // a granular–wall pair of grain i: list slot, N_iw, slip v_t, reaction kept
     Index slot;
     double normal;
     Vec<D> slip;
+    bool kept;
   };
   struct Partial {
     double max_acc2 = 0.0;
@@ -672,7 +673,7 @@ void Simulation<D>::force_pass(double dt) {
         pair_acc = along * n;
         const double normal = std::max(along, 0.0);
         normal_sum += normal;
-        friction_pairs.push_back({s, normal, viw - viw.dot(n) * n});
+        friction_pairs.push_back({s, normal, viw - viw.dot(n) * n, kept});
       }
       acc.noalias() += pair_acc;
       if (kept) row_vec<D>(pair_wall_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
@@ -682,8 +683,7 @@ void Simulation<D>::force_pass(double dt) {
       for (const FrictionPair& pair : friction_pairs) {
         const Vec<D> friction = term::coulomb_wall_friction<D>(wall_friction, pair.normal, pair.slip, regularisation_speed);
         acc.noalias() += friction;
-        if (KeepPairForces && (keep_every_wall || walls_.body[granular_wall_.indices[pair.slot]] >= 0))
-          row_vec<D>(pair_wall_force_, pair.slot) -= granular_.mass[i] * friction;  // Eq. 3.24, reaction
+        if (pair.kept) row_vec<D>(pair_wall_force_, pair.slot) -= granular_.mass[i] * friction;  // Eq. 3.24
       }
     }
     if (nearest_wall2 < inside_wall2) {

@@ -106,8 +106,7 @@ def run_case(scene: str, config: Mapping[str, Any] | Any, out: str | os.PathLike
     if not isinstance(config, entry.config_type):
         config = entry.config_from(config)
     result = entry.run(config, output=out, progress=progress)
-    # the chapter 2–3 scenes return a result object, the robot scenes a RobotRun: both have summary()
-    summary = CaseSummary(result.summary() if hasattr(result, "summary") else result["summary"])
+    summary = CaseSummary(result.summary())  # a scene's result object or a robot's RobotRun
     summary.plot = getattr(result, "plot", None)
     return summary
 

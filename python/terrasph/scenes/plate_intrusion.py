@@ -46,6 +46,7 @@ from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import RunResult, Simulation
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 __all__ = ["RESOLUTIONS", "PlateIntrusion", "PlateResult", "anchor_uplift_references", "build_plate_intrusion",
@@ -109,10 +110,10 @@ class PlateIntrusion:
                               f"{WALL_FREEBOARD / 2:g}] m (at least one spacing above the surface)")
         if not isinstance(self.geostatic, bool):
             raise ConfigError(f"parameter 'geostatic' = {self.geostatic!r} is invalid: allowed True or False")
+        # the plate's underside must stay clear of the floor's kernel support, buried or pushed in
+        floor_clear = self.bed_depth - self.plate_thickness - 2 * wall_layers_needed(numerics.h_factor) * self.spacing
         if self.buried_depth is not None:
             lowest = 2 * self.spacing
-            # the underside must stay clear of the floor's kernel support, as for max_depth
-            floor_clear = self.bed_depth - self.plate_thickness - 2 * wall_layers_needed(numerics.h_factor) * self.spacing
             if not (_is_number(self.buried_depth) and math.isfinite(self.buried_depth)
                     and lowest * (1 - 1e-9) <= self.buried_depth < floor_clear):
                 raise ConfigError(f"parameter 'buried_depth' = {self.buried_depth!r} is invalid: allowed "
@@ -129,9 +130,8 @@ class PlateIntrusion:
         if not self.plate_length <= self.bed_width / 3:
             raise ConfigError(f"parameter 'plate_length' = {self.plate_length!r} is invalid: allowed <= bed_width/3 "
                               f"= {self.bed_width / 3:g} m (side walls at least one plate length from its ends)")
-        deepest = self.bed_depth - self.plate_thickness - 2 * wall_layers_needed(numerics.h_factor) * self.spacing
-        if self.buried_depth is None and not self.max_depth < deepest:  # a buried start does not use it
-            raise ConfigError(f"parameter 'max_depth' = {self.max_depth!r} is invalid: allowed (0, {deepest:g}) m "
+        if self.buried_depth is None and not self.max_depth < floor_clear:  # a buried start does not use it
+            raise ConfigError(f"parameter 'max_depth' = {self.max_depth!r} is invalid: allowed (0, {floor_clear:g}) m "
                               "(the plate must stay clear of the floor's kernel support)")
 
     def material(self) -> Material:
@@ -285,8 +285,11 @@ class PlateResult:
         if len(force) == 0:
             raise ValueError("no sample of the up stroke")
         k = int(np.argmax(-force))
-        start = (self.config.buried_depth or 0.0) + self.config.plate_thickness
-        return float(start - depth[k]), float(-force[k])
+        return float(self.uplift(depth[k])), float(-force[k])
+
+    def uplift(self, depth: np.ndarray | float) -> np.ndarray | float:
+        """Buried start: the plate's travel from its buried position (m) at underside `depth` (m)."""
+        return (self.config.buried_depth or 0.0) + self.config.plate_thickness - depth
 
     def uplift_references(self) -> dict[str, float]:
         """Buried start: :func:`anchor_uplift_references` for this plate, bed and material
@@ -398,21 +401,28 @@ def plot_intrusion(result: PlateResult, *, path: str | os.PathLike[str] | None =
 
     figure = Figure(figsize=(6.4, 4.0), layout="constrained")
     axes = figure.add_subplot()
-    if result.config.buried:  # the pull only: load against uplift, with the references
-        depth, force = result.stroke("up")
-        uplift = (result.config.buried_depth or 0.0) + result.config.plate_thickness - depth
-        axes.plot(1e3 * uplift, -force, "s-", ms=3, label="extraction load (down)")
-        refs = result.uplift_references()
-        axes.axhline(refs["dead_weight"], color="k", ls="--", label="dead weight γHBW")
-        axes.axhline(refs["vertical_slip"], color="k", ls=":", label="vertical slip γHBW(1 + K0 tan φ H/B)")
-        axes.set_xlabel("uplift of the plate (mm)")
-        axes.set_ylabel("load of the beads on the plate, down (N)")
-        axes.set_title(f"buried plate {1e3 * result.config.plate_length:g} mm at H = "
-                       f"{1e3 * (result.config.buried_depth or 0.0):g} mm, v = {1e3 * result.config.speed:g} mm/s")
-        axes.legend()
-        if path is not None:
-            figure.savefig(path, dpi=150)
-        return figure
+    (_draw_pull if result.config.buried else _draw_strokes)(axes, result)
+    axes.legend()
+    if path is not None:
+        figure.savefig(path, dpi=150)
+    return figure
+
+
+def _draw_pull(axes: Axes, result: PlateResult) -> None:
+    """Buried start: the extraction load against uplift, with the dead weight and vertical-slip lines."""
+    depth, force = result.stroke("up")
+    axes.plot(1e3 * result.uplift(depth), -force, "s-", ms=3, label="extraction load (down)")
+    refs = result.uplift_references()
+    axes.axhline(refs["dead_weight"], color="k", ls="--", label="dead weight γHBW")
+    axes.axhline(refs["vertical_slip"], color="k", ls=":", label="vertical slip γHBW(1 + K0 tan φ H/B)")
+    axes.set_xlabel("uplift of the plate (mm)")
+    axes.set_ylabel("load of the beads on the plate, down (N)")
+    axes.set_title(f"buried plate {1e3 * result.config.plate_length:g} mm at H = "
+                   f"{1e3 * (result.config.buried_depth or 0.0):g} mm, v = {1e3 * result.config.speed:g} mm/s")
+
+
+def _draw_strokes(axes: Axes, result: PlateResult) -> None:
+    """Start above the bed: F_z against depth for both strokes, with the down stroke's line fit."""
     for phase, style in (("down", "o-"), ("up", "s-")):
         depth, force = result.stroke(phase)
         axes.plot(1e3 * depth, force, style, ms=3, label=f"{phase} stroke")
@@ -426,7 +436,3 @@ def plot_intrusion(result: PlateResult, *, path: str | os.PathLike[str] | None =
     axes.set_ylabel("vertical force $F_z$ (N)")
     axes.set_title(f"plate {1e3 * result.config.plate_length:g} mm, v = {1e3 * result.config.speed:g} mm/s, "
                    f"Δx = {1e3 * result.config.spacing:g} mm")
-    axes.legend()
-    if path is not None:
-        figure.savefig(path, dpi=150)
-    return figure
