@@ -14,12 +14,18 @@ Scene: a 0.4 m × 0.04 m bed of the packed glass beads (Δx = 5 mm) in a rough b
   keep the strict criterion from freezing any grain within 0.1 s, while with a 10 cm radius every
   grain beyond 25 cm is frozen, none within 5 cm of the plate is, the far part stays bitwise
   unchanged while the plate is pushed down and no grain leaks;
+* no grain within the radius of a body particle freezes, however slow (the strict criterion alone
+  freezes grains under the plate at the same thresholds);
+* the radius is measured to the body's particles, not to a circle about its reference point: with
+  the reference 30 cm away from the plate, above the far part of the bed, that part still freezes;
 * determinism (1, 2, 3 threads) and a checkpoint restart stay bitwise with the active domain and
   the cell-ordered storage both on (coarse column collapse with a high freeze speed, so that
   grains freeze and wake during the few hundred steps).
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -38,7 +44,9 @@ PLATE_HEIGHT = 0.025  # reference above the bed surface: 1.75 cm gap below the 1
 PUSH_START, PUSH_SPEED, PUSH_TIME = 0.1, 0.05, 0.25  # s, m/s, s: 1.25 cm down, to a 0.5 cm gap
 
 
-def bed_with_plate(**active_domain: float) -> Simulation:
+def bed_with_plate(reference_shift: float = 0.0, **active_domain: float) -> Simulation:
+    """The bed and the plate; `reference_shift` moves the plate's reference point that far to the
+    right of the plate, which stays where it is."""
     numerics = Numerics(spacing=DX, **(active_domain or {"freeze_speed": 5e-3, "freeze_steps": 100}))
     scene = Scene(spacing=DX)
     scene.add_block(0.0, 0.0, WIDTH, HEIGHT)
@@ -46,7 +54,9 @@ def bed_with_plate(**active_domain: float) -> Simulation:
     scene.add_wall("box", [(0.0, top), (0.0, 0.0), (WIDTH, 0.0), (WIDTH, top)],
                    layers=wall_layers_needed(numerics.h_factor), no_slip=True)
     motion = Motion((Hold(PUSH_START), Move(PUSH_TIME, (0.0, -PUSH_SPEED))))
-    scene.add_body("plate", plate(0.04, 3 * DX, 1.0, DX), reference=(0.05, HEIGHT + PLATE_HEIGHT), motion=motion,
+    shape = plate(0.04, 3 * DX, 1.0, DX)
+    shape = dataclasses.replace(shape, position=shape.position - np.array([reference_shift, 0.0]))
+    scene.add_body("plate", shape, reference=(0.05 + reference_shift, HEIGHT + PLATE_HEIGHT), motion=motion,
                    width=1.0)
     packed = Material(reference_density=0.6 * Material().grain_density)
     return Simulation(scene, packed, numerics)
@@ -95,6 +105,31 @@ def test_far_from_bodies_speed_alone_decides() -> None:
         assert np.array_equal(before[name], after[name]), name
     assert not np.asarray(sim.field("frozen")).astype(bool)[near].any()
     assert sim.leaked_particles == 0
+
+
+def test_the_radius_is_measured_to_the_body_particles_not_to_its_reference_point() -> None:
+    # the plate's reference 30 cm to its right, above the far part of the bed: a bounding circle
+    # about the reference (radius 30 cm) would cover the whole bed and freeze nothing
+    strict = {"freeze_speed": 2e-3, "freeze_steps": 400}
+    sim = bed_with_plate(reference_shift=0.3, **strict, active_radius=0.1)
+    start = np.asarray(sim.position)
+    far, near = start[:, 0] > 0.25, start[:, 0] < 0.1
+    sim.advance(PUSH_START)
+    frozen = np.asarray(sim.field("frozen")).astype(bool)
+    assert frozen[far].all() and not frozen[near].any()
+
+
+def test_no_grain_within_the_radius_freezes_however_slow() -> None:
+    # 5 cm/s is far above any speed of the settled bed: the strict criterion freezes grains under
+    # the plate; within the radius (every grain at x < 0.1 is within 7 cm of a plate particle) none
+    loose = {"freeze_speed": 0.05, "freeze_steps": 50}
+    under_plate = np.asarray(bed_with_plate(**loose).position)[:, 0] < 0.1
+    strict = bed_with_plate(**loose)
+    strict.advance(PUSH_START)
+    assert np.asarray(strict.field("frozen")).astype(bool)[under_plate].any()
+    sim = bed_with_plate(**loose, active_radius=0.1)
+    sim.advance(PUSH_START)
+    assert not np.asarray(sim.field("frozen")).astype(bool)[under_plate].any()
 
 
 def test_an_active_radius_without_a_freeze_speed_is_refused() -> None:

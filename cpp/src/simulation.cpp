@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 #include <string>
 
@@ -300,6 +301,8 @@ template <int D> void Simulation<D>::sort_into_cell_order() {
 // within that radius for the next step: the awake region grows by ≥ 2h per step, faster than any
 // signal the step resolves (c·dt ≤ C·h). What stays frozen is what no grain above the thresholds
 // has come near: that is the criterion's error.
+// With numerics.active_radius R the test is geometric first (Chrono's active domain): a grain
+// within R of any body particle is never quiet, one farther away is quiet on |v| alone.
 template <int D> void Simulation<D>::update_frozen() {
   const std::int32_t settle = params_.numerics.freeze_steps;
   const Int32Array& quiet = *quiet_steps_;
@@ -839,18 +842,13 @@ template <int D> void Simulation<D>::accumulate_body_loads(double dt) {
   }
 }
 
-// The circle about each body's reference point that holds all its particles (serial: a fixed
-// order, and only the bodies' particles are visited).
-template <int D> std::vector<BodyCircle<D>> Simulation<D>::body_circles() const {
-  std::vector<BodyCircle<D>> circles(bodies_.size());
-  for (std::size_t b = 0; b < bodies_.size(); ++b) circles[b].centre = bodies_[b].kinematics.reference;
-  for (Index w = 0; w < walls_.size(); ++w) {
-    const std::int32_t b = walls_.body[w];
-    if (b < 0) continue;
-    BodyCircle<D>& c = circles[static_cast<std::size_t>(b)];
-    c.radius = std::max(c.radius, (row_vec<D>(walls_.position, w) - c.centre).norm());
-  }
-  return circles;
+// The body particles' positions after this step's move, in a fixed order (serial: only the
+// bodies' particles are visited), for the active domain's "far from every body" test.
+template <int D> BodyProximity<D> Simulation<D>::body_proximity(double radius) const {
+  std::vector<Vec<D>> points;
+  for (Index w = 0; w < walls_.size(); ++w)
+    if (walls_.body[w] >= 0) points.emplace_back(row_vec<D>(walls_.position, w));
+  return BodyProximity<D>(std::move(points), radius);
 }
 
 template <int D> void Simulation<D>::track_wall_loads(const Vec<D>& point) {
@@ -992,17 +990,23 @@ template <int D> void Simulation<D>::step(double dt) {
   const double freeze_speed2 = params_.numerics.freeze_speed * params_.numerics.freeze_speed;
   const std::int32_t settle = params_.numerics.freeze_steps;
   const double active_radius = params_.numerics.active_radius;
-  const std::vector<BodyCircle<D>> circles = active_radius > 0.0 ? body_circles() : std::vector<BodyCircle<D>>{};
+  const std::optional<BodyProximity<D>> bodies_near =
+      active_radius > 0.0 ? std::optional<BodyProximity<D>>(body_proximity(active_radius)) : std::nullopt;
   const double max_v2 = max_over_particles(n, 0.0, [&](Index i) {  // closing kick
     auto v = row_vec<D>(granular_.velocity, i);
     if (frozen(i)) return v.squaredNorm();
     v += half * row_vec<D>(granular_.acceleration, i);
     granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
     const double v2 = v.squaredNorm();
-    if (quiet_steps_) {  // quiet: slow, and (near a body) not gaining freeze_speed within freeze_steps steps
-      const double gain = settle * dt * row_vec<D>(granular_.acceleration, i).norm();
-      const bool far = active_radius > 0.0 && outside_all<D>(circles, row_vec<D>(granular_.position, i), active_radius);
-      const bool quiet = v2 < freeze_speed2 && (far || gain * gain < freeze_speed2);
+    if (quiet_steps_) {  // quiet: slow, and not gaining freeze_speed within freeze_steps steps, or
+                         // (active radius) far from every body, and never near one
+      bool quiet = v2 < freeze_speed2;
+      if (quiet && bodies_near) {
+        quiet = !bodies_near->near(row_vec<D>(granular_.position, i));
+      } else if (quiet) {
+        const double gain = settle * dt * row_vec<D>(granular_.acceleration, i).norm();
+        quiet = gain * gain < freeze_speed2;
+      }
       (*quiet_steps_)[i] = quiet ? std::min((*quiet_steps_)[i] + 1, settle) : 0;
     }
     return v2;

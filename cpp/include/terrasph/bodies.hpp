@@ -5,9 +5,11 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "terrasph/errors.hpp"
@@ -115,16 +117,60 @@ template <int D> struct RigidBody {
 };
 
 // The circle (sphere in 3D) about a body's reference point that holds all its particles.
-template <int D> struct BodyCircle {
-  Vec<D> centre = Vec<D>::Zero();
-  double radius = 0.0;
-};
+// "Is any body particle within R of x?" for the active domain (numerics.active_radius): the body
+// particles binned in cells of side R, so that a query visits the 3^D cells about x and stops at
+// the first particle within R. Built once a step from the moved bodies; exact (no bounding shape).
+template <int D> class BodyProximity {
+ public:
+  using Cell = std::array<std::int64_t, D>;
 
-// Whether x lies farther than `margin` from every circle (true when there are none).
-template <int D> bool outside_all(const std::vector<BodyCircle<D>>& circles, const Vec<D>& x, double margin) {
-  for (const BodyCircle<D>& c : circles)
-    if ((x - c.centre).norm() - c.radius <= margin) return false;
-  return true;
-}
+  BodyProximity(std::vector<Vec<D>> points, double radius) : radius_(radius) {
+    std::vector<std::pair<Cell, Vec<D>>> binned;
+    binned.reserve(points.size());
+    for (const Vec<D>& p : points) binned.emplace_back(cell_of(p), p);
+    std::stable_sort(binned.begin(), binned.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [cell, p] : binned) {
+      if (cells_.empty() || cells_.back() != cell) {
+        cells_.push_back(cell);
+        starts_.push_back(points_.size());
+      }
+      points_.push_back(p);
+    }
+    starts_.push_back(points_.size());
+  }
+
+  bool near(const Vec<D>& x) const {
+    const Cell centre = cell_of(x);
+    const double r2 = radius_ * radius_;
+    Cell offset{};
+    offset.fill(-1);
+    while (true) {  // the 3^D cells about x's own
+      Cell cell = centre;
+      for (int d = 0; d < D; ++d) cell[d] += offset[d];
+      const auto found = std::lower_bound(cells_.begin(), cells_.end(), cell);
+      if (found != cells_.end() && *found == cell) {
+        const std::size_t k = static_cast<std::size_t>(found - cells_.begin());
+        for (std::size_t p = starts_[k]; p < starts_[k + 1]; ++p)
+          if ((points_[p] - x).squaredNorm() <= r2) return true;
+      }
+      int d = 0;
+      while (d < D && offset[d] == 1) offset[d++] = -1;
+      if (d == D) return false;
+      ++offset[d];
+    }
+  }
+
+ private:
+  Cell cell_of(const Vec<D>& x) const {
+    Cell cell;
+    for (int d = 0; d < D; ++d) cell[d] = static_cast<std::int64_t>(std::floor(x[d] / radius_));
+    return cell;
+  }
+
+  double radius_;
+  std::vector<Cell> cells_;  // occupied cells, sorted
+  std::vector<std::size_t> starts_;  // points_[starts_[k], starts_[k + 1]) lie in cells_[k]
+  std::vector<Vec<D>> points_;
+};
 
 }  // namespace terrasph

@@ -131,8 +131,8 @@ template <> struct ChoiceNames<PlasticFlow> {
   X(int, freeze_steps, 200, "steps", inclusive(1.0), exclusive(inf),                                     \
     "N of freeze_speed: steps a grain must stay quiet before it counts as settled (active domain)")     \
   X(double, active_radius, 0.0, "m", inclusive(0.0), exclusive(inf),                                     \
-    "active domain: a grain farther than this from every body counts as quiet on |v| alone (no "         \
-    "acceleration test); 0 = off. Needs freeze_speed > 0")                                               \
+    "active domain: a grain within this of a body particle is never frozen, one farther away counts "  \
+    "as quiet on |v| alone (no acceleration test); 0 = off. Needs freeze_speed > 0")                     \
   X(double, density_floor, 0.0, "1", inclusive(0.0), inclusive(1.0),                                     \
     "rho >= density_floor*rho_0 after every kick; 0 = off")                                              \
   X(double, density_ratio_min, 0.5, "1", exclusive(0.0), exclusive(1.0),                                 \

@@ -162,7 +162,7 @@ template <int D> class Simulation {
   void build_neighbours();
   void sort_into_cell_order();
   void update_frozen();
-  std::vector<BodyCircle<D>> body_circles() const;
+  BodyProximity<D> body_proximity(double radius) const;
   bool frozen(Index i) const { return frozen_ && (*frozen_)[i]; }
   void update_idle_walls();
   bool wall_idle(Index w) const { return frozen_ && wall_idle_[static_cast<std::size_t>(w)]; }
