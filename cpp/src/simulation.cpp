@@ -420,7 +420,7 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
     }
     const Vec<D> extrapolated = sum_v / sum_w;
     row_vec<D>(walls_.ghost_velocity, w) = walls_.no_slip[w] ? Vec<D>(2.0 * vw - extrapolated) : extrapolated;
-  });
+  }, active_chunk());
 }
 
 // The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. A pair beyond the
@@ -489,7 +489,7 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
     granular_.pressure[i] = p;
     row_mat<D>(granular_.stress, i) = sigma;
     row_mat<D>(granular_.stress_over_rho2, i) = sigma / (rho * rho);
-  });
+  }, active_chunk());
 }
 
 // The stress pass of a model that needs the small strain E (mu_i_strain, Eq. 3.6): E first.
@@ -535,7 +535,7 @@ void Simulation<D>::small_strain_pass(VecArray<D>& reference, MatArray<D>& strai
     }
     if (std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
     row_mat<D>(strain, i) = 0.5 * (grad + grad.transpose());
-  });
+  }, active_chunk());
 }
 
 // Wall stress extrapolated from the granular neighbours with the hydrostatic correction
@@ -585,7 +585,7 @@ void Simulation<D>::wall_stress_pass() {
     const double rho = walls_.density[w];
     row_mat<D>(walls_.stress, w) = sigma;
     row_mat<D>(walls_.stress_over_rho2, w) = sigma / (rho * rho);
-  });
+  }, active_chunk());
 }
 
 // Continuity with δ-SPH (Eq. 2.42–2.43), momentum with artificial viscosity (Eq. 2.45–2.47) and
@@ -705,7 +705,7 @@ void Simulation<D>::force_pass(double dt) {
     sum.max_acc2 = std::max(sum.max_acc2, p.max_acc2);
     sum.penetrating += p.penetrating;
     sum.newly_penetrated += p.newly_penetrated;
-  });
+  }, active_chunk());
   counters_.max_acceleration = std::sqrt(total.max_acc2);
   counters_.penetrating_particles = total.penetrating;
   counters_.penetrated_particles += total.newly_penetrated;
@@ -982,7 +982,7 @@ template <int D> void Simulation<D>::step(double dt) {
     Vec<D> drift = v;
     if (xsph) drift += row_vec<D>(*xsph_correction_, i);
     row_vec<D>(granular_.position, i) += dt * drift;
-  });
+  }, active_chunk());
   if (!bodies_.empty()) move_bodies(counters_.time + dt);
   const double before_rates = omp_get_wtime();
   compute_rates(dt);
@@ -1010,7 +1010,7 @@ template <int D> void Simulation<D>::step(double dt) {
       (*quiet_steps_)[i] = quiet ? std::min((*quiet_steps_)[i] + 1, settle) : 0;
     }
     return v2;
-  });
+  }, active_chunk());
   counters_.max_speed = std::sqrt(max_v2);
   counters_.time += dt;
   counters_.last_dt = dt;
@@ -1092,7 +1092,7 @@ template <int D> void Simulation<D>::apply_shepard_filter() {
       den += granular_.mass[j] / granular_.density[j] * weight;
     }
     filtered[i] = num / den;
-  });
+  }, active_chunk());
   granular_.density = filtered;
 }
 

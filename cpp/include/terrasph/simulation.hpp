@@ -16,6 +16,7 @@
 #include "terrasph/constitutive.hpp"
 #include "terrasph/kernel.hpp"
 #include "terrasph/neighbours.hpp"
+#include "terrasph/parallel.hpp"
 #include "terrasph/params.hpp"
 #include "terrasph/particles.hpp"
 
@@ -164,6 +165,9 @@ template <int D> class Simulation {
   void update_frozen();
   BodyProximity<D> body_proximity(double radius) const;
   bool frozen(Index i) const { return frozen_ && (*frozen_)[i]; }
+  // the threads' share of the loops that skip frozen grains and idle walls: balanced chunks with
+  // the active domain on, one block per thread otherwise (parallel.hpp)
+  Index active_chunk() const { return frozen_ ? balanced_chunk : 0; }
   void update_idle_walls();
   bool wall_idle(Index w) const { return frozen_ && wall_idle_[static_cast<std::size_t>(w)]; }
   bool penetrates_interior_wall(Index i) const;
