@@ -61,12 +61,17 @@ def rng() -> np.random.Generator:
 
 @pytest.fixture
 def restore_threads():
-    """Restores the OpenMP thread count a test changed (process-wide setting)."""
+    """Restores the OpenMP thread count a test changed (process-wide setting), and splits every
+    loop across the threads meanwhile, however few its particles (the core gives each thread at
+    least ``get_particles_per_thread()`` particles otherwise, so a small test scene would run on
+    one thread whatever the count)."""
     from terrasph import _core
 
-    before = _core.get_max_threads()
+    before, per_thread = _core.get_max_threads(), _core.get_particles_per_thread()
+    _core.set_particles_per_thread(1)
     yield
     _core.set_num_threads(before)
+    _core.set_particles_per_thread(per_thread)
 
 
 def _free_block(spacing: float, nx: int, nz: int, *, margin: float = 0.5):

@@ -52,3 +52,15 @@ def test_repeat_run_is_identical(restore_threads) -> None:
     second = run_state(2, "mu_i_hypoelastic", {}, 200)
     for name in first:
         assert np.array_equal(first[name], second[name])
+
+
+def test_a_loop_on_fewer_threads_gives_the_same_state(restore_threads) -> None:
+    # the fixture splits every loop; 100 000 particles per thread puts every loop of this 475-grain
+    # scene on one of the two threads (the rule that keeps small scenes off a second thread)
+    split = run_state(2, "mu_i_hypoelastic", {}, 200)
+    _core.set_particles_per_thread(100_000)
+    whole = run_state(2, "mu_i_hypoelastic", {}, 200)
+    for name in split:
+        assert np.array_equal(split[name], whole[name]), name
+    with pytest.raises(ValueError, match="particles per thread must be >= 1"):
+        _core.set_particles_per_thread(0)

@@ -576,6 +576,14 @@ void bind_sph(py::module_& m) {
         omp_set_num_threads(n);
       }, py::arg("n"), "Number of OpenMP threads for the following runs (process-wide OpenMP setting).");
   m.def("get_max_threads", &omp_get_max_threads, "OpenMP threads a parallel loop would use now.");
+  m.def("set_particles_per_thread", [](Index n) {
+        if (n < 1) throw std::invalid_argument("particles per thread must be >= 1");
+        particles_per_thread().store(n);
+      }, py::arg("n"),
+      "Fewest particles a loop gives each thread (process-wide, like the thread count): a smaller loop "
+      "runs on fewer threads. 1 = split every loop.");
+  m.def("get_particles_per_thread", [] { return particles_per_thread().load(); },
+        "Fewest particles a loop gives each thread (see set_particles_per_thread).");
 
   m.def("neighbour_lists", [](const py::array_t<double, py::array::c_style | py::array::forcecast>& points, double radius) {
         if (points.ndim() != 2 || points.shape(1) != 2) throw std::invalid_argument("points must have shape (N, 2)");

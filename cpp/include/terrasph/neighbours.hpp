@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "terrasph/math.hpp"
+#include "terrasph/parallel.hpp"
 
 namespace terrasph {
 
@@ -79,7 +80,7 @@ template <int D> class CellGrid {
 
  private:
   template <class F> static void for_each_point(Index n, F&& f) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(team_size(n))
     for (Index i = 0; i < n; ++i) f(i);
   }
 
@@ -115,7 +116,7 @@ void build_neighbour_list(const VecArray<D>& queries, const VecArray<D>& sources
   const double r2max = radius * radius;
   out.offsets.assign(static_cast<size_t>(n + 1), 0);
   std::vector<std::vector<std::int32_t>> chunk_lists;
-#pragma omp parallel
+#pragma omp parallel num_threads(team_size(n))
   {
     const int n_threads = omp_get_num_threads();
     const int thread = omp_get_thread_num();

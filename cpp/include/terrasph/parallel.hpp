@@ -7,6 +7,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <vector>
 
 #include "terrasph/math.hpp"
@@ -20,16 +21,34 @@ namespace terrasph {
 // the frozen ones). Either assignment is fixed for a given n and thread count.
 inline constexpr Index balanced_chunk = 256;
 
-inline Index chunk_size(Index n, Index chunk) {
+// The fewest particles a loop gives each thread: below it the team's wake-up and join (tens of
+// µs with sleeping idle threads, OMP_WAIT_POLICY=passive) cost more than the share of the work
+// (docs/benchmarks.md, fourth round), so a small loop runs on fewer threads or on one. A
+// process-wide setting, like the OpenMP thread count it refines; tests set 1 so that their small
+// scenes still split across 2 and 3 threads.
+inline constexpr Index default_particles_per_thread = 2000;
+
+inline std::atomic<Index>& particles_per_thread() {
+  static std::atomic<Index> value{default_particles_per_thread};
+  return value;
+}
+
+// Threads for a loop over n particles: n / particles_per_thread(), within [1, the thread count].
+inline int team_size(Index n) {
+  const Index per_thread = particles_per_thread().load(std::memory_order_relaxed);
+  return static_cast<int>(std::clamp<Index>(n / per_thread, 1, omp_get_max_threads()));
+}
+
+inline Index chunk_size(Index n, Index chunk, int team) {
   if (chunk > 0) return chunk;
-  const Index threads = omp_get_max_threads();
-  return std::max<Index>(1, (n + threads - 1) / threads);
+  return std::max<Index>(1, (n + team - 1) / team);
 }
 
 // body(i) for i in [0, n), in blocks or (chunk > 0) balanced chunks.
 template <class Body> void for_each_particle(Index n, Body&& body, Index chunk = 0) {
-  const Index size = chunk_size(n, chunk);
-#pragma omp parallel for schedule(static, size)
+  const int team = team_size(n);
+  const Index size = chunk_size(n, chunk, team);
+#pragma omp parallel for schedule(static, size) num_threads(team)
   for (Index i = 0; i < n; ++i) body(i);
 }
 
@@ -38,11 +57,12 @@ template <class Body> void for_each_particle(Index n, Body&& body, Index chunk =
 // integer counts); a floating-point sum would make the result depend on the thread count.
 template <class Partial, class Body, class Merge>
 Partial reduce_over_particles(Index n, const Partial& identity, Body&& body, Merge&& merge, Index chunk = 0) {
-  const Index size = chunk_size(n, chunk);
-  // sized before the region (a team never exceeds omp_get_max_threads()), so the only barrier is
-  // the region's end, as with OpenMP's own reduction clause
-  std::vector<Partial> partials(static_cast<std::size_t>(omp_get_max_threads()), identity);
-#pragma omp parallel
+  const int team = team_size(n);
+  const Index size = chunk_size(n, chunk, team);
+  // sized before the region, so the only barrier is the region's end, as with OpenMP's own
+  // reduction clause
+  std::vector<Partial> partials(static_cast<std::size_t>(team), identity);
+#pragma omp parallel num_threads(team)
   {
     Partial local = identity;
 #pragma omp for schedule(static, size) nowait
