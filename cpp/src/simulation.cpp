@@ -998,8 +998,8 @@ template <int D> void Simulation<D>::step(double dt) {
     v += half * row_vec<D>(granular_.acceleration, i);
     granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
     const double v2 = v.squaredNorm();
-    if (quiet_steps_) {  // quiet: slow, and not gaining freeze_speed within freeze_steps steps, or
-                         // (active radius) far from every body, and never near one
+    if (quiet_steps_) {  // quiet: slow, and then far from every body (active radius) or, without
+                         // one, not gaining freeze_speed within freeze_steps steps
       bool quiet = v2 < freeze_speed2;
       if (quiet && bodies_near) {
         quiet = !bodies_near->near(row_vec<D>(granular_.position, i));

@@ -116,7 +116,6 @@ template <int D> struct RigidBody {
   double impulse_time = 0.0;         // Σ dt since the last reset
 };
 
-// The circle (sphere in 3D) about a body's reference point that holds all its particles.
 // "Is any body particle within R of x?" for the active domain (numerics.active_radius): the body
 // particles binned in cells of side R, so that a query visits the 3^D cells about x and stops at
 // the first particle within R. Built once a step from the moved bodies; exact (no bounding shape).
