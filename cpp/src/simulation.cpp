@@ -550,6 +550,7 @@ void Simulation<D>::wall_stress_pass() {
   const double floor = model.wall_pressure_floor();
   const double h2x4 = 4.0 * kernel_.h * kernel_.h;
   const Vec<D> g = params_.domain.gravity;
+  const double inertia = params_.numerics.mass_scaling;
   for_each_particle(walls_.size(), [&](Index w) {
     if (wall_idle(w)) return;
     const Vec<D> xw = row_vec<D>(walls_.position, w);
@@ -568,7 +569,8 @@ void Simulation<D>::wall_stress_pass() {
     }
     Mat<D> sigma = Mat<D>::Zero();
     if (sum_w > 0.0) {
-      const double hydrostatic = (g - row_vec<D>(walls_.acceleration, w)).dot(sum_rho_x) / sum_w;
+      // f ρ a = ∇·σ + ρ g with mass scaling f: grains carried along at a_w feel g − f a_w
+      const double hydrostatic = (g - inertia * row_vec<D>(walls_.acceleration, w)).dot(sum_rho_x) / sum_w;
       sigma = sum_sigma / sum_w - hydrostatic * Mat<D>::Identity();
       const double p = -sigma.trace() / D;
       if (p < floor) sigma += (p - floor) * Mat<D>::Identity();  // tension cut-off
@@ -621,7 +623,10 @@ void Simulation<D>::force_pass(double dt) {
   const ForceConstants<D> constants{h, alpha, c0, delta_h_c0, chi, hydrostatic_gradient};
   const bool keep_every_wall = tracks_wall_loads_;
   [[maybe_unused]] const double wall_friction = params_.numerics.wall_friction_coefficient;
-  [[maybe_unused]] const double friction_dt = dt > 0.0 ? dt : counters_.last_dt;
+  // mass scaling f: Dv_i/Dt = (Σ pair forces/m_i + g)/f, every force unchanged
+  const double inverse_inertia = 1.0 / params_.numerics.mass_scaling;
+  // the slip a step of friction can take away is f times smaller
+  [[maybe_unused]] const double friction_dt = (dt > 0.0 ? dt : counters_.last_dt) * inverse_inertia;
   struct FrictionPair {  // a granular–wall pair of grain i: list slot, N_iw, slip v_t, reaction kept
     Index slot;
     double normal;
@@ -697,6 +702,7 @@ void Simulation<D>::force_pass(double dt) {
       }
     }
     acc += g;
+    acc *= inverse_inertia;
     row_vec<D>(granular_.acceleration, i) = acc;
     granular_.density_rate[i] = drho;
     if constexpr (UseXsph) row_vec<D>(*xsph_correction_, i) = xsph;
@@ -921,7 +927,8 @@ template <int D> void Simulation<D>::accumulate_wall_loads(double dt) {
 
 template <int D> double Simulation<D>::stable_time_step() const {
   const double h = kernel_.h;
-  double dt = h / (signal_speed_ + counters_.max_speed);
+  // mass scaling f: the grains' inertia is f times their mass, so every wave √(stiffness/inertia) is √f slower
+  double dt = h / (signal_speed_ / std::sqrt(params_.numerics.mass_scaling) + counters_.max_speed);
   if (counters_.max_acceleration > 0.0) dt = std::min(dt, std::sqrt(h / counters_.max_acceleration));
   return params_.numerics.cfl * dt;
 }

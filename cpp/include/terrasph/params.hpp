@@ -97,6 +97,10 @@ template <> struct ChoiceNames<PlasticFlow> {
   X(bool, step_at_wave_speed, false, "1", exclusive(-inf), exclusive(inf),                                 \
     "c of the step bound is the model's fastest physical wave alone (c_0 still sets the damping); "      \
     "false = max(c_0, that wave speed)")                                                                 \
+  X(double, mass_scaling, 1.0, "1", inclusive(1.0), exclusive(inf),                                     \
+    "f: each grain's inertial mass is f times its mass, gravity and every force unchanged (explicit "    \
+    "dynamics' mass scaling): every wave is sqrt(f) slower and the step sqrt(f) longer, for scenes "     \
+    "slow against the bed's waves; 1 = off")                                                             \
   X(double, artificial_viscosity, 0.1, "1", inclusive(0.0), exclusive(inf),                              \
     "alpha_Pi (Eq. 2.46) between grains, beta_Pi = 0 (docs/design_decisions.md)")                        \
   X(double, wall_artificial_viscosity, 1.0, "1", inclusive(0.0), exclusive(inf),                         \
