@@ -1,8 +1,8 @@
 """Thread count on a shared machine (issue 15, item 1): 2 threads against 1, idle and with a
-competing CPU-bound process, under terrasph's wait policy (passive) and a spinning one (active,
-what the OpenMP runtime did before terrasph set the policy).
+competing CPU-bound process, under terrasph's default wait (a bounded spin), sleeping threads
+(passive) and a spinning one (active, what the OpenMP runtime did before terrasph set the policy).
 
-    python benchmarks/bench_threads.py [--size 8000] [--steps 300] [--repeats 3]
+    python benchmarks/bench_threads.py [--size 8000] [--steps 300] [--repeats 3] [--policies default passive active]
 
 Each case runs in a fresh process (the OpenMP runtime reads its wait policy once): a bed of dry
 glass beads at rest (benchmarks/bench_sph.py) stepped `--steps` steps after a warm-up; the figure
@@ -42,8 +42,11 @@ BUSY_LOOP = "while True:\n    pass\n"
 
 def run_case(threads: int, policy: str, size: int, steps: int) -> tuple[float, int]:
     """(seconds for `steps` steps, default thread count picked at import) in a fresh process."""
-    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OMP_WAIT_POLICY")}
-    env["OMP_WAIT_POLICY"] = policy
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+    if policy.startswith("spin"):  # spinN: libgomp's spin-then-sleep, N polls
+        env["GOMP_SPINCOUNT"] = policy[len("spin"):]
+    elif policy != "default":  # default: terrasph's own (terrasph/__init__.py)
+        env["OMP_WAIT_POLICY"] = policy
     code = CHILD.format(bench_dir=str(Path(__file__).parent), threads=threads, size=size, steps=steps)
     out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
     seconds, picked = out.stdout.split()
@@ -55,6 +58,8 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=8000, help="granular particles")
     parser.add_argument("--steps", type=int, default=300)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--policies", nargs="+", default=["default", "passive", "active"],
+                        help="OMP_WAIT_POLICY values, spinN (GOMP_SPINCOUNT=N) or default (terrasph's own)")
     args = parser.parse_args()
     print(f"{os.cpu_count()} cores; {args.size} particles, {args.steps} steps, median of {args.repeats}")
     print("| machine | wait policy | 1 thread (s) | 2 threads (s) | speed-up 2 vs 1 | default threads picked |")
@@ -65,7 +70,7 @@ def main() -> None:
             competitor = subprocess.Popen([sys.executable, "-c", BUSY_LOOP])
             time.sleep(0.5)
         try:
-            for policy in ("passive", "active"):
+            for policy in args.policies:
                 timings: dict[int, list[float]] = {1: [], 2: []}
                 picked = []
                 for _ in range(args.repeats):

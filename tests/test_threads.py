@@ -28,10 +28,13 @@ def fresh_import(env_overrides: dict[str, str | None], code: str) -> str:
     return result.stdout.strip()
 
 
-def test_idle_threads_sleep_unless_the_user_chose() -> None:
-    code = "print(os.environ['OMP_WAIT_POLICY'])"
-    assert fresh_import({"OMP_WAIT_POLICY": None}, code) == "passive"
-    assert fresh_import({"OMP_WAIT_POLICY": "active"}, code) == "active"
+def test_idle_threads_spin_briefly_unless_the_user_chose() -> None:
+    from terrasph import SPIN_COUNT
+
+    code = "print(os.environ.get('OMP_WAIT_POLICY'), os.environ.get('GOMP_SPINCOUNT'))"
+    assert fresh_import({"OMP_WAIT_POLICY": None, "GOMP_SPINCOUNT": None}, code) == f"None {SPIN_COUNT}"
+    assert fresh_import({"OMP_WAIT_POLICY": "passive", "GOMP_SPINCOUNT": None}, code) == "passive None"
+    assert fresh_import({"OMP_WAIT_POLICY": None, "GOMP_SPINCOUNT": "5"}, code) == "None 5"
 
 
 def test_default_thread_count_is_within_the_available_cores() -> None:

@@ -2,8 +2,8 @@
 machine's cores are shared (issue 15, item 1).
 
 Two things make a team of OpenMP threads slow on a busy machine: threads that spin while they
-wait (fixed by ``OMP_WAIT_POLICY=passive``, set in ``terrasph/__init__.py`` unless the user set it)
-and more threads than free cores (each parallel region then waits for a thread the OS has
+wait without bound (``terrasph/__init__.py`` bounds the spin to ``SPIN_COUNT`` polls unless the user
+chose a policy) and more threads than free cores (each parallel region then waits for a thread the OS has
 descheduled). :func:`default_threads` counts the cores that are idle right now.
 """
 
