@@ -1,7 +1,7 @@
 """Throughput, thread scaling, memory per particle and feature cost of the SPH core (issue 2).
 
     python benchmarks/bench_sph.py throughput [--sizes 20000 80000 320000] [--threads 1 2] [--steps 200]
-        [--numerics NAME=VALUE ...]
+        [--numerics NAME=VALUE ...] [--particles-per-thread N]
     python benchmarks/bench_sph.py features [--size 20000]
     python benchmarks/bench_sph.py phases [--size 80000] [--threads 1]
     python benchmarks/bench_sph.py scaling [--sizes 10000 30000 100000 300000] [--steps 50] [--repeats 3]
@@ -176,6 +176,8 @@ def main() -> None:
     p.add_argument("--steps", type=int, default=200)
     p.add_argument("--numerics", nargs="*", default=[], metavar="NAME=VALUE",
                    help="numerics options of the bed, e.g. cell_order=true")
+    p.add_argument("--particles-per-thread", type=int, default=None,
+                   help="fewest particles a loop gives each thread (default: the core's)")
     f = sub.add_parser("features")
     f.add_argument("--size", type=int, default=20000)
     f.add_argument("--steps", type=int, default=200)
@@ -198,6 +200,8 @@ def main() -> None:
     if args.what == "scaling":
         scaling(args.sizes, args.steps, args.repeats, parse_numerics(args.numerics))
     elif args.what == "throughput":
+        if args.particles_per_thread is not None:
+            _core.set_particles_per_thread(args.particles_per_thread)
         throughput(args.sizes, args.threads, args.steps, parse_numerics(args.numerics))
     elif args.what == "features":
         if args.threads is not None:

@@ -21,12 +21,14 @@ namespace terrasph {
 // the frozen ones). Either assignment is fixed for a given n and thread count.
 inline constexpr Index balanced_chunk = 256;
 
-// The fewest particles a loop gives each thread: below it the team's wake-up and join (tens of
-// µs with sleeping idle threads, OMP_WAIT_POLICY=passive) cost more than the share of the work
-// (docs/benchmarks.md, fourth round), so a small loop runs on fewer threads or on one. A
-// process-wide setting, like the OpenMP thread count it refines; tests set 1 so that their small
-// scenes still split across 2 and 3 threads.
-inline constexpr Index default_particles_per_thread = 2000;
+// The fewest particles a loop gives each thread: below it the team's join costs more than the
+// share of the work, so a small loop runs on fewer threads or on one. With idle threads that
+// stay awake between loops (terrasph.threads.LONG_SPIN) a join costs a few µs, and a loop of 1 000
+// walls (the rotating leg's) is worth splitting: it also keeps the second thread from sleeping
+// through it and paying a wake-up at the next loop (docs/benchmarks.md, sixth round). 2 000
+// while idle threads slept at once. A process-wide setting, like the OpenMP thread count it
+// refines; tests set 1 so that their small scenes still split across 2 and 3 threads.
+inline constexpr Index default_particles_per_thread = 500;
 
 inline std::atomic<Index>& particles_per_thread() {
   static std::atomic<Index> value{default_particles_per_thread};
