@@ -3,11 +3,16 @@ competing CPU-bound process, under terrasph's default wait (a bounded spin), sle
 (passive) and a spinning one (active, what the OpenMP runtime did before terrasph set the policy).
 
     python benchmarks/bench_threads.py [--size 8000] [--steps 300] [--repeats 3] [--policies default passive active]
+    python benchmarks/bench_threads.py --late 3 [--simulated 0.3] [--size 8000] [--repeats 3]
 
 Each case runs in a fresh process (the OpenMP runtime reads its wait policy once): a bed of dry
 glass beads at rest (benchmarks/bench_sph.py) stepped `--steps` steps after a warm-up; the figure
 is the median wall time of `--repeats`. The competitor is a Python busy loop pinned to nothing.
-Also printed: the thread count terrasph picks by default in each situation.
+Also printed: the thread count terrasph picks by default in each situation. With ``--late``: a
+run (the run loop, ``Simulation.run``) that starts on an idle machine and meets a CPU-bound
+process `--late` seconds in, with terrasph's defaults, with a thread count the user set (no load
+watch), the same with the long spin, and on 1 thread; its wall time and the competitor's share of
+a core while they overlap.
 """
 
 from __future__ import annotations
@@ -19,6 +24,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+from terrasph.threads import LONG_SPIN
 
 CHILD = """
 import sys, time
@@ -39,6 +46,34 @@ print(time.perf_counter() - start, picked)
 
 BUSY_LOOP = "while True:\n    pass\n"
 
+LATE_CHILD = """
+import subprocess, sys, threading, time
+sys.path.insert(0, {bench_dir!r})
+import terrasph
+from terrasph import _core
+from terrasph.config import Material, Numerics
+import bench_sph
+picked = _core.get_max_threads()
+sim = bench_sph.bed({size}, Material(), Numerics(spacing=bench_sph.SPACING))
+sim.advance(1e9, max_steps=20)
+competitor = []
+timer = threading.Timer({late}, lambda: competitor.append((subprocess.Popen([sys.executable, "-c", {busy!r}]),
+                                                             time.perf_counter())))
+start = time.perf_counter()
+timer.start()
+sim.run(sim.time + {simulated}, progress=False)
+wall = time.perf_counter() - start
+timer.cancel()
+share = float("nan")
+if competitor:
+    process, since = competitor[0]
+    with open(f"/proc/{{process.pid}}/stat") as stat:
+        fields = stat.read().rsplit(")", 1)[1].split()
+    share = (int(fields[11]) + int(fields[12])) / 100 / (time.perf_counter() - since)
+    process.kill()
+print(wall, picked, _core.get_max_threads(), share)
+"""
+
 
 def run_case(threads: int, policy: str, size: int, steps: int) -> tuple[float, int]:
     """(seconds for `steps` steps, default thread count picked at import) in a fresh process."""
@@ -53,6 +88,35 @@ def run_case(threads: int, policy: str, size: int, steps: int) -> tuple[float, i
     return float(seconds), int(picked)
 
 
+def late_competitor(size: int, simulated: float, late: float, repeats: int) -> None:
+    """A run that starts alone and meets a CPU-bound process `late` s in: terrasph's default (the
+    threads and spin chosen at import, the load watch of the run loop), a count set by the user
+    (no watch, the short spin), the same with the long spin, and 1 thread."""
+    print(f"{os.cpu_count()} cores; {size} particles, {simulated} simulated s, a competitor from {late} s, "
+          f"median of {repeats}")
+    print("| case | wall (s) | threads at start → end | competitor's share of a core |")
+    print("|---|---|---|---|")
+    picked_now = str(os.cpu_count() or 1)
+    cases = {"default (count and long spin chosen at import, load watch)": {},
+             "OMP_NUM_THREADS = all cores (the user's count: short spin, no watch)": {"OMP_NUM_THREADS": picked_now},
+             "the same with the long spin (GOMP_SPINCOUNT = LONG_SPIN)": {"OMP_NUM_THREADS": picked_now,
+                                                                         "GOMP_SPINCOUNT": str(LONG_SPIN)},
+             "1 thread": {"OMP_NUM_THREADS": "1"}}
+    for name, extra in cases.items():
+        env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+        env.update(extra)
+        code = LATE_CHILD.format(bench_dir=str(Path(__file__).parent), size=size, simulated=simulated, late=late,
+                                 busy=BUSY_LOOP)
+        rows = []
+        for _ in range(repeats):
+            out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
+            wall, start_threads, end_threads, share = out.stdout.split()
+            rows.append((float(wall), start_threads, end_threads, float(share)))
+        wall = statistics.median(r[0] for r in rows)
+        share = statistics.median(r[3] for r in rows)
+        print(f"| {name} | {wall:.1f} | {rows[0][1]} → {rows[0][2]} | {share:.2f} |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--size", type=int, default=8000, help="granular particles")
@@ -60,7 +124,13 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--policies", nargs="+", default=["default", "passive", "active"],
                         help="OMP_WAIT_POLICY values, spinN (GOMP_SPINCOUNT=N) or default (terrasph's own)")
+    parser.add_argument("--late", type=float, default=None, metavar="SECONDS",
+                        help="instead: a run that meets a competing process SECONDS after it starts")
+    parser.add_argument("--simulated", type=float, default=0.3, help="simulated seconds of the --late run")
     args = parser.parse_args()
+    if args.late is not None:
+        late_competitor(args.size, args.simulated, args.late, args.repeats)
+        return
     print(f"{os.cpu_count()} cores; {args.size} particles, {args.steps} steps, median of {args.repeats}")
     print("| machine | wait policy | 1 thread (s) | 2 threads (s) | speed-up 2 vs 1 | default threads picked |")
     print("|---|---|---|---|---|---|")

@@ -2,29 +2,33 @@
 
 Units are SI throughout; 2D scenes are plane strain in the x–z plane with z up.
 
-Threads: unless the user set ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT``, an idle OpenMP thread
-spins for at most ``SPIN_COUNT`` polls (a few µs) before it sleeps: enough to carry it from one
-particle loop of a step to the next, where waking a sleeping thread costs as much as a small loop's
-work, and too short to matter to another busy process (a team that spins without bound loses badly
-to one; docs/benchmarks.md, "Threads on a shared machine"). The SPH core uses the cores that are
-idle when terrasph is imported (:func:`terrasph.threads.default_threads`) unless
-``OMP_NUM_THREADS`` is set. Both must be decided before the OpenMP runtime starts.
+Threads: unless ``OMP_NUM_THREADS`` is set, the SPH core uses the cores that are idle when
+terrasph is imported, and while a run goes on :class:`terrasph.threads.LoadWatch` lowers that
+count when other processes take cores and raises it back when they leave. Unless
+``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is set, an idle OpenMP thread spins for
+``threads.LONG_SPIN`` polls (1–2 ms) before it sleeps when every core is idle and the count is
+terrasph's, which keeps it awake from one loop of a step to the next, and for
+``threads.SHORT_SPIN`` (tens of µs) otherwise, so as not to take another process's core
+(:mod:`terrasph.threads`; docs/benchmarks.md, "Threads on a shared machine"). Both must be
+decided before the OpenMP runtime starts.
 """
 
 import os
 
-#: polls an idle thread of libgomp (the OpenMP runtime of terrasph's builds) spins before it sleeps
-SPIN_COUNT = 1000
-if "OMP_WAIT_POLICY" not in os.environ and "GOMP_SPINCOUNT" not in os.environ:
-    os.environ["GOMP_SPINCOUNT"] = str(SPIN_COUNT)
+from terrasph import threads as _threads
+
+_choose_wait = "OMP_WAIT_POLICY" not in os.environ and "GOMP_SPINCOUNT" not in os.environ
+_choose_threads = "OMP_NUM_THREADS" not in os.environ
+_idle = _threads.idle_cores() if _choose_wait or _choose_threads else None
+if _choose_wait:
+    os.environ["GOMP_SPINCOUNT"] = str(_threads.spin_count(_idle, follows_load=_choose_threads))
 
 from terrasph import _core  # noqa: E402  (after the wait policy: the runtime reads it once)
 from terrasph._core import InstabilityError  # noqa: E402
 
-if "OMP_NUM_THREADS" not in os.environ:
-    from terrasph.threads import default_threads
-
-    _core.set_num_threads(default_threads())
+if _choose_threads:
+    _threads.chosen_threads = _threads.auto_threads = _threads.threads_for(_idle)
+    _core.set_num_threads(_threads.chosen_threads)
 
 __all__ = ["InstabilityError", "__version__"]
 __version__ = "0.1.0"

@@ -20,6 +20,7 @@ import numpy as np
 
 from terrasph import _core
 from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_units
+from terrasph.threads import LoadWatch
 from terrasph.scene import (
     Scene,
     earth_pressure_at_rest,
@@ -511,8 +512,11 @@ class Simulation:
         bar = simulated_time_bar(t_end - t_start, progress)
         chunk_steps = 1  # steps per call into the core, adapted to CHUNK_SECONDS of wall time
 
+        load_watch = LoadWatch(_core.set_num_threads, _core.get_max_threads)
+
         def advance_chunk(target: float) -> None:
             nonlocal chunk_steps
+            load_watch.follow()
             started, steps_before = wallclock.perf_counter(), self.step_count
             self.advance(target, max_steps=chunk_steps)
             per_step = (wallclock.perf_counter() - started) / max(1, self.step_count - steps_before)

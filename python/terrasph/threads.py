@@ -1,20 +1,33 @@
-"""The OpenMP thread count terrasph uses by default, chosen so a run never collapses when the
-machine's cores are shared (issue 15, item 1).
+"""The OpenMP thread count and wait terrasph uses by default, chosen so a run never collapses
+when the machine's cores are shared (issue 15, item 1) and its threads keep pace when they are not
+(issue 12).
 
 Two things make a team of OpenMP threads slow on a busy machine: threads that spin while they
-wait without bound (``terrasph/__init__.py`` bounds the spin to ``SPIN_COUNT`` polls unless the user
-chose a policy) and more threads than free cores (each parallel region then waits for a thread the OS has
-descheduled). :func:`default_threads` counts the cores that are idle right now.
+wait for long (each spin takes a core another process needs) and more threads than free cores
+(each parallel region then waits for a thread the OS has descheduled). On an idle machine the
+opposite costs: a thread that sleeps between two of a step's loops takes 20–300 µs to wake on a
+virtual machine, as much as a small loop's work. :func:`idle_cores` counts the cores idle right
+now; :func:`threads_for` and :func:`spin_count` turn that into a thread count and libgomp's spin
+(``GOMP_SPINCOUNT``), which ``terrasph/__init__.py`` sets before the OpenMP runtime starts unless
+the user chose.
 """
 
 from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 
-__all__ = ["available_cores", "default_threads", "idle_cores"]
+__all__ = ["LONG_SPIN", "SHORT_SPIN", "LoadWatch", "available_cores", "default_threads", "idle_cores", "spin_count",
+           "threads_for"]
 
 SAMPLE_SECONDS = 0.05
+#: polls an idle thread spins before it sleeps beside other work: tens of µs, too short to matter
+#: to another busy process
+SHORT_SPIN = 1000
+#: polls on an idle machine: 1–2 ms, which carries a thread across the serial parts of a step (the
+#: wall passes, the body loads) to the next loop awake
+LONG_SPIN = 30000
 
 
 def available_cores() -> int:
@@ -46,6 +59,24 @@ def idle_cores(sample_seconds: float = SAMPLE_SECONDS) -> float | None:
     return idle_fraction * (os.cpu_count() or 1)
 
 
+def threads_for(idle: float | None) -> int:
+    """Threads for the SPH core with `idle` cores idle (None: unknown, every available core)."""
+    cores = available_cores()
+    if idle is None:
+        return cores
+    return max(1, min(cores, int(idle + 0.5)))
+
+
+def spin_count(idle: float | None, follows_load: bool) -> int:
+    """libgomp's spin for `idle` idle cores: LONG_SPIN when every available core is idle (the team
+    has the machine to itself) and the thread count `follows_load` (terrasph's own, which
+    :class:`LoadWatch` lowers when another process comes: a long spin beside one is 2.8× slower
+    than one thread), SHORT_SPIN otherwise or when the load is unknown."""
+    if follows_load and idle is not None and idle >= available_cores() - 0.5:
+        return LONG_SPIN
+    return SHORT_SPIN
+
+
 def default_threads() -> int:
     """Threads for the SPH core: the cores that are idle now (rounded), within [1, available].
 
@@ -53,8 +84,69 @@ def default_threads() -> int:
     cores it is 1. Results do not depend on the thread count (DESIGN §7), only speed does; set
     ``OMP_NUM_THREADS``, ``--threads`` or ``terrasph._core.set_num_threads`` to choose.
     """
-    cores = available_cores()
-    idle = idle_cores()
-    if idle is None:
-        return cores
-    return max(1, min(cores, int(idle + 0.5)))
+    return threads_for(idle_cores())
+
+
+#: The thread count terrasph chose at import (None: the user's OMP_NUM_THREADS) and the one it set
+#: last (LoadWatch). Process-wide, like the OpenMP thread count they stand beside: while that count
+#: is `auto_threads`, it is terrasph's to change.
+chosen_threads: int | None = None
+auto_threads: int | None = None
+
+
+def threads_left(others_busy: float, chosen: int) -> int:
+    """Threads for a run whose machine has `others_busy` cores kept busy by other processes: the
+    whole cores left, within [1, chosen]; less than 0.3 of a core taken counts as none (a machine's
+    own daemons), more gives the core up (a competitor beside a spinning team gets only a fair
+    share of the cores, 2/3 of one on two, so it never shows as a whole core)."""
+    return max(1, min(chosen, int(available_cores() - others_busy + 0.3)))
+
+
+class LoadWatch:
+    """Keeps the thread count terrasph chose in step with the load while a run goes on.
+
+    The count and the spin are chosen at import from the cores idle then; a process that starts
+    later would find a team of two spinning threads on its core (LONG_SPIN), and both would lose.
+    Every `interval` seconds of wall time, :meth:`follow` counts the cores other processes kept
+    busy since its last look (the machine's busy time from /proc/stat less this process's own CPU
+    time) and sets the thread count to the cores they leave (:func:`threads_left`), back up to the
+    chosen count when they go. Only while the count is terrasph's: not after ``OMP_NUM_THREADS``
+    or a call of ``set_num_threads`` with another count. Results do not depend on the thread count.
+    """
+
+    def __init__(self, set_threads: Callable[[int], None], get_threads: Callable[[], int], *,
+                 interval: float = 2.0, read_ticks: Callable[[], tuple[int, int] | None] | None = None,
+                 own_cpu: Callable[[], float] = time.process_time,
+                 clock: Callable[[], float] = time.perf_counter) -> None:
+        self._set, self._get = set_threads, get_threads
+        self._interval = interval
+        self._read_ticks = read_ticks or _cpu_ticks
+        self._own_cpu, self._clock = own_cpu, clock
+        self._last = self._look()
+
+    def _look(self) -> tuple[float, tuple[int, int] | None, float]:
+        return self._clock(), self._read_ticks(), self._own_cpu()
+
+    def follow(self) -> None:
+        """Looks at the load if `interval` has passed since the last look, and sets the threads."""
+        if chosen_threads is None or auto_threads is None or self._get() != auto_threads:
+            return  # the user's count
+        if self._clock() - self._last[0] < self._interval:
+            return
+        now = self._look()
+        (t0, ticks0, cpu0), (t1, ticks1, cpu1) = self._last, now
+        self._last = now
+        if ticks0 is None or ticks1 is None or ticks1[1] <= ticks0[1] or t1 <= t0:
+            return
+        busy_fraction = 1.0 - (ticks1[0] - ticks0[0]) / (ticks1[1] - ticks0[1])
+        busy_cores = busy_fraction * (os.cpu_count() or 1)
+        others = max(0.0, busy_cores - (cpu1 - cpu0) / (t1 - t0))
+        threads = threads_left(others, chosen_threads)
+        if threads != auto_threads:
+            self._set(threads)
+            _record_auto(threads)
+
+
+def _record_auto(threads: int) -> None:
+    global auto_threads
+    auto_threads = threads
