@@ -6,9 +6,9 @@ Threads: unless ``OMP_NUM_THREADS`` is set, the SPH core uses the cores that are
 terrasph is imported, and while a run goes on :class:`terrasph.threads.LoadWatch` lowers that
 count when other processes take cores and raises it back when they leave. Unless
 ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is set, an idle OpenMP thread spins for
-``threads.LONG_SPIN`` polls (1–2 ms) before it sleeps when every core is idle and the count is
+``threads.LONG_SPIN`` polls (about 1.5 ms) before it sleeps when every core is idle and the count is
 terrasph's, which keeps it awake from one loop of a step to the next, and for
-``threads.SHORT_SPIN`` (tens of µs) otherwise, so as not to take another process's core
+``threads.SHORT_SPIN`` (about 50 µs) otherwise, so as not to take another process's core
 (:mod:`terrasph.threads`; docs/benchmarks.md, "Threads on a shared machine"). Both must be
 decided before the OpenMP runtime starts.
 """

@@ -5,8 +5,8 @@ when the machine's cores are shared (issue 15, item 1) and its threads keep pace
 Two things make a team of OpenMP threads slow on a busy machine: threads that spin while they
 wait for long (each spin takes a core another process needs) and more threads than free cores
 (each parallel region then waits for a thread the OS has descheduled). On an idle machine the
-opposite costs: a thread that sleeps between two of a step's loops takes 20–300 µs to wake on a
-virtual machine, as much as a small loop's work. :func:`idle_cores` counts the cores idle right
+opposite costs: a thread that sleeps between two of a step's loops starts the next one 25–40 µs
+late on a virtual machine (benchmarks/omp_wake.cpp), as much as a small loop's work. :func:`idle_cores` counts the cores idle right
 now; :func:`threads_for` and :func:`spin_count` turn that into a thread count and libgomp's spin
 (``GOMP_SPINCOUNT``), which ``terrasph/__init__.py`` sets before the OpenMP runtime starts unless
 the user chose.
@@ -19,14 +19,14 @@ import time
 from collections.abc import Callable
 
 __all__ = ["LONG_SPIN", "SHORT_SPIN", "LoadWatch", "available_cores", "default_threads", "idle_cores", "spin_count",
-           "threads_for"]
+           "threads_for", "threads_left"]
 
 SAMPLE_SECONDS = 0.05
-#: polls an idle thread spins before it sleeps beside other work: tens of µs, too short to matter
+#: polls an idle thread spins before it sleeps beside other work: about 50 µs, too short to matter
 #: to another busy process
 SHORT_SPIN = 1000
-#: polls on an idle machine: 1–2 ms, which carries a thread across the serial parts of a step (the
-#: wall passes, the body loads) to the next loop awake
+#: polls on an idle machine: about 1.5 ms, which carries a thread across the serial parts of a step
+#: (the wall passes, the body loads) to the next loop awake
 LONG_SPIN = 30000
 
 
