@@ -1,9 +1,10 @@
-"""Interleaved A/B of the default rotating-leg scene between two installs of terrasph, in one run
-on one machine: wall time per simulated second, the issue-12 measure.
+"""Interleaved A/B of the default rotating-leg scene (or the coarse leg-wheel) between two
+installs of terrasph, in one run on one machine: wall time per simulated second, the issue-12
+measure.
 
     python benchmarks/bench_leg_ab.py --a-python VENV_A/bin/python --b-python VENV_B/bin/python \\
         [--a-numerics KEY=VALUE ...] [--b-numerics KEY=VALUE ...] [--a-env NAME=VALUE ...] [--b-env ...] \\
-        [--threads 2] [--rounds 2] [--until 3.0]
+        [--threads 2] [--rounds 2] [--until 3.0] [--scene leg|leg-wheel]
 
 Each side is a Python interpreter whose environment has a terrasph installed (for the reference,
 a venv with an earlier commit built into it: ``python -m venv A && A/bin/pip install
@@ -15,7 +16,9 @@ threads under each side's own default wait policy, up to `--until` simulated sec
 run, 9.85 s, with ``--until 0``; then the peak lift and thrust are printed too). The cost per
 simulated second of a stretch of the run stands for the whole run's only as far as its steps
 do: the step count per simulated second is printed, and it holds within 1 % over the run (the
-step is bound by the sound speed, the grains' speeds are small against it).
+step is bound by the sound speed, the grains' speeds are small against it). ``--scene leg-wheel``:
+the second round's coarse leg-wheel (docs/benchmarks.md; Δx = 5 mm, 3 s with ``--until 0``), its
+mean slip and final sinkage when the install's summary has them.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import os
 import statistics
 import subprocess
 
-CHILD = """
+CHILD = {"leg": """
 import json, time
 from terrasph import _core
 from terrasph.scenes.leg_rotation import LegRotation, run_leg_rotation
@@ -39,9 +42,26 @@ wall, cpu = time.perf_counter() - start, time.process_time() - cpu
 simulated = until or config.duration
 summary = result.summary() if until is None else {{}}
 print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": simulated, "steps": result.run.steps,
-                  "lift": summary.get("peak_lift"), "thrust": summary.get("peak_thrust")}}))
-"""
-
+                  "outcome": [summary.get("peak_lift"), summary.get("peak_thrust")]}}))
+""",
+         # the second round's coarse leg-wheel (Δx = 5 mm, legs 1.5 cm thick, a 1 s pause); older
+         # installs return a plain summary dict and take no `plot`
+         "leg-wheel": """
+import json, time
+from terrasph import _core
+from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+_core.set_num_threads({threads})
+wheel = LegWheel(spacing=0.005, thickness=0.015, settle_time=1.0, duration={until!r} or 3.0, numerics={numerics!r})
+start, cpu = time.perf_counter(), time.process_time()
+try:
+    result = run_leg_wheel(wheel, plot=False)
+except TypeError:
+    result = run_leg_wheel(wheel)
+wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+summary = result.summary() if hasattr(result, "summary") else {{}}
+print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": wheel.duration, "steps": summary.get("steps", 0),
+                  "outcome": [summary.get("mean_slip"), summary.get("final_sinkage")]}}))
+"""}
 
 def parse_numerics(pairs: list[str]) -> dict[str, bool | int | float]:
     """["mass_scaling=16"] -> {"mass_scaling": 16.0}."""
@@ -52,9 +72,9 @@ def parse_numerics(pairs: list[str]) -> dict[str, bool | int | float]:
     return values
 
 
-def run_side(python: str, threads: int, numerics: dict, until: float, env: dict[str, str]) -> dict:
-    """One run of the scene in a fresh process of `python`, with `env` added to this environment."""
-    code = CHILD.format(threads=threads, numerics=numerics, until=until)
+def run_side(scene: str, python: str, threads: int, numerics: dict, until: float, env: dict[str, str]) -> dict:
+    """One run of `scene` in a fresh process of `python`, with `env` added to this environment."""
+    code = CHILD[scene].format(threads=threads, numerics=numerics, until=until)
     out = subprocess.run([python, "-c", code], check=True, capture_output=True, text=True,
                          env={**os.environ, **env}).stdout
     return json.loads(out.strip().splitlines()[-1])
@@ -62,6 +82,7 @@ def run_side(python: str, threads: int, numerics: dict, until: float, env: dict[
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scene", choices=sorted(CHILD), default="leg")
     parser.add_argument("--a-python", required=True, help="interpreter of the reference install (A)")
     parser.add_argument("--b-python", required=True, help="interpreter of the install measured (B)")
     parser.add_argument("--a-numerics", nargs="*", default=[], metavar="KEY=VALUE")
@@ -77,15 +98,16 @@ def main() -> None:
     sides = {"A": (args.a_python, parse_numerics(args.a_numerics), dict(p.split("=", 1) for p in args.a_env)),
              "B": (args.b_python, parse_numerics(args.b_numerics), dict(p.split("=", 1) for p in args.b_env))}
     per_second: dict[str, list[float]] = {"A": [], "B": []}
-    print("| round | side | steps per sim. s | wall s per sim. s | CPU s per sim. s | peak lift (N) | peak thrust (N) |")
+    outcome = "peak lift (N) | peak thrust (N)" if args.scene == "leg" else "mean slip | final sinkage (m)"
+    print(f"| round | side | steps per sim. s | wall s per sim. s | CPU s per sim. s | {outcome} |")
     print("|---|---|---|---|---|---|---|")
     for round_ in range(args.rounds):
         order = ("A", "B") if round_ % 2 == 0 else ("B", "A")
         for side in order:
             python, numerics, env = sides[side]
-            r = run_side(python, args.threads, numerics, args.until, env)
+            r = run_side(args.scene, python, args.threads, numerics, args.until, env)
             per_second[side].append(r["wall"] / r["simulated"])
-            peaks = [f"{r[k]:.3f}" if r[k] is not None else "—" for k in ("lift", "thrust")]
+            peaks = [f"{v:.4g}" if v is not None else "—" for v in r["outcome"]]
             print(f"| {round_ + 1} | {side} | {r['steps'] / r['simulated']:.0f} | {r['wall'] / r['simulated']:.1f} "
                   f"| {r['cpu'] / r['simulated']:.1f} | {peaks[0]} | {peaks[1]} |", flush=True)
     a, b = (statistics.median(per_second[s]) for s in ("A", "B"))
