@@ -29,6 +29,8 @@ import os
 import statistics
 import subprocess
 
+from bench_sph import parse_numerics
+
 CHILD = {"leg": """
 import json, time
 from terrasph import _core
@@ -62,15 +64,6 @@ summary = result.summary() if hasattr(result, "summary") else {{}}
 print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": wheel.duration, "steps": summary.get("steps", 0),
                   "outcome": [summary.get("mean_slip"), summary.get("final_sinkage")]}}))
 """}
-
-def parse_numerics(pairs: list[str]) -> dict[str, bool | int | float]:
-    """["mass_scaling=16"] -> {"mass_scaling": 16.0}."""
-    values: dict[str, bool | int | float] = {}
-    for pair in pairs:
-        key, _, text = pair.partition("=")
-        values[key] = text.lower() == "true" if text.lower() in ("true", "false") else float(text)
-    return values
-
 
 def run_side(scene: str, python: str, threads: int, numerics: dict, until: float, env: dict[str, str]) -> dict:
     """One run of `scene` in a fresh process of `python`, with `env` added to this environment."""

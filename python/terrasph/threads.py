@@ -6,10 +6,11 @@ Two things make a team of OpenMP threads slow on a busy machine: threads that sp
 wait for long (each spin takes a core another process needs) and more threads than free cores
 (each parallel region then waits for a thread the OS has descheduled). On an idle machine the
 opposite costs: a thread that sleeps between two of a step's loops starts the next one 25–40 µs
-late on a virtual machine (benchmarks/omp_wake.cpp), as much as a small loop's work. :func:`idle_cores` counts the cores idle right
-now; :func:`threads_for` and :func:`spin_count` turn that into a thread count and libgomp's spin
-(``GOMP_SPINCOUNT``), which ``terrasph/__init__.py`` sets before the OpenMP runtime starts unless
-the user chose.
+late on a virtual machine (benchmarks/omp_wake.cpp), as much as a small loop's work.
+:func:`idle_cores` counts the cores idle right now; :func:`threads_for` and :func:`spin_count`
+turn that into a thread count and libgomp's spin (``GOMP_SPINCOUNT``), which
+``terrasph/__init__.py`` sets before the OpenMP runtime starts unless the user chose;
+:class:`LoadWatch` follows the load while a run goes on.
 """
 
 from __future__ import annotations
@@ -48,15 +49,19 @@ def _cpu_ticks() -> tuple[int, int] | None:
     return idle, sum(fields[:8])
 
 
-def idle_cores(sample_seconds: float = SAMPLE_SECONDS) -> float | None:
-    """Idle cores of the whole machine over `sample_seconds` (Linux /proc/stat), else None."""
-    first = _cpu_ticks()
-    time.sleep(sample_seconds)
-    second = _cpu_ticks()
+def _idle_cores_between(first: tuple[int, int] | None, second: tuple[int, int] | None) -> float | None:
+    """Idle cores of the whole machine between two readings of :func:`_cpu_ticks`, else None."""
     if first is None or second is None or second[1] <= first[1]:
         return None
     idle_fraction = (second[0] - first[0]) / (second[1] - first[1])
     return idle_fraction * (os.cpu_count() or 1)
+
+
+def idle_cores(sample_seconds: float = SAMPLE_SECONDS) -> float | None:
+    """Idle cores of the whole machine over `sample_seconds` (Linux /proc/stat), else None."""
+    first = _cpu_ticks()
+    time.sleep(sample_seconds)
+    return _idle_cores_between(first, _cpu_ticks())
 
 
 def threads_for(idle: float | None) -> int:
@@ -129,17 +134,17 @@ class LoadWatch:
 
     def follow(self) -> None:
         """Looks at the load if `interval` has passed since the last look, and sets the threads."""
-        if chosen_threads is None or auto_threads is None or self._get() != auto_threads:
-            return  # the user's count
+        if chosen_threads is None or self._get() != auto_threads:
+            return  # the user's count (auto_threads is set whenever chosen_threads is)
         if self._clock() - self._last[0] < self._interval:
             return
         now = self._look()
         (t0, ticks0, cpu0), (t1, ticks1, cpu1) = self._last, now
         self._last = now
-        if ticks0 is None or ticks1 is None or ticks1[1] <= ticks0[1] or t1 <= t0:
+        idle = _idle_cores_between(ticks0, ticks1)
+        if idle is None or t1 <= t0:
             return
-        busy_fraction = 1.0 - (ticks1[0] - ticks0[0]) / (ticks1[1] - ticks0[1])
-        busy_cores = busy_fraction * (os.cpu_count() or 1)
+        busy_cores = (os.cpu_count() or 1) - idle
         others = max(0.0, busy_cores - (cpu1 - cpu0) / (t1 - t0))
         threads = threads_left(others, chosen_threads)
         if threads != auto_threads:
