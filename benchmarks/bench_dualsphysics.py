@@ -2,13 +2,20 @@
 
     python benchmarks/bench_dualsphysics.py --source DUALSPHYSICS_DIR [--sizes 20000 80000]
         [--threads 1 2] [--rounds 2] [--tmax 0.05] [--steps 200] [--work DIR] [--no-build]
+        [--make-options COMPILE_CHRONO=NO ...] [--case-writer auto|gencase|own]
 
 DUALSPHYSICS_DIR is a checkout of DualSPHysics' public source that the user fetched
 (https://github.com/DualSPHysics/DualSPHysics); this script never downloads, copies or commits
 it. It builds the CPU solver there (``make -f Makefile_cpu`` in src/source, unless --no-build),
 then, for each size, generates the 2D dam break ``examples/main/01_DamBreak/CaseDambreakVal2D``
 with only ``dp`` changed (the fluid column is 1 m × 2 m, so N ≈ 2/dp² fluid particles) with the
-shipped GenCase, in a work folder outside the checkout. Rounds alternate the order of the two
+shipped GenCase, in a work folder outside the checkout. Where the checkout lacks GenCase (a
+closed-source binary; a snapshot without large files has no GenCase, nor the Chrono library the
+default build links), ``--case-writer own`` (the default when GenCase is absent) compiles
+``benchmarks/dsph_case.cpp`` against the checkout's own sources and writes the same case in the
+solver's formats (see that file for what it reproduces of GenCase), and ``--make-options
+COMPILE_CHRONO=NO COMPILE_WAVEGEN=NO COMPILE_MOORDYNPLUS=NO`` builds the solver without the
+libraries the dam break does not use. Rounds alternate the order of the two
 codes; each run is its own process:
 
 * DualSPHysics: ``-cpu -ompthreads:N -sv:none -tmax:T``. Wall time is its own "Simulation
@@ -47,13 +54,29 @@ CASE_DIR = Path("examples/main/01_DamBreak")
 FLUID_AREA = 2.0  # m², the 1 m × 2 m column of the case
 
 
-def build_solver(source: Path) -> Path:
+def build_solver(source: Path, make_options: list[str]) -> Path:
     """Builds DualSPHysics' CPU solver in the user's checkout; returns the executable."""
     make_dir = source / "src" / "source"
     if not (make_dir / "Makefile_cpu").is_file():
         raise SystemExit(f"parameter '--source' = {source}: no src/source/Makefile_cpu (not a DualSPHysics checkout)")
-    subprocess.run(["make", "-f", "Makefile_cpu", f"-j{os.cpu_count() or 1}"], cwd=make_dir, check=True)
+    subprocess.run(["make", "-f", "Makefile_cpu", f"-j{os.cpu_count() or 1}", *make_options], cwd=make_dir,
+                   check=True)
     return find_solver(source)
+
+
+# The checkout's sources that dsph_case.cpp uses (its XML, case and particle-file classes).
+CASE_WRITER_SOURCES = ("JXml", "tinystr", "tinyxml", "tinyxmlerror", "tinyxmlparser", "JCaseCtes", "JCaseParts",
+                       "JCaseProperties", "JPartDataBi4", "JPartDataHead", "JBinaryData", "Functions", "JObject",
+                       "JException", "JLinearValue", "JRangeFilter", "JReadDatafile", "FunGeo3d")
+
+
+def build_case_writer(source: Path, work: Path) -> Path:
+    """Compiles benchmarks/dsph_case.cpp against the checkout's sources, in the work folder."""
+    sources = source / "src" / "source"
+    writer = work / "dsph_case"
+    subprocess.run(["g++", "-std=c++11", "-O1", "-w", f"-I{sources}", str(HERE / "dsph_case.cpp"),
+                    *(str(sources / f"{name}.cpp") for name in CASE_WRITER_SOURCES), "-o", str(writer)], check=True)
+    return writer
 
 
 def find_solver(source: Path) -> Path:
@@ -68,8 +91,9 @@ def spacing_for(particles: int) -> float:
     return math.sqrt(FLUID_AREA / particles)
 
 
-def generate_case(source: Path, work: Path, dp: float) -> Path:
-    """The case definition with only dp changed, run through GenCase; returns the case path stem."""
+def generate_case(source: Path, work: Path, dp: float, writer: Path | None) -> Path:
+    """The case definition with only dp changed, run through GenCase (or `writer`, dsph_case.cpp);
+    returns the case path stem."""
     text = (source / CASE_DIR / f"{CASE}_Def.xml").read_text()
     changed, count = re.subn(r'(<definition dp=")[^"]*(")', rf"\g<1>{dp:.8g}\g<2>", text, count=1)
     if count != 1:
@@ -77,6 +101,9 @@ def generate_case(source: Path, work: Path, dp: float) -> Path:
     folder = work / f"dp{dp:.6g}"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / f"{CASE}_Def.xml").write_text(changed)
+    if writer is not None:
+        subprocess.run([str(writer), f"{CASE}_Def.xml", "out", CASE], cwd=folder, check=True, capture_output=True)
+        return folder / "out" / CASE
     binaries = source / "bin" / "linux"
     subprocess.run([str(binaries / "GenCase_linux64"), f"{CASE}_Def", f"out/{CASE}", "-save:all"], cwd=folder,
                    env=library_env(binaries), check=True, capture_output=True)
@@ -157,6 +184,10 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200, help="steps of each terrasph run")
     parser.add_argument("--work", type=Path, default=None, help="folder for the generated cases (default: a temp dir)")
     parser.add_argument("--no-build", action="store_true", help="use the solver already built in the checkout")
+    parser.add_argument("--make-options", nargs="*", default=[],
+                        help="options for DualSPHysics' make, e.g. COMPILE_CHRONO=NO COMPILE_WAVEGEN=NO")
+    parser.add_argument("--case-writer", choices=("auto", "gencase", "own"), default="auto",
+                        help="GenCase, or benchmarks/dsph_case.cpp (auto: GenCase where the checkout has it)")
     parser.add_argument("--terrasph-worker", nargs=3, type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.terrasph_worker:
@@ -170,9 +201,15 @@ def main() -> None:
     if not (args.tmax > 0 and args.rounds >= 1 and args.steps >= 1):
         parser.error("parameters '--tmax' > 0, '--rounds' >= 1 and '--steps' >= 1 are required")
     source = args.source.resolve()
-    solver = find_solver(source) if args.no_build else build_solver(source)
-    work = args.work or Path(tempfile.mkdtemp(prefix="bench_dsph_"))
-    cases = {size: generate_case(source, work, spacing_for(size)) for size in args.sizes}
+    solver = find_solver(source) if args.no_build else build_solver(source, args.make_options)
+    work = (args.work or Path(tempfile.mkdtemp(prefix="bench_dsph_"))).resolve()
+    work.mkdir(parents=True, exist_ok=True)
+    has_gencase = os.access(source / "bin" / "linux" / "GenCase_linux64", os.X_OK)
+    if args.case_writer == "gencase" and not has_gencase:
+        parser.error(f"parameter '--case-writer' = gencase: no executable GenCase_linux64 in {source / 'bin' / 'linux'}")
+    writer = None if (args.case_writer == "gencase" or (args.case_writer == "auto" and has_gencase)) \
+        else build_case_writer(source, work)
+    cases = {size: generate_case(source, work, spacing_for(size), writer) for size in args.sizes}
     results: dict[tuple[str, int, int], list[dict[str, float]]] = {}
     for round_index in range(args.rounds):
         for size in args.sizes:
