@@ -102,7 +102,9 @@ def generate_case(source: Path, work: Path, dp: float, writer: Path | None) -> P
     folder.mkdir(parents=True, exist_ok=True)
     (folder / f"{CASE}_Def.xml").write_text(changed)
     if writer is not None:
-        subprocess.run([str(writer), f"{CASE}_Def.xml", "out", CASE], cwd=folder, check=True, capture_output=True)
+        written = subprocess.run([str(writer), f"{CASE}_Def.xml", "out", CASE], cwd=folder, check=True,
+                                 capture_output=True, text=True).stdout
+        print(f"dsph_case: {written.strip()}", flush=True)
         return folder / "out" / CASE
     binaries = source / "bin" / "linux"
     subprocess.run([str(binaries / "GenCase_linux64"), f"{CASE}_Def", f"out/{CASE}", "-save:all"], cwd=folder,
@@ -201,12 +203,12 @@ def main() -> None:
     if not (args.tmax > 0 and args.rounds >= 1 and args.steps >= 1):
         parser.error("parameters '--tmax' > 0, '--rounds' >= 1 and '--steps' >= 1 are required")
     source = args.source.resolve()
-    solver = find_solver(source) if args.no_build else build_solver(source, args.make_options)
-    work = (args.work or Path(tempfile.mkdtemp(prefix="bench_dsph_"))).resolve()
-    work.mkdir(parents=True, exist_ok=True)
     has_gencase = os.access(source / "bin" / "linux" / "GenCase_linux64", os.X_OK)
     if args.case_writer == "gencase" and not has_gencase:
         parser.error(f"parameter '--case-writer' = gencase: no executable GenCase_linux64 in {source / 'bin' / 'linux'}")
+    solver = find_solver(source) if args.no_build else build_solver(source, args.make_options)
+    work = (args.work or Path(tempfile.mkdtemp(prefix="bench_dsph_"))).resolve()
+    work.mkdir(parents=True, exist_ok=True)
     writer = None if (args.case_writer == "gencase" or (args.case_writer == "auto" and has_gencase)) \
         else build_case_writer(source, work)
     cases = {size: generate_case(source, work, spacing_for(size), writer) for size in args.sizes}

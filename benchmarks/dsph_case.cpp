@@ -20,7 +20,7 @@
 // c0 = coefsound · speedsystem, B = c0² ρ0 / γ (Tait), every particle's mass ρ0 dp², the fluid's
 // initial density hydrostatic in the column (rhopgradient 2: ρ = ρ0 (1 + ρ0 g (H − z)/B)^(1/γ)),
 // the boundary's ρ0. Only the fluid box and the tank of this case are generated: the program
-// checks that the definition has the two drawbox commands it expects.
+// checks that the definition's two boxes have these sizes.
 
 #include <cmath>
 #include <cstdio>
@@ -81,13 +81,18 @@ Lattice fluid_column(double dp, double width, double height, double rho0, double
   return fluid;
 }
 
-// The definition must be the dam break this program knows: a fluid box 1 × 2 m, a tank 4 × 3 m.
-void check_definition(JXml& xml) {
+// The definition must be the dam break this program knows: a fluid box 1 × 2 m, then a tank 4 × 3 m.
+void check_definition(JXml& xml, double column_width, double column_height, double tank_width,
+                      double tank_height) {
   TiXmlNode* list = xml.GetNode("case.casedef.geometry.commands.mainlist", false);
-  int boxes = 0;
-  for (TiXmlElement* e = list->FirstChildElement("drawbox"); e; e = e->NextSiblingElement("drawbox")) ++boxes;
-  if (boxes != 2) {
-    std::fprintf(stderr, "dsph_case: expected the two drawbox commands of CaseDambreakVal2D, found %d\n", boxes);
+  std::vector<tdouble3> sizes;
+  for (TiXmlElement* e = list->FirstChildElement("drawbox"); e; e = e->NextSiblingElement("drawbox"))
+    sizes.push_back(xml.ReadElementDouble3(e, "size"));
+  const bool known = sizes.size() == 2 && sizes[0].x == column_width && sizes[0].z == column_height &&
+                     sizes[1].x == tank_width && sizes[1].z == tank_height;
+  if (!known) {
+    std::fprintf(stderr, "dsph_case: the definition is not CaseDambreakVal2D's (a %g x %g m fluid box, then a "
+                 "%g x %g m tank)\n", column_width, column_height, tank_width, tank_height);
     std::exit(2);
   }
 }
@@ -103,13 +108,13 @@ int main(int argc, char** argv) {
   try {
     JXml xml;
     xml.LoadFile(def_file);
-    check_definition(xml);
+    const double tank_width = 4.0, tank_height = 3.0, column_width = 1.0, column_height = 2.0;
+    check_definition(xml, column_width, column_height, tank_width, tank_height);
     const double dp = xml.ReadElementDouble(xml.GetNode("case.casedef.geometry", false)->ToElement(),
                                             "definition", "dp");
     JCaseCtes ctes;
     ctes.LoadXmlDef(&xml, "case.casedef.constantsdef");
 
-    const double tank_width = 4.0, tank_height = 3.0, column_width = 1.0, column_height = 2.0;
     const double rho0 = ctes.GetRhop0();
     const double gravity = -ctes.GetGravity().z;
     const double hswl = nodes_within(0.0, column_height, dp).back();
