@@ -18,7 +18,7 @@ simulated second of a stretch of the run stands for the whole run's only as far 
 do: the step count per simulated second is printed, and it holds within 1 % over the run (the
 step is bound by the sound speed, the grains' speeds are small against it). ``--scene leg-wheel``:
 the second round's coarse leg-wheel (docs/benchmarks.md; Δx = 5 mm, 3 s with ``--until 0``), its
-mean slip and final sinkage when the install's summary has them.
+mean slip, mean sinkage and final sinkage when the install's summary has them.
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ except TypeError:
 wall, cpu = time.perf_counter() - start, time.process_time() - cpu
 summary = result.summary() if hasattr(result, "summary") else {{}}
 print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": wheel.duration, "steps": summary.get("steps", 0),
-                  "outcome": [summary.get("mean_slip"), summary.get("final_sinkage")]}}))
+                  "outcome": [summary.get("mean_slip"), summary.get("mean_sinkage"), summary.get("final_sinkage")]}}))
 """}
 
 def run_side(scene: str, python: str, threads: int, numerics: dict, until: float, env: dict[str, str]) -> dict:
@@ -91,7 +91,7 @@ def main() -> None:
     sides = {"A": (args.a_python, parse_numerics(args.a_numerics), dict(p.split("=", 1) for p in args.a_env)),
              "B": (args.b_python, parse_numerics(args.b_numerics), dict(p.split("=", 1) for p in args.b_env))}
     per_second: dict[str, list[float]] = {"A": [], "B": []}
-    outcome = "peak lift (N) | peak thrust (N)" if args.scene == "leg" else "mean slip | final sinkage (m)"
+    outcome = "peak lift (N) | peak thrust (N)" if args.scene == "leg" else "mean slip | mean sinkage (m) | final sinkage (m)"
     print(f"| round | side | steps per sim. s | wall s per sim. s | CPU s per sim. s | {outcome} |")
     print("|---|---|---|---|---|---|---|")
     for round_ in range(args.rounds):

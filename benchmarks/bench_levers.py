@@ -13,7 +13,7 @@ load: compare within one run), CPU seconds of this process per simulated second 
 sensitive to other processes' load than wall time; run with OMP_WAIT_POLICY=passive so that idle
 threads do not spin), and the outcome with its relative change against the reference:
 peak lift and thrust for the leg (the CI variant of the scene by default: 8 cm bed, 0.3 s pause,
-ω = 0.8 rad/s, Δx = 2.13 mm), L* and H* for the column, mean slip, mean forward speed and final
+ω = 0.8 rad/s, Δx = 2.13 mm), L* and H* for the column, mean slip, mean forward speed, mean, final
 and maximum sinkage for the leg-wheel (chapter 4's 50 × 10 cm bed and 8 cm C-leg wheel under
 4.9 N at ω = 1.5 rad/s, coarsened: Δx = 5 mm with legs 1.5 cm thick, the three rows a part needs).
 """
@@ -31,7 +31,7 @@ from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.scenes.leg_rotation import LegRotation, run_leg_rotation
 
 OUTCOMES = {"leg": ("peak_lift", "peak_thrust"), "column": ("runout_normalised", "final_height_normalised"),
-            "leg-wheel": ("mean_slip", "mean_forward_speed", "final_sinkage", "max_sinkage")}
+            "leg-wheel": ("mean_slip", "mean_forward_speed", "mean_sinkage", "final_sinkage", "max_sinkage")}
 
 
 def parse_variant(text: str) -> tuple[str, dict[str, bool | int | float | str]]:

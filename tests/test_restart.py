@@ -41,6 +41,9 @@ CASES = {
     "plate-intrusion, buried, wall friction": PlateIntrusion(
         spacing=0.005, bed_width=0.12, bed_depth=0.07, settle_time=0.002, speed=0.2, buried_depth=0.02,
         pull_distance=0.01, numerics={"wall_friction_coefficient": 0.4}),
+    # the density advanced in the first pair pass (its rate is not needed again after a restart)
+    "leg-rotation, symplectic density": LegRotation(settle_time=0.002, omega=2.0, bed_depth=0.07, bed_width=0.12,
+                                                    numerics={"symplectic_density": True, "cfl": 0.5}),
 }
 
 

@@ -36,11 +36,29 @@ template <class F, class... Rest> auto dispatch_flags(F&& f, bool first, Rest...
 // one by one in list order, so every sum is the plain loop's (thread-count independent).
 constexpr int kPairBatch = 32;
 
-// Constants of the pair terms of the continuity and momentum equations.
-template <int D> struct ForceConstants {
-  double h, alpha, c0, delta_h_c0, chi;
-  Vec<D> hydrostatic_gradient;  // ∇ρ^H = ρ0 g / c², c of the EOS
-};
+// Which terms of Dρ/Dt a pair pass sums: none (the other pass does), continuity (Eq. 2.42's first
+// term), or continuity with δ-SPH's density diffusion (Eq. 2.42–2.43). The density's rate is summed
+// in the force pass when the density is kicked with the velocity, and in the ∇v pass, before the
+// forces, with numerics.symplectic_density (Simulation::step).
+enum DensityTerms : int { no_density_terms = 0, continuity_only = 1, continuity_and_diffusion = 2 };
+
+inline constexpr int density_terms(bool in_this_pass, bool delta) {
+  return in_this_pass ? (delta ? continuity_and_diffusion : continuity_only) : no_density_terms;
+}
+
+// The pair terms' constants of a run: h, α_Π and c0 (Eq. 2.46), δhc0 (Eq. 2.43), χ (Eq. 2.49) and
+// δ-SPH's hydrostatic gradient ∇ρ^H = s ρ0 g / c² (Antuono et al. 2012's hydrostatic correction;
+// s < 1 when the pressure carries only part of the weight, as in a geostatic bed whose
+// σ_xx = K0 σ_zz), c the EOS's sound speed.
+template <int D> ForceConstants<D> force_constants(const ModelParams<D>& params, double h, double c0) {
+  const double eos_c = params.eos_sound_speed();
+  const double share = params.numerics.density_diffusion_pressure_share > 0.0
+                           ? params.numerics.density_diffusion_pressure_share : 1.0;
+  const Vec<D> hydrostatic_gradient =
+      share * params.material.reference_density / (eos_c * eos_c) * params.domain.gravity;
+  return {h, params.numerics.artificial_viscosity, c0, params.numerics.delta_sph * h * c0, params.numerics.xsph,
+          hydrostatic_gradient};
+}
 
 // One batch of a particle's neighbours j[0..count): x_ij, |x_ij|² and (dW/dr)/r, and W_ij when
 // WithValue, the kernel evaluated in SIMD lanes. Both passes of a step gather on the same positions,
@@ -64,10 +82,10 @@ void gather_pairs(const WendlandC2<D>& kernel, const std::int32_t* j, int count,
   }
 }
 
-// The granular pairs' share of Dρ_i/Dt, Dv_i/Dt and the XSPH sum of particle i, in list order. A
-// pair beyond the support has W = (dW/dr)/r = 0, so all its terms are exact zeros: adding them is
-// cheaper than a mispredicted branch.
-template <int D, bool UseDelta, bool UseXsph>
+// The granular pairs' share of Dv_i/Dt, the XSPH sum and the Density terms of Dρ_i/Dt of particle
+// i, in list order. A pair beyond the support has W = (dW/dr)/r = 0, so all its terms are exact
+// zeros: adding them is cheaper than a mispredicted branch.
+template <int D, int Density, bool UseXsph>
 void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
                          const WendlandC2<D>& kernel, const ForceConstants<D>& constants, Vec<D>& acc,
                          Vec<D>& xsph, double& drho) {
@@ -95,8 +113,8 @@ void add_granular_forces(Index i, const GranularParticles<D>& p, const Neighbour
       const double m_j = p.mass[j];
       const double rho_j = p.density[j];
       const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
-      r += term::continuity<D>(m_j, vij, grad_w);
-      if constexpr (UseDelta)  // x_ji = −x_ij
+      if constexpr (Density >= continuity_only) r += term::continuity<D>(m_j, vij, grad_w);
+      if constexpr (Density == continuity_and_diffusion)  // x_ji = −x_ij
         r += term::density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
       const double pi_ij = term::artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
       a.noalias() += term::momentum<D>(m_j, si, row_mat<D>(p.stress_over_rho2, j), pi_ij, grad_w);
@@ -179,18 +197,21 @@ template <int D> void Simulation<D>::check_ids() const {
 
 // The passes of this run, compiled for its constitutive model and its optional terms.
 template <int D> void Simulation<D>::compose_passes() {
-  std::visit([this](const auto& model) {
+  const bool symplectic = params_.numerics.symplectic_density;
+  const bool delta = params_.numerics.delta_sph > 0.0;
+  std::visit([&](const auto& model) {
     using Model = std::decay_t<decltype(model)>;
-    if constexpr (uses_small_strain<Model>)
-      stress_pass_ = &Simulation::template strain_and_stress_pass<Model>;
-    else
-      stress_pass_ = &Simulation::template velocity_gradient_and_stress_pass<Model>;
+    stress_pass_ = dispatch_flags([](auto density_here, auto with_delta) -> StressPass {
+      constexpr int density = density_terms(decltype(density_here)::value, decltype(with_delta)::value);
+      if constexpr (uses_small_strain<Model>) return &Simulation::template strain_and_stress_pass<Model, density>;
+      else return &Simulation::template velocity_gradient_and_stress_pass<Model, density>;
+    }, symplectic, delta);
     wall_stress_pass_ = &Simulation::template wall_stress_pass<Model>;
   }, model_);
-  force_pass_ = dispatch_flags([](auto delta, auto xsph, auto keep, auto friction) -> ForcePass {
-    return &Simulation::template force_pass<decltype(delta)::value, decltype(xsph)::value, decltype(keep)::value,
-                                            decltype(friction)::value>;
-  }, params_.numerics.delta_sph > 0.0, params_.numerics.xsph > 0.0, keeps_pair_forces(),
+  force_pass_ = dispatch_flags([](auto density_here, auto with_delta, auto xsph, auto keep, auto friction) -> ForcePass {
+    return &Simulation::template force_pass<density_terms(decltype(density_here)::value, decltype(with_delta)::value),
+                                            decltype(xsph)::value, decltype(keep)::value, decltype(friction)::value>;
+  }, !symplectic, delta, params_.numerics.xsph > 0.0, keeps_pair_forces(),
      params_.numerics.wall_friction_coefficient > 0.0);
 }
 
@@ -426,11 +447,18 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
 // The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. A pair beyond the
 // support adds exact zeros, which is cheaper than a branch on it. Neighbours go in batches:
 // |x_ij|² gathered, the kernel evaluated in SIMD lanes, then the terms summed in list order.
+// With Density, the granular pairs' terms of Dρ_i/Dt too (numerics.symplectic_density), as the
+// force pass sums them otherwise.
 template <int D>
-void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) {
+template <int Density>
+void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, const ForceConstants<D>& c, Mat<D>& grad,
+                                                   Mat<D>& moment, double& drho) {
+  namespace term = pair_terms;
   const Vec<D> xi = row_vec<D>(granular_.position, i);
   const Vec<D> vi = row_vec<D>(granular_.velocity, i);
+  [[maybe_unused]] const double rho_i = granular_.density[i];
   Mat<D> g = grad, m = moment;  // local accumulators: the cache stores cannot alias them
+  double r = drho;
   const Index end = granular_granular_.offsets[i + 1];
   for (Index first = granular_granular_.offsets[i]; first < end; first += kPairBatch) {
     const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
@@ -440,65 +468,100 @@ void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, Mat<D>
     for (int k = 0; k < count; ++k) {
       const Vec<D>& xij = batch.x[k];
       const double vf = granular_.volume[j[k]] * batch.gradient_factor[k];
-      g.noalias() += (vf * (row_vec<D>(granular_.velocity, j[k]) - vi)) * xij.transpose();
+      const Vec<D> vji = row_vec<D>(granular_.velocity, j[k]) - vi;
+      g.noalias() += (vf * vji) * xij.transpose();
       if (correct) m.noalias() -= (vf * xij) * xij.transpose();
+      if constexpr (Density >= continuity_only) {
+        const Vec<D> grad_w = batch.gradient_factor[k] * xij;  // ∇_iW_ij (Eq. 2.39)
+        r += term::continuity<D>(granular_.mass[j[k]], Vec<D>(-vji), grad_w);
+      }
+      if constexpr (Density == continuity_and_diffusion)  // x_ji = −x_ij
+        r += term::density_diffusion(c.delta_h_c0, granular_.density[j[k]] - rho_i + c.hydrostatic_gradient.dot(xij),
+                                     granular_.volume[j[k]], batch.gradient_factor[k]);
     }
   }
   grad = g;
   moment = m;
+  drho = r;
 }
 
 // The wall terms of ∇v_i and M_i (Eq. 2.48) with the ghost velocities and V_w = Δx^D.
+// With Continuity, the walls' continuity terms of Dρ_i/Dt too, with the walls' own velocities.
 template <int D>
-void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const {
+template <bool Continuity>
+void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment,
+                                               double& drho) const {
   const WendlandC2<D> kernel = kernel_;
   const double wall_volume = wall_volume_;
   const Vec<D> xi = row_vec<D>(granular_.position, i);
   const Vec<D> vi = row_vec<D>(granular_.velocity, i);
   Mat<D> g = grad, m = moment;
+  double r = drho;
   for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
     const std::int32_t w = granular_wall_.indices[s];
     const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
-    const double vf = wall_volume * kernel.pair_gradient_factor(xiw.squaredNorm());
+    const double factor = kernel.pair_gradient_factor(xiw.squaredNorm());
+    const double vf = wall_volume * factor;
     g.noalias() += (vf * (row_vec<D>(walls_.ghost_velocity, w) - vi)) * xiw.transpose();
     if (correct) m.noalias() -= (vf * xiw) * xiw.transpose();
+    if constexpr (Continuity)  // Eq. 2.42 with the wall's own velocity, as in the force pass
+      r += pair_terms::continuity<D>(walls_.mass[w], Vec<D>(vi - row_vec<D>(walls_.velocity, w)), Vec<D>(factor * xiw));
   }
   grad = g;
   moment = m;
+  drho = r;
 }
 
 // ∇v_i = Σ_j V_j (v_j − v_i) ⊗ ∇_iW_ij (Eq. 2.48), optionally renormalised by
 // M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_iW_ij so that linear fields are exact; then P and σ from the
 // constitutive model.
+// With Density (numerics.symplectic_density) the pass also sums Dρ_i/Dt (Eq. 2.42–2.43) and
+// advances the density over the whole step, ρ ← ρ + dt Dρ/Dt, before the stress and the forces use
+// it: the velocity and the density then form a symplectic Euler pair (the velocity kicked with the
+// pressure of the density already advanced), as the velocity and the hypoelastic stress do. The
+// new densities are stored after the pass, since the neighbours' sums read the old ones.
 template <int D>
-template <class Model>
+template <class Model, int Density>
 void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
   const Model& model = std::get<Model>(model_);
   const bool correct = params_.numerics.kernel_gradient_correction;
+  const ForceConstants<D> constants = force_constants(params_, kernel_.h, sound_speed_);
+  const bool advance_density = Density != no_density_terms && dt > 0.0;
   for_each_particle(granular_.size(), [&](Index i) {
     if (frozen(i)) return;
     Mat<D> grad = Mat<D>::Zero();
     Mat<D> moment = Mat<D>::Zero();
-    add_granular_velocity_gradient(i, correct, grad, moment);
-    add_wall_velocity_gradient(i, correct, grad, moment);
+    double drho = 0.0;
+    add_granular_velocity_gradient<Density>(i, correct, constants, grad, moment, drho);
+    add_wall_velocity_gradient<Density != no_density_terms>(i, correct, grad, moment, drho);
     if (correct && std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
     row_mat<D>(granular_.velocity_gradient, i) = grad;
-    const double rho = granular_.density[i];
+    if constexpr (Density != no_density_terms) granular_.density_rate[i] = drho;
+    const double rho = advance_density ? advanced_density(granular_.density[i], drho, dt) : granular_.density[i];
     double p;
     const Mat<D> sigma = model.update(i, grad, rho, dt, p);
     granular_.pressure[i] = p;
     row_mat<D>(granular_.stress, i) = sigma;
     row_mat<D>(granular_.stress_over_rho2, i) = sigma / (rho * rho);
   }, active_chunk());
+  if (advance_density)
+    for_each_particle(granular_.size(), [&](Index i) {
+      if (!frozen(i)) granular_.density[i] = advanced_density(granular_.density[i], granular_.density_rate[i], dt);
+    }, active_chunk());
+}
+
+// ρ + Δt Dρ/Dt, held at numerics.density_floor·ρ0 (the floor of the kicks).
+template <int D> double Simulation<D>::advanced_density(double rho, double rate, double dt) const {
+  return std::max(rho + dt * rate, params_.numerics.density_floor * params_.material.reference_density);
 }
 
 // The stress pass of a model that needs the small strain E (mu_i_strain, Eq. 3.6): E first.
 template <int D>
-template <class Model>
+template <class Model, int Density>
 void Simulation<D>::strain_and_stress_pass(double dt) {
   Model& model = std::get<Model>(model_);
   small_strain_pass(model.reference_position(), model.small_strain(), model.reference_time());
-  velocity_gradient_and_stress_pass<Model>(dt);
+  velocity_gradient_and_stress_pass<Model, Density>(dt);
 }
 
 // Small strain of Eq. 3.6 from the displacement u = x − X, computed as ∇v is (Eq. 2.48) with u
@@ -600,27 +663,18 @@ void Simulation<D>::wall_stress_pass() {
 // Leak diagnostic: a granular particle closer than Δx/2 to an interior wall particle has got past
 // the wall's surface row.
 template <int D>
-template <bool UseDelta, bool UseXsph, bool KeepPairForces, bool UseWallFriction>
+template <int Density, bool UseXsph, bool KeepPairForces, bool UseWallFriction>
 void Simulation<D>::force_pass(double dt) {
   const double h = kernel_.h;
   const double h2x4 = 4.0 * h * h;
-  const double alpha = params_.numerics.artificial_viscosity;
   const double alpha_wall = params_.numerics.wall_artificial_viscosity;
   const double c0 = sound_speed_;
-  const double delta_h_c0 = params_.numerics.delta_sph * h * c0;
-  const double chi = params_.numerics.xsph;
   const Vec<D> g = params_.domain.gravity;
-  const double eos_c = params_.eos_sound_speed();
-  // ∇ρ^H = s ρ0 g / c² (Antuono et al. 2012's hydrostatic correction; s < 1 when the pressure carries
-  // only part of the weight, as in a geostatic bed whose σ_xx = K0 σ_zz)
-  const double share = params_.numerics.density_diffusion_pressure_share > 0.0
-                           ? params_.numerics.density_diffusion_pressure_share : 1.0;
-  const Vec<D> hydrostatic_gradient = share * params_.material.reference_density / (eos_c * eos_c) * g;
   const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
   const double barrier_radius = 0.75 * params_.numerics.spacing;
   const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;
   const double barrier_reach2 = barrier_strength > 0.0 ? barrier_radius * barrier_radius : 0.0;  // 0: off
-  const ForceConstants<D> constants{h, alpha, c0, delta_h_c0, chi, hydrostatic_gradient};
+  const ForceConstants<D> constants = force_constants(params_, h, c0);
   const bool keep_every_wall = tracks_wall_loads_;
   [[maybe_unused]] const double wall_friction = params_.numerics.wall_friction_coefficient;
   // mass scaling f: Dv_i/Dt = (Σ pair forces/m_i + g)/f, every force unchanged
@@ -650,7 +704,7 @@ void Simulation<D>::force_pass(double dt) {
     Vec<D> acc = Vec<D>::Zero();
     Vec<D> xsph = Vec<D>::Zero();
     double drho = 0.0;
-    add_granular_forces<D, UseDelta, UseXsph>(i, granular_, granular_granular_, kernel_, constants, acc, xsph, drho);
+    add_granular_forces<D, Density, UseXsph>(i, granular_, granular_granular_, kernel_, constants, acc, xsph, drho);
     double nearest_wall2 = std::numeric_limits<double>::infinity();
     // wall friction: the pairs' normal parts and slips, gathered in list order (per thread, reused)
     static thread_local std::vector<FrictionPair> friction_pairs;
@@ -667,7 +721,7 @@ void Simulation<D>::force_pass(double dt) {
       const Vec<D> grad_w = kernel_.gradient_factor(std::sqrt(r2)) * xiw;
       const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
       const double m_w = walls_.mass[w];
-      drho += term::continuity<D>(m_w, viw, grad_w);
+      if constexpr (Density >= continuity_only) drho += term::continuity<D>(m_w, viw, grad_w);
       // a smooth wall resists only the approach along its normal: the tangential part of v_iw would
       // make the viscosity a wall friction (a sliding block stopped as on a rough wall)
       const double approach = walls_.no_slip[w] ? viw.dot(xiw) : viw.dot(row_vec<D>(walls_.normal, w)) *
@@ -704,7 +758,7 @@ void Simulation<D>::force_pass(double dt) {
     acc += g;
     acc *= inverse_inertia;
     row_vec<D>(granular_.acceleration, i) = acc;
-    granular_.density_rate[i] = drho;
+    if constexpr (Density != no_density_terms) granular_.density_rate[i] = drho;
     if constexpr (UseXsph) row_vec<D>(*xsph_correction_, i) = xsph;
     partial.max_acc2 = std::max(partial.max_acc2, acc.squaredNorm());
   }, [](Partial& sum, const Partial& p) {
@@ -976,6 +1030,7 @@ template <int D> void Simulation<D>::step(double dt) {
   const double start = omp_get_wtime();
   const Index n = granular_.size();
   const bool xsph = params_.numerics.xsph > 0.0;
+  const bool kick_density = !params_.numerics.symplectic_density;  // else the ∇v pass advances it
   const double half = 0.5 * dt;
   // optional floor ρ ≥ f·ρ0: with the tension-free EOS a grain that separates from the bulk carries
   // no pressure below ρ0 either way; the floor keeps it from re-entering the bed unresisted
@@ -985,7 +1040,7 @@ template <int D> void Simulation<D>::step(double dt) {
     if (frozen(i)) return;
     auto v = row_vec<D>(granular_.velocity, i);
     v += half * row_vec<D>(granular_.acceleration, i);
-    granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
+    if (kick_density) granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
     Vec<D> drift = v;
     if (xsph) drift += row_vec<D>(*xsph_correction_, i);
     row_vec<D>(granular_.position, i) += dt * drift;
@@ -1003,7 +1058,7 @@ template <int D> void Simulation<D>::step(double dt) {
     auto v = row_vec<D>(granular_.velocity, i);
     if (frozen(i)) return v.squaredNorm();
     v += half * row_vec<D>(granular_.acceleration, i);
-    granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
+    if (kick_density) granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
     const double v2 = v.squaredNorm();
     if (quiet_steps_) {  // quiet: slow, and then far from every body (active radius) or, without
                          // one, not gaining freeze_speed within freeze_steps steps

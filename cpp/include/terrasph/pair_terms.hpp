@@ -7,6 +7,16 @@
 
 #include "terrasph/math.hpp"
 
+namespace terrasph {
+
+// Constants of the pair terms of the continuity and momentum equations.
+template <int D> struct ForceConstants {
+  double h, alpha, c0, delta_h_c0, chi;
+  Vec<D> hydrostatic_gradient;  // ∇ρ^H = ρ0 g / c², c of the EOS
+};
+
+}  // namespace terrasph
+
 namespace terrasph::pair_terms {
 
 // Continuity (Eq. 2.42, first term): m_j v_ij·∇_iW_ij.

@@ -97,6 +97,10 @@ template <> struct ChoiceNames<PlasticFlow> {
   X(bool, step_at_wave_speed, false, "1", exclusive(-inf), exclusive(inf),                                 \
     "c of the step bound is the model's fastest physical wave alone (c_0 still sets the damping); "      \
     "false = max(c_0, that wave speed)")                                                                 \
+  X(bool, symplectic_density, false, "1", exclusive(-inf), exclusive(inf),                                \
+    "advance the density over the whole step in the first pair pass, before the forces, from the "       \
+    "velocity at the drifted positions (symplectic Euler in velocity and density, as the stress is); "   \
+    "false = kicked in halves with the velocity (forward Euler in the pair, held by delta-SPH)")          \
   X(double, mass_scaling, 1.0, "1", inclusive(1.0), exclusive(inf),                                     \
     "f: each grain's inertial mass is f times its mass, gravity and every force unchanged (explicit "    \
     "dynamics' mass scaling): every wave is sqrt(f) slower and the step sqrt(f) longer, for scenes "     \

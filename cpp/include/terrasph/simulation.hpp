@@ -5,6 +5,9 @@
 //   x ← x + dt (v + δv_XSPH)                   (drift)
 //   rates at the new positions                  (wall ghosts, ∇v and σ, wall stress, forces)
 //   v ← v + ½dt a,  ρ ← ρ + ½dt Dρ/Dt          (kick), then health checks
+// With numerics.symplectic_density the density is not kicked: the ∇v pass sums Dρ/Dt at the new
+// positions and advances ρ ← ρ + dt Dρ/Dt before σ and the forces use it (symplectic Euler in v and
+// ρ, as in v and the hypoelastic stress; the kicked pair is forward Euler, held by the damping).
 // A State saved with the accessors below and loaded with restore_* continues bit for bit: the
 // neighbour lists are rebuilt from the positions they were built at, and no rate is recomputed.
 #pragma once
@@ -16,6 +19,7 @@
 #include "terrasph/constitutive.hpp"
 #include "terrasph/kernel.hpp"
 #include "terrasph/neighbours.hpp"
+#include "terrasph/pair_terms.hpp"
 #include "terrasph/parallel.hpp"
 #include "terrasph/params.hpp"
 #include "terrasph/particles.hpp"
@@ -174,13 +178,17 @@ template <int D> class Simulation {
   void build_neighbour_lists(const VecArray<D>& granular_at, const VecArray<D>& walls_at);
   void compute_rates(double dt);
   void wall_velocity_pass();
-  template <class Model> void velocity_gradient_and_stress_pass(double dt);
-  template <class Model> void strain_and_stress_pass(double dt);
+  template <class Model, int Density> void velocity_gradient_and_stress_pass(double dt);
+  template <class Model, int Density> void strain_and_stress_pass(double dt);
+  double advanced_density(double rho, double rate, double dt) const;
   void small_strain_pass(VecArray<D>& reference, MatArray<D>& strain, double reference_time);
-  void add_granular_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment);
-  void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment) const;
+  template <int Density>
+  void add_granular_velocity_gradient(Index i, bool correct, const ForceConstants<D>& constants, Mat<D>& grad,
+                                      Mat<D>& moment, double& drho);
+  template <bool Continuity>
+  void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment, double& drho) const;
   template <class Model> void wall_stress_pass();
-  template <bool UseDelta, bool UseXsph, bool KeepPairForces, bool UseWallFriction> void force_pass(double dt);
+  template <int Density, bool UseXsph, bool KeepPairForces, bool UseWallFriction> void force_pass(double dt);
   bool keeps_pair_forces() const { return !bodies_.empty() || tracks_wall_loads_; }
   int attach_body(std::int32_t wall_group, RigidBody<D> body);
   void move_bodies(double time);

@@ -211,8 +211,8 @@ def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
 
 def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
                   plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
-    """Runs the scene; returns a summary (mean forward speed and slip after the pause, final and
-    maximum sinkage, motor work, cost of transport, leaks) and the series, and with `plot` and an
+    """Runs the scene; returns a summary (mean forward speed, slip and sinkage after the pause, final
+    and maximum sinkage, motor work, cost of transport, leaks) and the series, and with `plot` and an
     `output` draws the PNG beside it. ``resume=True`` continues the run in `output` from its
     checkpoint, ``until`` replaces the end time (:func:`terrasph.robots.run.run_coupled`)."""
     coupled = build_leg_wheel(config)
@@ -241,6 +241,9 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     summary = {"wheel": config.wheel, "legs": config.legs, "steps": coupled.sim.step_count,
                "leaked_particles": coupled.sim.leaked_particles,
                "final_sinkage": float(wheel["sinkage"][-1]), "max_sinkage": float(np.max(wheel["sinkage"])),
+               # the driven phase's mean (its samples are series_interval apart): unlike the final
+               # value, which may fall on a stroke's steep flank, it does not hinge on one instant
+               "mean_sinkage": float(np.mean(wheel["sinkage"][driving])) if driving.any() else math.nan,
                "mean_forward_speed": speed, "mean_omega": spin, "motor_work": work["motor"],
                "cost_of_transport": _cost_of_transport(work["motor"], coupled,
                                                        float(coupled.robot.data.qpos[0]) - work["start_x"]),

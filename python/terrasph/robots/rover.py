@@ -107,6 +107,7 @@ def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, pr
         spin = float(np.mean(body["omega"][driving])) if driving.any() else math.nan
         summary[f"{name}_mean_slip"] = float(slip(speed, spin, radius)) if driving.any() else math.nan
         summary[f"{name}_final_sinkage"] = float(body["sinkage"][-1])
+        summary[f"{name}_mean_sinkage"] = float(np.mean(body["sinkage"][driving])) if driving.any() else math.nan
         summary[f"{name}_mean_forward_speed"] = speed
     figure = None
     if plot and output is not None:
