@@ -132,6 +132,27 @@ def test_no_grain_within_the_radius_freezes_however_slow() -> None:
     assert not np.asarray(sim.field("frozen")).astype(bool)[under_plate].any()
 
 
+def test_no_frozen_grain_lies_within_the_radius_of_a_body_particle() -> None:
+    # the proximity test (BodyProximity, its cells and their boxes) against brute force over every
+    # grain-plate pair, after the plate has pushed into the bed: no frozen grain within R, and frozen
+    # grains close to R (within the neighbour radius 2h(1 + skin/2) = 1.4 cm, across which an awake
+    # grain keeps its settled neighbours awake), so that the boundary is probed and not only the far
+    # bed. The flags are the last step's, taken before the plate's last move (< 1 µm): the tolerance.
+    radius = 0.05
+    sim = bed_with_plate(freeze_speed=5e-3, freeze_steps=100, active_radius=radius)
+    sim.advance(PUSH_START + PUSH_TIME)
+    walls = sim.core.state()["walls"]
+    plate_points = np.asarray(walls["position"])[np.asarray(walls["body"]) >= 0]
+    grains = np.asarray(sim.position)
+    nearest = np.sqrt(((grains[:, None, :] - plate_points[None, :, :]) ** 2).sum(axis=-1)).min(axis=1)
+    frozen = np.asarray(sim.field("frozen")).astype(bool)
+    assert frozen.any()
+    assert nearest[frozen].min() > radius - 1e-6
+    defaults = Numerics(spacing=DX)
+    neighbour_radius = 2 * defaults.h_factor * DX * (1 + defaults.neighbour_skin / 2)
+    assert nearest[frozen].min() < radius + neighbour_radius + DX
+
+
 def test_an_active_radius_without_a_freeze_speed_is_refused() -> None:
     with pytest.raises(ValueError, match=r"numerics\.active_radius.*freeze_speed"):
         bed_with_plate(active_radius=0.1)
