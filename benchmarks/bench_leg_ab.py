@@ -4,7 +4,7 @@ measure.
 
     python benchmarks/bench_leg_ab.py --a-python VENV_A/bin/python --b-python VENV_B/bin/python \\
         [--a-numerics KEY=VALUE ...] [--b-numerics KEY=VALUE ...] [--a-env NAME=VALUE ...] [--b-env ...] \\
-        [--threads 2] [--rounds 2] [--until 3.0] [--scene leg|leg-wheel]
+        [--threads 2] [--rounds 2] [--until 3.0] [--scene leg|leg-wheel|leg-wheel-default]
 
 Each side is a Python interpreter whose environment has a terrasph installed (for the reference,
 a venv with an earlier commit built into it: ``python -m venv A && A/bin/pip install
@@ -18,7 +18,8 @@ simulated second of a stretch of the run stands for the whole run's only as far 
 do: the step count per simulated second is printed, and it holds within 1 % over the run (the
 step is bound by the sound speed, the grains' speeds are small against it). ``--scene leg-wheel``:
 the second round's coarse leg-wheel (docs/benchmarks.md; Δx = 5 mm, 3 s with ``--until 0``), its
-mean slip, mean sinkage and final sinkage when the install's summary has them.
+mean slip, mean sinkage and final sinkage when the install's summary has them; ``--scene
+leg-wheel-default``: the same scene at its default resolution (Δx = 1.67 mm, 6 s with ``--until 0``).
 """
 
 from __future__ import annotations
@@ -64,6 +65,11 @@ summary = result.summary() if hasattr(result, "summary") else {{}}
 print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": wheel.duration, "steps": summary.get("steps", 0),
                   "outcome": [summary.get("mean_slip"), summary.get("mean_sinkage"), summary.get("final_sinkage")]}}))
 """}
+# chapter 4's leg-wheel at its default resolution (LegWheel(): Δx = 1.67 mm, 18 000 grains, C-leg wheel,
+# 2 s pause, 6 s with ``--until 0``)
+CHILD["leg-wheel-default"] = CHILD["leg-wheel"].replace(
+    "spacing=0.005, thickness=0.015, settle_time=1.0, duration={until!r} or 3.0", "duration={until!r} or 6.0")
+
 
 def run_side(scene: str, python: str, threads: int, numerics: dict, until: float, env: dict[str, str]) -> dict:
     """One run of `scene` in a fresh process of `python`, with `env` added to this environment."""
