@@ -67,8 +67,9 @@ print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": wheel.duration, "steps
 """}
 # chapter 4's leg-wheel at its default resolution (LegWheel(): Δx = 1.67 mm, 18 000 grains, C-leg wheel,
 # 2 s pause, 6 s with ``--until 0``)
-CHILD["leg-wheel-default"] = CHILD["leg-wheel"].replace(
-    "spacing=0.005, thickness=0.015, settle_time=1.0, duration={until!r} or 3.0", "duration={until!r} or 6.0")
+_COARSE_WHEEL = "spacing=0.005, thickness=0.015, settle_time=1.0, duration={until!r} or 3.0"
+assert _COARSE_WHEEL in CHILD["leg-wheel"]  # else the default scene would silently run coarse
+CHILD["leg-wheel-default"] = CHILD["leg-wheel"].replace(_COARSE_WHEEL, "duration={until!r} or 6.0")
 
 
 def run_side(scene: str, python: str, threads: int, numerics: dict, until: float, env: dict[str, str]) -> dict:

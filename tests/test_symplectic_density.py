@@ -17,9 +17,8 @@ symplectic 0.012, 0.008, 0.005, 0.011, … 0.014 m/s at step 20 000.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from terrasph import InstabilityError
-from terrasph.config import ConfigError, Material, Numerics
+from terrasph.config import Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
@@ -62,7 +61,3 @@ def test_the_undamped_bed_grows_when_the_density_is_kicked() -> None:
     speeds = peak_speeds(undamped_bed(symplectic=False), blocks=15)
     assert len(speeds) < 15 or max(speeds) > 0.1, speeds
 
-
-def test_the_option_is_named_in_errors() -> None:
-    with pytest.raises(ConfigError, match="symplectic_density"):
-        Numerics(spacing=DX, symplectic_density="sometimes")  # type: ignore[arg-type]

@@ -550,7 +550,9 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
     }, active_chunk());
 }
 
-// ρ + Δt Dρ/Dt, held at numerics.density_floor·ρ0 (the floor of the kicks).
+// ρ + Δt Dρ/Dt, held at the optional floor numerics.density_floor·ρ0: with the tension-free EOS a
+// grain that separates from the bulk carries no pressure below ρ0 either way; the floor keeps it
+// from re-entering the bed unresisted. The kicks (Δt/2) and the symplectic update (Δt) use it.
 template <int D> double Simulation<D>::advanced_density(double rho, double rate, double dt) const {
   return std::max(rho + dt * rate, params_.numerics.density_floor * params_.material.reference_density);
 }
@@ -1032,15 +1034,12 @@ template <int D> void Simulation<D>::step(double dt) {
   const bool xsph = params_.numerics.xsph > 0.0;
   const bool kick_density = !params_.numerics.symplectic_density;  // else the ∇v pass advances it
   const double half = 0.5 * dt;
-  // optional floor ρ ≥ f·ρ0: with the tension-free EOS a grain that separates from the bulk carries
-  // no pressure below ρ0 either way; the floor keeps it from re-entering the bed unresisted
-  const double density_floor = params_.numerics.density_floor * params_.material.reference_density;
   if (frozen_) update_frozen();
   for_each_particle(n, [&](Index i) {  // kick, then drift (Eq. 2.49 for the drift velocity)
     if (frozen(i)) return;
     auto v = row_vec<D>(granular_.velocity, i);
     v += half * row_vec<D>(granular_.acceleration, i);
-    if (kick_density) granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
+    if (kick_density) granular_.density[i] = advanced_density(granular_.density[i], granular_.density_rate[i], half);
     Vec<D> drift = v;
     if (xsph) drift += row_vec<D>(*xsph_correction_, i);
     row_vec<D>(granular_.position, i) += dt * drift;
@@ -1058,7 +1057,7 @@ template <int D> void Simulation<D>::step(double dt) {
     auto v = row_vec<D>(granular_.velocity, i);
     if (frozen(i)) return v.squaredNorm();
     v += half * row_vec<D>(granular_.acceleration, i);
-    if (kick_density) granular_.density[i] = std::max(granular_.density[i] + half * granular_.density_rate[i], density_floor);
+    if (kick_density) granular_.density[i] = advanced_density(granular_.density[i], granular_.density_rate[i], half);
     const double v2 = v.squaredNorm();
     if (quiet_steps_) {  // quiet: slow, and then far from every body (active radius) or, without
                          // one, not gaining freeze_speed within freeze_steps steps
