@@ -30,7 +30,7 @@ import dataclasses
 import numpy as np
 import pytest
 from terrasph import _core
-from terrasph.bodies import plate
+from terrasph.bodies import leg_wheel, plate, rotation_matrix
 from terrasph.config import Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.motion import Hold, Motion, Move
@@ -196,3 +196,31 @@ def test_restart_with_the_active_domain_is_bitwise_identical(tmp_path) -> None:
     resumed.restore(path)
     resumed.advance(1.0, max_steps=150)
     assert_states_equal(straight.core.state(), resumed.core.state())
+
+
+@pytest.mark.parametrize("angle", [0.7, -2.9, 40.3])
+def test_the_proximity_test_agrees_with_brute_force_about_a_turned_leg_wheel(angle: float) -> None:
+    # The active domain's "within R of a body particle?" (numerics.active_radius) is decided from
+    # the body's distance field sampled on a grid of R/16 in its own frame, visiting particles only
+    # near the contour d = R. Reference: the distance to every particle, for points scattered over
+    # the whole field and points placed within 1e-6 R of the contour on both sides, at several
+    # angles (one of them many turns).
+    radius = 0.1
+    shape = leg_wheel("c-leg", 3, 0.08, 0.005, 0.1, 0.005 / 3)
+    offsets = np.asarray(shape.position)
+    reference = np.array([0.21, 0.13])
+    world = reference + offsets @ rotation_matrix(angle).T
+    rng = np.random.default_rng(7)
+    scattered = reference + rng.uniform(-0.35, 0.35, size=(20_000, 2))
+    # points on rays from particles at distance R ± 1e-6 R, kept where that particle is the nearest
+    source = world[rng.integers(len(world), size=20_000)]
+    direction = rng.normal(size=(20_000, 2))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    contour = np.concatenate([source + (1 + s) * radius * direction for s in (-1e-6, 1e-6)])
+    points = np.concatenate([scattered, contour])
+    nearest = np.concatenate([np.sqrt(((chunk[:, None, :] - world[None]) ** 2).sum(axis=-1)).min(axis=1)
+                              for chunk in np.array_split(points, 200)])
+    near = _core.near_body(offsets, reference, angle, radius, points)
+    assert np.array_equal(near, nearest <= radius)
+    on_contour = np.abs(nearest[len(scattered):] / radius - 1) < 2e-6
+    assert on_contour.sum() > 50 and near[len(scattered):][on_contour].any() and not near[len(scattered):][on_contour].all()

@@ -602,6 +602,24 @@ void bind_sph(py::module_& m) {
       }, py::arg("points"), py::arg("radius"),
       "Neighbours within radius (excluding self) of 2D points as CSR (offsets, indices).");
 
+  m.def("near_body", [](const py::array_t<double, py::array::c_style | py::array::forcecast>& offsets,
+                        const Vec<2>& reference, double angle, double radius,
+                        const py::array_t<double, py::array::c_style | py::array::forcecast>& points) {
+        if (offsets.ndim() != 2 || offsets.shape(1) != 2) throw std::invalid_argument("offsets must have shape (N, 2)");
+        if (points.ndim() != 2 || points.shape(1) != 2) throw std::invalid_argument("points must have shape (M, 2)");
+        if (!(radius > 0.0)) throw std::invalid_argument("radius must be > 0");
+        std::vector<Vec<2>> local;
+        for (py::ssize_t k = 0; k < offsets.shape(0); ++k) local.emplace_back(offsets.at(k, 0), offsets.at(k, 1));
+        const BodyDistanceField<2> field(local, radius);
+        const BodyProximity<2> proximity({{&field, reference, std::cos(angle), std::sin(angle)}});
+        py::array_t<bool> near(points.shape(0));
+        for (py::ssize_t k = 0; k < points.shape(0); ++k)
+          near.mutable_data()[k] = proximity.near(Vec<2>(points.at(k, 0), points.at(k, 1)));
+        return near;
+      }, py::arg("offsets"), py::arg("reference"), py::arg("angle"), py::arg("radius"), py::arg("points"),
+      "The active domain's proximity test: whether each point lies within radius of a particle of a rigid "
+      "body whose body-frame offsets are turned clockwise by angle about reference.");
+
   m.def("wendland_c2_2d", [](const py::array_t<double, py::array::c_style | py::array::forcecast>& r, double h) {
         if (!(h > 0.0)) throw std::invalid_argument("h must be > 0");
         const WendlandC2<2> kernel(h);

@@ -240,6 +240,7 @@ template <int D> void Simulation<D>::mark_interior_walls() {
 
 template <int D> void Simulation<D>::refresh() {
   neighbours_valid_ = false;
+  body_fields_.clear();  // the bodies or their particles may have changed
   if (quiet_steps_) {  // the state may have been edited: every grain must settle again before it freezes
     quiet_steps_->setZero();
     frozen_->setZero();
@@ -260,6 +261,7 @@ void Simulation<D>::restore(const RunCounters& counters, const std::vector<Rigid
   check_ids();
   counters_ = counters;
   bodies_ = bodies;
+  body_fields_.clear();
   pending_removals_ = std::move(pending_removals);
   compose_passes();
   build_neighbour_lists(granular_.position_at_build, walls_.position_at_build);
@@ -904,13 +906,22 @@ template <int D> void Simulation<D>::accumulate_body_loads(double dt) {
   }
 }
 
-// The body particles' positions after this step's move, in a fixed order (serial: only the
-// bodies' particles are visited), for the active domain's "far from every body" test.
-template <int D> BodyProximity<D> Simulation<D>::body_proximity(double radius) const {
-  std::vector<Vec<D>> points;
-  for (Index w = 0; w < walls_.size(); ++w)
-    if (walls_.body[w] >= 0) points.emplace_back(row_vec<D>(walls_.position, w));
-  return BodyProximity<D>(std::move(points), radius);
+// Each body's pose after this step's move with its distance field, for the active domain's "far
+// from every body" test. The fields are built from the particles' body-frame offsets (in storage
+// order, serially) at the first call after the bodies or the walls last changed.
+template <int D> BodyProximity<D> Simulation<D>::body_proximity(double radius) {
+  if (body_fields_.empty()) {
+    std::vector<std::vector<Vec<D>>> offsets(bodies_.size());
+    for (Index w = 0; w < walls_.size(); ++w)
+      if (walls_.body[w] >= 0) offsets[static_cast<std::size_t>(walls_.body[w])].emplace_back(row_vec<D>(*body_offset_, w));
+    for (const std::vector<Vec<D>>& body : offsets) body_fields_.emplace_back(body, radius);
+  }
+  std::vector<typename BodyProximity<D>::Frame> frames;
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    const BodyKinematics<D>& k = bodies_[b].kinematics;
+    frames.push_back({&body_fields_[b], k.reference, std::cos(k.angle), std::sin(k.angle)});
+  }
+  return BodyProximity<D>(std::move(frames));
 }
 
 template <int D> void Simulation<D>::track_wall_loads(const Vec<D>& point) {

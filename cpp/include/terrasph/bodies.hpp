@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,13 +28,17 @@ template <int D> Vec<D> quarter_turn_clockwise(const Vec<D>& r) {
   return out;
 }
 
-// r rotated clockwise by `angle` in the x–z plane: (x cos θ + z sin θ, −x sin θ + z cos θ).
-template <int D> Vec<D> rotate_clockwise(const Vec<D>& r, double angle) {
-  const double c = std::cos(angle), s = std::sin(angle);
+// r rotated clockwise by θ in the x–z plane, given c = cos θ and s = sin θ: (x c + z s, −x s + z c).
+template <int D> Vec<D> rotate_clockwise(const Vec<D>& r, double c, double s) {
   Vec<D> out = r;
   out[0] = c * r[0] + s * r[D - 1];
   out[D - 1] = -s * r[0] + c * r[D - 1];
   return out;
+}
+
+// r rotated clockwise by `angle` in the x–z plane.
+template <int D> Vec<D> rotate_clockwise(const Vec<D>& r, double angle) {
+  return rotate_clockwise<D>(r, std::cos(angle), std::sin(angle));
 }
 
 // One piece of a prescribed motion: constant linear velocity of the reference point and constant
@@ -116,14 +121,13 @@ template <int D> struct RigidBody {
   double impulse_time = 0.0;         // Σ dt since the last reset
 };
 
-// "Is any body particle within R of x?" for the active domain (numerics.active_radius): the body
-// particles binned in cells of side R, so that a query visits the 3^D cells about x and stops at
-// the first particle within R. Built once a step from the moved bodies; exact (no bounding shape).
-template <int D> class BodyProximity {
+// Points binned in cells of side L (sorted, occupied cells only): a query visits the 3^D cells
+// about its own, so it sees every point within L of it.
+template <int D> class PointCells {
  public:
   using Cell = std::array<std::int64_t, D>;
 
-  BodyProximity(std::vector<Vec<D>> points, double radius) : radius_(radius) {
+  PointCells(const std::vector<Vec<D>>& points, double cell_side) : side_(cell_side) {
     std::vector<std::pair<Cell, Vec<D>>> binned;
     binned.reserve(points.size());
     for (const Vec<D>& p : points) binned.emplace_back(cell_of(p), p);
@@ -138,19 +142,37 @@ template <int D> class BodyProximity {
     starts_.push_back(points_.size());
   }
 
-  bool near(const Vec<D>& x) const {
+  // Whether a point lies within `radius` (≤ L) of x; stops at the first.
+  bool any_within(const Vec<D>& x, double radius) const {
+    const double r2 = radius * radius;
+    return visit_near(x, [&](const Vec<D>& p) { return (p - x).squaredNorm() <= r2; });
+  }
+
+  // The distance from x to the nearest point, or L if none is nearer.
+  double nearest_within_side(const Vec<D>& x) const {
+    double best2 = side_ * side_;
+    visit_near(x, [&](const Vec<D>& p) {
+      best2 = std::min(best2, (p - x).squaredNorm());
+      return false;
+    });
+    return std::sqrt(best2);
+  }
+
+ private:
+  // Calls stop(p) for the points of the 3^D cells about x's own until it returns true; returns
+  // whether it did.
+  template <class Stop> bool visit_near(const Vec<D>& x, Stop&& stop) const {
     const Cell centre = cell_of(x);
-    const double r2 = radius_ * radius_;
     Cell offset{};
     offset.fill(-1);
-    while (true) {  // the 3^D cells about x's own
+    while (true) {
       Cell cell = centre;
       for (int d = 0; d < D; ++d) cell[d] += offset[d];
       const auto found = std::lower_bound(cells_.begin(), cells_.end(), cell);
       if (found != cells_.end() && *found == cell) {
         const std::size_t k = static_cast<std::size_t>(found - cells_.begin());
         for (std::size_t p = starts_[k]; p < starts_[k + 1]; ++p)
-          if ((points_[p] - x).squaredNorm() <= r2) return true;
+          if (stop(points_[p])) return true;
       }
       int d = 0;
       while (d < D && offset[d] == 1) offset[d++] = -1;
@@ -159,17 +181,115 @@ template <int D> class BodyProximity {
     }
   }
 
- private:
   Cell cell_of(const Vec<D>& x) const {
     Cell cell;
-    for (int d = 0; d < D; ++d) cell[d] = static_cast<std::int64_t>(std::floor(x[d] / radius_));
+    for (int d = 0; d < D; ++d) cell[d] = static_cast<std::int64_t>(std::floor(x[d] / side_));
     return cell;
   }
 
-  double radius_;
-  std::vector<Cell> cells_;  // occupied cells, sorted
+  double side_;
+  std::vector<Cell> cells_;          // occupied cells, sorted
   std::vector<std::size_t> starts_;  // points_[starts_[k], starts_[k + 1]) lie in cells_[k]
   std::vector<Vec<D>> points_;
+};
+
+// Whether a point of a rigid body's frame lies within R of one of the body's particles. The
+// distance d to the nearest particle is sampled once on a grid of spacing g = R/16 (coarser if the
+// grid would pass kMaxNodes); d is 1-Lipschitz, so the sample at the node nearest to y bounds d(y)
+// within δ = |y − node|, and the answer is read off the sample unless |d_node − R| ≤ δ (plus a
+// round-off margin), a band about a node wide along the contour d = R, where the particles are
+// visited (binned in cells of side R). Samples farther than R + 2g from every particle hold R + 2g,
+// a lower bound that still decides "beyond R". Exact: the same answer as a visit of every particle.
+template <int D> class BodyDistanceField {
+ public:
+  static constexpr Index kMaxNodes = Index{1} << 18;
+
+  BodyDistanceField(const std::vector<Vec<D>>& offsets, double radius)
+      : radius_(radius), particles_(offsets, radius) {
+    if (offsets.empty()) return;  // no nodes: every point is beyond
+    Vec<D> lower = Vec<D>::Constant(std::numeric_limits<double>::max());
+    Vec<D> upper = Vec<D>::Constant(std::numeric_limits<double>::lowest());
+    for (const Vec<D>& p : offsets) {
+      lower = lower.cwiseMin(p);
+      upper = upper.cwiseMax(p);
+    }
+    double cap = 0.0;
+    spacing_ = radius / 16.0;
+    while (true) {  // the particles' box padded by R + 2g, nodes g apart
+      cap = radius + 2.0 * spacing_;
+      origin_ = lower.array() - cap;
+      Index nodes = 1;
+      for (int d = 0; d < D; ++d) {
+        dims_[d] = static_cast<Index>(std::ceil((upper[d] - lower[d] + 2.0 * cap) / spacing_)) + 1;
+        nodes *= dims_[d];
+      }
+      if (nodes <= kMaxNodes) break;
+      spacing_ *= 1.25;
+    }
+    margin_ = 1e-9 * cap;  // far above the round-off of the node positions and of |y − node|
+    const PointCells<D> cells(offsets, cap);
+    distance_.resize(static_cast<std::size_t>(node_count()));
+    for (Index n = 0; n < node_count(); ++n) distance_[static_cast<std::size_t>(n)] = cells.nearest_within_side(node(n));
+  }
+
+  bool within(const Vec<D>& local) const {
+    Index n = 0, stride = 1;
+    for (int d = 0; d < D; ++d) {
+      const double k = std::round((local[d] - origin_[d]) / spacing_);
+      if (!(k >= 0.0 && k < static_cast<double>(dims_[d]))) return false;  // > R + 1.5g from the box
+      n += static_cast<Index>(k) * stride;
+      stride *= dims_[d];
+    }
+    const double offset = (local - node(n)).norm();
+    const double sampled = distance_[static_cast<std::size_t>(n)];
+    if (sampled - offset > radius_ + margin_) return false;
+    if (sampled + offset < radius_ - margin_) return true;
+    return particles_.any_within(local, radius_);
+  }
+
+ private:
+  Index node_count() const {
+    Index n = 1;
+    for (int d = 0; d < D; ++d) n *= dims_[d];
+    return n;
+  }
+  Vec<D> node(Index n) const {
+    Vec<D> x;
+    for (int d = 0; d < D; ++d) {
+      x[d] = origin_[d] + spacing_ * static_cast<double>(n % dims_[d]);
+      n /= dims_[d];
+    }
+    return x;
+  }
+
+  double radius_, spacing_ = 0.0, margin_ = 0.0;
+  PointCells<D> particles_;
+  Vec<D> origin_ = Vec<D>::Zero();
+  std::array<Index, D> dims_{};
+  std::vector<double> distance_;  // per node, capped at R + 2g
+};
+
+// "Is any body particle within R of x?" for the active domain (numerics.active_radius), asked of
+// each body's BodyDistanceField in the body's frame at its present pose (built once a step from the
+// moved bodies). Exact up to the round-off of turning x into the body frame: no bounding shape.
+template <int D> class BodyProximity {
+ public:
+  struct Frame {  // a body's pose and its distance field (in the body frame)
+    const BodyDistanceField<D>* field;
+    Vec<D> reference;
+    double cos_angle, sin_angle;  // of the body's clockwise angle θ
+  };
+
+  explicit BodyProximity(std::vector<Frame> frames) : frames_(std::move(frames)) {}
+
+  bool near(const Vec<D>& x) const {
+    for (const Frame& f : frames_)  // the body frame's point: x − c turned back by θ
+      if (f.field->within(rotate_clockwise<D>(Vec<D>(x - f.reference), f.cos_angle, -f.sin_angle))) return true;
+    return false;
+  }
+
+ private:
+  std::vector<Frame> frames_;
 };
 
 }  // namespace terrasph

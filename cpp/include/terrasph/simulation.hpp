@@ -167,7 +167,7 @@ template <int D> class Simulation {
   void build_neighbours();
   void sort_into_cell_order();
   void update_frozen();
-  BodyProximity<D> body_proximity(double radius) const;
+  BodyProximity<D> body_proximity(double radius);
   bool frozen(Index i) const { return frozen_ && (*frozen_)[i]; }
   // the threads' share of the loops that skip frozen grains and idle walls: balanced chunks with
   // the active domain on, one block per thread otherwise (parallel.hpp)
@@ -239,6 +239,9 @@ template <int D> class Simulation {
   // passes are skipped; derived each step, reset at neighbour builds
   std::vector<std::uint8_t> wall_idle_;
   std::vector<std::uint8_t> walls_frozen_around_;
+  // active domain with numerics.active_radius: each body's distance field (BodyDistanceField), built
+  // when first needed and dropped whenever the bodies or the walls change (refresh, restore)
+  std::vector<BodyDistanceField<D>> body_fields_;
   // force each granular–wall pair exerts on the wall, kept for walls that belong to a body and,
   // when wall loads are tracked, for all walls
   VecArray<D> pair_wall_force_;
