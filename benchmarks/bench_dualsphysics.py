@@ -2,7 +2,7 @@
 
     python benchmarks/bench_dualsphysics.py --source DUALSPHYSICS_DIR [--sizes 20000 80000]
         [--threads 1 2] [--rounds 2] [--tmax 0.05] [--steps 200] [--work DIR] [--no-build]
-        [--make-options COMPILE_CHRONO=NO ...] [--case-writer auto|gencase|own]
+        [--make-options COMPILE_CHRONO=NO ...] [--case-writer auto|gencase|own] [--numerics NAME=VALUE ...]
 
 DUALSPHYSICS_DIR is a checkout of DualSPHysics' public source that the user fetched
 (https://github.com/DualSPHysics/DualSPHysics); this script never downloads, copies or commits
@@ -23,7 +23,9 @@ codes; each run is its own process:
   of the same run with -tmax at one step's worth (setup and file loading), so it is the loop's.
 * terrasph: ``bench_sph.py``'s bed (glass beads at rest in a box, Δx = 2 mm) of the same number
   of granular particles, stepped --steps steps after a warm-up; wall and CPU (process_time) of the
-  stepping loop.
+  stepping loop. ``--numerics`` sets terrasph options for the bed, e.g. ``cell_order=true
+  symmetric_pairs=true`` (storage in cell order and each pair evaluated once, which change the
+  results only by the order of the sums; DualSPHysics sorts its particles by cell every step).
 
 Particle-steps count fluid (DualSPHysics) and granular (terrasph) particles, not walls. The
 table gives the medians over rounds and the ratio terrasph / DualSPHysics of each figure. The two
@@ -152,7 +154,7 @@ def dualsphysics_rates(solver: Path, case: Path, threads: int, tmax: float) -> d
             "per_cpu": full["particles"] * steps / max(full["cpu"] - setup["cpu"], 1e-9)}
 
 
-def terrasph_worker(particles: int, threads: int, steps: int) -> None:
+def terrasph_worker(particles: int, threads: int, steps: int, numerics: dict[str, bool | int | float]) -> None:
     """(In a child process) steps bench_sph's bed and prints its figures as JSON."""
     sys.path.insert(0, str(HERE))
     from bench_sph import SPACING, bed  # noqa: PLC0415 - the worker's own import
@@ -161,7 +163,7 @@ def terrasph_worker(particles: int, threads: int, steps: int) -> None:
     from terrasph.config import Material, Numerics
 
     _core.set_num_threads(threads)
-    sim = bed(particles, Material(), Numerics(spacing=SPACING))
+    sim = bed(particles, Material(), Numerics(spacing=SPACING, **numerics))
     sim.advance(1e9, max_steps=10)
     wall, cpu = time.perf_counter(), time.process_time()
     sim.advance(1e9, max_steps=steps)
@@ -170,8 +172,9 @@ def terrasph_worker(particles: int, threads: int, steps: int) -> None:
     print(json.dumps({"particles": n, "per_wall": n * steps / wall, "per_cpu": n * steps / cpu}))
 
 
-def terrasph_rates(particles: int, threads: int, steps: int) -> dict[str, float]:
-    out = subprocess.run([sys.executable, __file__, "--terrasph-worker", str(particles), str(threads), str(steps)],
+def terrasph_rates(particles: int, threads: int, steps: int, numerics: dict[str, bool | int | float]) -> dict[str, float]:
+    out = subprocess.run([sys.executable, __file__, "--terrasph-worker", str(particles), str(threads), str(steps),
+                          "--terrasph-numerics", json.dumps(numerics)],
                          check=True, capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -190,11 +193,18 @@ def main() -> None:
                         help="options for DualSPHysics' make, e.g. COMPILE_CHRONO=NO COMPILE_WAVEGEN=NO")
     parser.add_argument("--case-writer", choices=("auto", "gencase", "own"), default="auto",
                         help="GenCase, or benchmarks/dsph_case.cpp (auto: GenCase where the checkout has it)")
+    parser.add_argument("--numerics", nargs="*", default=[], metavar="NAME=VALUE",
+                        help="terrasph options of the bed, e.g. cell_order=true symmetric_pairs=true")
     parser.add_argument("--terrasph-worker", nargs=3, type=int, help=argparse.SUPPRESS)
+    parser.add_argument("--terrasph-numerics", default="{}", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.terrasph_worker:
-        terrasph_worker(*args.terrasph_worker)
+        terrasph_worker(*args.terrasph_worker, json.loads(args.terrasph_numerics))
         return
+    sys.path.insert(0, str(HERE))
+    from bench_sph import parse_numerics  # noqa: PLC0415 - the options' one parser
+
+    numerics = parse_numerics(args.numerics)
     if args.source is None or not args.source.is_dir():
         parser.error("parameter '--source' must name a DualSPHysics checkout (fetched by the user)")
     for name in ("sizes", "threads"):
@@ -219,7 +229,7 @@ def main() -> None:
                 codes = ["dsph", "terrasph"] if round_index % 2 == 0 else ["terrasph", "dsph"]
                 for code in codes:
                     figures = (dualsphysics_rates(solver, cases[size], threads, args.tmax) if code == "dsph"
-                               else terrasph_rates(size, threads, args.steps))
+                               else terrasph_rates(size, threads, args.steps, numerics))
                     results.setdefault((code, size, threads), []).append(figures)
                     print(json.dumps({"round": round_index, "code": code, "size": size, "threads": threads,
                                       **figures}), flush=True)

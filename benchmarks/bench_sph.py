@@ -3,7 +3,7 @@
     python benchmarks/bench_sph.py throughput [--sizes 20000 80000 320000] [--threads 1 2] [--steps 200]
         [--numerics NAME=VALUE ...] [--particles-per-thread N]
     python benchmarks/bench_sph.py features [--size 20000]
-    python benchmarks/bench_sph.py phases [--size 80000] [--threads 1]
+    python benchmarks/bench_sph.py phases [--size 80000] [--threads 1] [--numerics NAME=VALUE ...]
     python benchmarks/bench_sph.py scaling [--sizes 10000 30000 100000 300000] [--steps 50] [--repeats 3]
         [--numerics NAME=VALUE ...]
 
@@ -152,10 +152,10 @@ def scaling(sizes: list[int], steps: int, repeats: int, numerics: dict[str, bool
               f"| {sim.core.memory_bytes / len(sim.mass):.0f} |", flush=True)
 
 
-def phases(size: int, threads: int, steps: int) -> None:
+def phases(size: int, threads: int, steps: int, numerics: dict[str, bool | int | float]) -> None:
     """Wall time of each phase of a step (the core's phase timers), per particle-step."""
     _core.set_num_threads(threads)
-    sim = bed(size, Material(), Numerics(spacing=SPACING))
+    sim = bed(size, Material(), Numerics(spacing=SPACING, **numerics))
     sim.advance(1e9, max_steps=10)
     before = dict(sim.core.phase_seconds)
     sim.advance(1e9, max_steps=steps)
@@ -191,6 +191,7 @@ def main() -> None:
     ph.add_argument("--size", type=int, default=80000)
     ph.add_argument("--threads", type=int, default=1)
     ph.add_argument("--steps", type=int, default=100)
+    ph.add_argument("--numerics", nargs="*", default=[], metavar="NAME=VALUE")
     sc = sub.add_parser("scaling")
     sc.add_argument("--sizes", type=int, nargs="+", default=[10000, 30000, 100000, 300000])
     sc.add_argument("--steps", type=int, default=50)
@@ -208,7 +209,7 @@ def main() -> None:
             _core.set_num_threads(args.threads)
         features(args.size, args.steps, args.repeats, args.only, args.cpu)
     else:
-        phases(args.size, args.threads, args.steps)
+        phases(args.size, args.threads, args.steps, parse_numerics(args.numerics))
 
 
 if __name__ == "__main__":

@@ -36,6 +36,9 @@ def run_state(threads: int, model: str, numerics: dict, steps: int) -> dict[str,
     ("mu_i_rate", {"shepard_interval": 25, "kernel_gradient_correction": True}),
     ("mu_i_hypoelastic", {"wall_friction_coefficient": 0.4}),  # Coulomb wall friction's gather
     ("mu_i_hypoelastic", {"symplectic_density": True, "cfl": 0.5}),  # Dρ/Dt summed in the ∇v pass
+    # each pair once, the grains in strips of two parities: both passes, then the force pass alone
+    ("mu_i_hypoelastic", {"symmetric_pairs": True, "symplectic_density": True, "cfl": 0.5, "cell_order": True}),
+    ("mu_i_rate", {"symmetric_pairs": True, "kernel_gradient_correction": True}),
 ])
 def test_bitwise_identical_with_one_two_and_three_threads(restore_threads, model, numerics) -> None:
     one = run_state(1, model, numerics, 400)

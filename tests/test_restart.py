@@ -44,6 +44,9 @@ CASES = {
     # the density advanced in the first pair pass (its rate is not needed again after a restart)
     "leg-rotation, symplectic density": LegRotation(settle_time=0.002, omega=2.0, bed_depth=0.07, bed_width=0.12,
                                                     numerics={"symplectic_density": True, "cfl": 0.5}),
+    # each pair evaluated once (half lists and strips, rebuilt from the restored positions)
+    "leg-rotation, symmetric pairs": LegRotation(settle_time=0.002, omega=2.0, bed_depth=0.07, bed_width=0.12,
+                                                 numerics={"symmetric_pairs": True, "cell_order": True}),
 }
 
 

@@ -367,11 +367,52 @@ void Simulation<D>::build_neighbour_lists(const VecArray<D>& granular_at, const 
   build_neighbour_list<D>(granular_at, granular_at, granular_grid_, radius, true, granular_granular_);
   build_neighbour_list<D>(granular_at, walls_at, wall_grid_, radius, false, granular_wall_);
   build_neighbour_list<D>(walls_at, granular_at, granular_grid_, radius, false, wall_granular_);
+  if (params_.numerics.symmetric_pairs) build_pair_strips(granular_at, radius);
   if (keeps_pair_forces()) pair_wall_force_.resize(static_cast<Index>(granular_wall_.indices.size()), D);
   if (frozen_) {  // new lists: no wall is idle until its neighbours have been frozen for two steps again
     wall_idle_.assign(static_cast<std::size_t>(walls_.size()), 0);
     walls_frozen_around_.assign(static_cast<std::size_t>(walls_.size()), 0);
   }
+}
+
+// Strips for numerics.symmetric_pairs: the grains binned along one axis into strips one list radius
+// wide, so that every listed pair lies in one strip or two neighbouring ones; a strip then writes
+// only its own grains and the next strip's, and the even strips (then the odd ones) can run side by
+// side. The strips are layers across the cell order's slowest axis (z): the particle loops' blocks
+// of indices are layers too, so that a thread meets about the grains it has there, and each layer
+// spans the bed's width, so that an active domain's awake region falls into every thread's share
+// (strips across x, dealt in blocks, gave one thread the awake half of a leg-wheel bed and were
+// 1.4x slower there). The half list keeps, of each grain's list and in its order, the
+// pairs the grain holds: with a grain of the next strip, or of its own strip and a higher index.
+// Every choice depends on the positions alone, so the sums are the same for any thread count.
+template <int D> void Simulation<D>::build_pair_strips(const VecArray<D>& granular_at, double radius) {
+  const Index n = granular_.size();
+  constexpr int axis = D - 1;
+  const double lowest = n > 0 ? granular_at.col(axis).minCoeff() : 0.0;
+  std::vector<std::int32_t> strip(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) strip[i] = static_cast<std::int32_t>(std::floor((granular_at(i, axis) - lowest) / radius));
+  const Index strips = n > 0 ? *std::max_element(strip.begin(), strip.end()) + 1 : 0;
+  strip_start_.assign(static_cast<std::size_t>(strips + 1), 0);  // counting sort, stable in the index
+  for (Index i = 0; i < n; ++i) ++strip_start_[strip[i] + 1];
+  for (Index k = 0; k < strips; ++k) strip_start_[k + 1] += strip_start_[k];
+  strip_members_.resize(static_cast<std::size_t>(n));
+  std::vector<Index> fill(strip_start_.begin(), strip_start_.end() - 1);
+  for (Index i = 0; i < n; ++i) strip_members_[fill[strip[i]]++] = static_cast<std::int32_t>(i);
+  const NeighbourList& full = granular_granular_;
+  auto held = [&](Index i, std::int32_t j) { return strip[j] == strip[i] + 1 || (strip[j] == strip[i] && j > i); };
+  granular_half_.offsets.assign(static_cast<std::size_t>(n + 1), 0);
+  for_each_particle(n, [&](Index i) {
+    Index count = 0;
+    for (Index s = full.offsets[i]; s < full.offsets[i + 1]; ++s) count += held(i, full.indices[s]) ? 1 : 0;
+    granular_half_.offsets[i + 1] = count;
+  });
+  for (Index i = 0; i < n; ++i) granular_half_.offsets[i + 1] += granular_half_.offsets[i];
+  granular_half_.indices.resize(static_cast<std::size_t>(granular_half_.offsets[n]));
+  for_each_particle(n, [&](Index i) {
+    Index slot = granular_half_.offsets[i];
+    for (Index s = full.offsets[i]; s < full.offsets[i + 1]; ++s)
+      if (held(i, full.indices[s])) granular_half_.indices[slot++] = full.indices[s];
+  });
 }
 
 // The lists hold all pairs within 2h(1 + skin/2); they stay complete while no two particles
@@ -487,6 +528,59 @@ void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, const 
   drho = r;
 }
 
+// numerics.symmetric_pairs (without the kernel gradient correction): the granular terms of ∇v and
+// of Dρ/Dt (with Density) of every awake grain, each pair evaluated once and added to both grains
+// (its terms for j are those for i with x_ij and v_ij turned round, so each is the gather's to the
+// bit), into the velocity gradient and density rate arrays, which the ∇v pass then completes.
+template <int D>
+template <int Density>
+void Simulation<D>::granular_gradient_pairs_once(const ForceConstants<D>& constants) {
+  for_each_particle(granular_.size(), [&](Index i) {
+    if (frozen(i)) return;
+    row_mat<D>(granular_.velocity_gradient, i).setZero();
+    if constexpr (Density != no_density_terms) granular_.density_rate[i] = 0.0;
+  }, active_chunk());
+  for_each_grain_by_strips([&](Index i) { add_half_list_gradient_pairs<Density>(i, constants); });
+}
+
+template <int D>
+template <int Density>
+void Simulation<D>::add_half_list_gradient_pairs(Index i, const ForceConstants<D>& c) {
+  namespace term = pair_terms;
+  GranularParticles<D>& p = granular_;
+  const Vec<D> vi = row_vec<D>(p.velocity, i);
+  [[maybe_unused]] const double rho_i = p.density[i], m_i = p.mass[i];
+  const double volume_i = p.volume[i];
+  Mat<D> g = Mat<D>::Zero();  // i's sums
+  double r = 0.0;
+  const bool i_awake = for_each_held_pair<false>(i, [&](std::int32_t j, bool j_awake, const PairBatch<D>& batch, int k) {
+    const Vec<D>& xij = batch.x[k];
+    const double grad_factor = batch.gradient_factor[k];
+    const Vec<D> vji = row_vec<D>(p.velocity, j) - vi;
+    // V_j (v_j − v_i) ⊗ ∇_iW_ij for i; V_i (v_i − v_j) ⊗ ∇_jW_ji, the same product, for j (Eq. 2.48)
+    g.noalias() += ((p.volume[j] * grad_factor) * vji) * xij.transpose();
+    double drho_i = 0.0, drho_j = 0.0;
+    if constexpr (Density >= continuity_only) {
+      const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
+      drho_i = term::continuity<D>(p.mass[j], Vec<D>(-vji), grad_w);
+      drho_j = term::continuity<D>(m_i, Vec<D>(-vji), grad_w);  // v_ji·∇_jW_ji = v_ij·∇_iW_ij
+    }
+    if constexpr (Density == continuity_and_diffusion) {  // ρ_j − ρ_i + ∇ρ^H·x_ij, antisymmetric
+      const double difference = p.density[j] - rho_i + c.hydrostatic_gradient.dot(xij);
+      drho_i += term::density_diffusion(c.delta_h_c0, difference, p.volume[j], grad_factor);
+      drho_j += term::density_diffusion(c.delta_h_c0, -difference, volume_i, grad_factor);
+    }
+    r += drho_i;
+    if (j_awake) {
+      row_mat<D>(p.velocity_gradient, j).noalias() += ((volume_i * grad_factor) * vji) * xij.transpose();
+      if constexpr (Density != no_density_terms) p.density_rate[j] += drho_j;
+    }
+  });
+  if (!i_awake) return;
+  row_mat<D>(p.velocity_gradient, i) += g;
+  if constexpr (Density != no_density_terms) p.density_rate[i] += r;
+}
+
 // The wall terms of ∇v_i and M_i (Eq. 2.48) with the ghost velocities and V_w = Δx^D.
 // With Continuity, the walls' continuity terms of Dρ_i/Dt too, with the walls' own velocities.
 template <int D>
@@ -529,12 +623,19 @@ void Simulation<D>::velocity_gradient_and_stress_pass(double dt) {
   const bool correct = params_.numerics.kernel_gradient_correction;
   const ForceConstants<D> constants = force_constants(params_, kernel_.h, sound_speed_);
   const bool advance_density = Density != no_density_terms && dt > 0.0;
+  const bool pairs_once = params_.numerics.symmetric_pairs && !correct;
+  if (pairs_once) granular_gradient_pairs_once<Density>(constants);
   for_each_particle(granular_.size(), [&](Index i) {
     if (frozen(i)) return;
     Mat<D> grad = Mat<D>::Zero();
     Mat<D> moment = Mat<D>::Zero();
     double drho = 0.0;
-    add_granular_velocity_gradient<Density>(i, correct, constants, grad, moment, drho);
+    if (pairs_once) {  // the granular pairs' sums, already in the arrays
+      grad = row_mat<D>(granular_.velocity_gradient, i);
+      if constexpr (Density != no_density_terms) drho = granular_.density_rate[i];
+    } else {
+      add_granular_velocity_gradient<Density>(i, correct, constants, grad, moment, drho);
+    }
     add_wall_velocity_gradient<Density != no_density_terms>(i, correct, grad, moment, drho);
     if (correct && std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
     row_mat<D>(granular_.velocity_gradient, i) = grad;
@@ -679,6 +780,8 @@ void Simulation<D>::force_pass(double dt) {
   const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;
   const double barrier_reach2 = barrier_strength > 0.0 ? barrier_radius * barrier_radius : 0.0;  // 0: off
   const ForceConstants<D> constants = force_constants(params_, h, c0);
+  const bool pairs_once = params_.numerics.symmetric_pairs;
+  if (pairs_once) granular_pairs_once<Density, UseXsph>(constants);
   const bool keep_every_wall = tracks_wall_loads_;
   [[maybe_unused]] const double wall_friction = params_.numerics.wall_friction_coefficient;
   // mass scaling f: Dv_i/Dt = (Σ pair forces/m_i + g)/f, every force unchanged
@@ -708,7 +811,13 @@ void Simulation<D>::force_pass(double dt) {
     Vec<D> acc = Vec<D>::Zero();
     Vec<D> xsph = Vec<D>::Zero();
     double drho = 0.0;
-    add_granular_forces<D, Density, UseXsph>(i, granular_, granular_granular_, kernel_, constants, acc, xsph, drho);
+    if (pairs_once) {  // the granular pairs' sums, already in the arrays
+      acc = row_vec<D>(granular_.acceleration, i);
+      if constexpr (UseXsph) xsph = row_vec<D>(*xsph_correction_, i);
+      if constexpr (Density != no_density_terms) drho = granular_.density_rate[i];
+    } else {
+      add_granular_forces<D, Density, UseXsph>(i, granular_, granular_granular_, kernel_, constants, acc, xsph, drho);
+    }
     double nearest_wall2 = std::numeric_limits<double>::infinity();
     // wall friction: the pairs' normal parts and slips, gathered in list order (per thread, reused)
     static thread_local std::vector<FrictionPair> friction_pairs;
@@ -773,6 +882,116 @@ void Simulation<D>::force_pass(double dt) {
   counters_.max_acceleration = std::sqrt(total.max_acc2);
   counters_.penetrating_particles = total.penetrating;
   counters_.penetrated_particles += total.newly_penetrated;
+}
+
+// numerics.symmetric_pairs: the granular pairs' share of Dv/Dt, the XSPH sum and the Density
+// terms of Dρ/Dt of every awake grain, each pair evaluated once and added to both grains (its terms
+// for j are those for i with x_ij, v_ij and ∇W turned round, so each is the gather's to the bit),
+// into the acceleration, density rate and XSPH arrays, which the force pass then completes. The
+// even strips run side by side, then the odd ones; within a strip the grains go in index order.
+// A frozen grain's sums are left as they are; its pairs with awake grains still count for those.
+template <int D>
+template <int Density, bool UseXsph>
+void Simulation<D>::granular_pairs_once(const ForceConstants<D>& constants) {
+  const Index n = granular_.size();
+  for_each_particle(n, [&](Index i) {
+    if (frozen(i)) return;
+    row_vec<D>(granular_.acceleration, i).setZero();
+    if constexpr (Density != no_density_terms) granular_.density_rate[i] = 0.0;
+    if constexpr (UseXsph) row_vec<D>(*xsph_correction_, i).setZero();
+  }, active_chunk());
+  for_each_grain_by_strips([&](Index i) { add_half_list_pairs<Density, UseXsph>(i, constants); });
+}
+
+// Whether a grain the half list gives grain i is awake: a frozen grain's pairs count only for those.
+template <int D> bool Simulation<D>::has_awake_half_neighbour(Index i) const {
+  for (Index s = granular_half_.offsets[i]; s < granular_half_.offsets[i + 1]; ++s)
+    if (!frozen(granular_half_.indices[static_cast<std::size_t>(s)])) return true;
+  return false;
+}
+
+// body(i) for every grain, strip by strip (numerics.symmetric_pairs): the even strips side by side,
+// then the odd ones, the strips of a parity dealt to the threads in contiguous blocks (strips run
+// along the cell order's slowest axis, so a thread meets about the grains it has in the
+// particle loops), the grains of a strip in index order. A body that writes only to the grains of
+// its strip and of the next is free of races, and its sums do not depend on the thread count.
+template <int D> template <class Body> void Simulation<D>::for_each_grain_by_strips(Body&& body) {
+  const Index strips = static_cast<Index>(strip_start_.size()) - 1;
+  for (Index parity = 0; parity < 2; ++parity) {
+#pragma omp parallel for schedule(static) num_threads(team_size(granular_.size()))
+    for (Index k = parity; k < strips; k += 2)
+      for (Index m = strip_start_[k]; m < strip_start_[k + 1]; ++m) body(strip_members_[static_cast<std::size_t>(m)]);
+  }
+}
+
+template <int D>
+template <int Density, bool UseXsph>
+void Simulation<D>::add_half_list_pairs(Index i, const ForceConstants<D>& c) {
+  namespace term = pair_terms;
+  GranularParticles<D>& p = granular_;
+  const Vec<D> vi = row_vec<D>(p.velocity, i);
+  const double rho_i = p.density[i], m_i = p.mass[i], volume_i = p.volume[i];
+  const Mat<D> si = row_mat<D>(p.stress_over_rho2, i);
+  Vec<D> a = Vec<D>::Zero(), x = Vec<D>::Zero();  // i's sums
+  double r = 0.0;
+  const bool i_awake = for_each_held_pair<UseXsph>(i, [&](std::int32_t j, bool j_awake, const PairBatch<D>& batch, int k) {
+    const double grad_factor = batch.gradient_factor[k];
+    const Vec<D>& xij = batch.x[k];
+    const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39); ∇_jW_ji = −∇_iW_ij
+    const Vec<D> vij = vi - row_vec<D>(p.velocity, j);
+    const double m_j = p.mass[j];
+    const double rho_j = p.density[j];
+    const double inv_rho_mean = 2.0 / (rho_i + rho_j);
+    const double pi_ij = term::artificial_viscosity(vij.dot(xij), batch.r2[k], c.h, c.alpha, c.c0, inv_rho_mean);
+    // (σ_i/ρ_i² + σ_j/ρ_j² − Π_ij I)·∇_iW_ij, the momentum term per unit neighbour mass (Eq. 2.45)
+    const Vec<D> t = term::momentum<D>(1.0, si, row_mat<D>(p.stress_over_rho2, j), pi_ij, grad_w);
+    a.noalias() += m_j * t;
+    double drho_i = 0.0, drho_j = 0.0;
+    if constexpr (Density >= continuity_only) {
+      drho_i = term::continuity<D>(m_j, vij, grad_w);
+      drho_j = term::continuity<D>(m_i, vij, grad_w);  // v_ji·∇_jW_ji = v_ij·∇_iW_ij
+    }
+    if constexpr (Density == continuity_and_diffusion) {  // ρ_j − ρ_i + ∇ρ^H·x_ij, antisymmetric
+      const double difference = rho_j - rho_i + c.hydrostatic_gradient.dot(xij);
+      drho_i += term::density_diffusion(c.delta_h_c0, difference, p.volume[j], grad_factor);
+      drho_j += term::density_diffusion(c.delta_h_c0, -difference, volume_i, grad_factor);
+    }
+    r += drho_i;
+    if constexpr (UseXsph) x += term::xsph<D>(c.chi, m_j, inv_rho_mean, batch.value[k], vij);
+    if (j_awake) {
+      row_vec<D>(p.acceleration, j) -= m_i * t;
+      if constexpr (Density != no_density_terms) p.density_rate[j] += drho_j;
+      if constexpr (UseXsph)
+        row_vec<D>(*xsph_correction_, j) += term::xsph<D>(c.chi, m_i, inv_rho_mean, batch.value[k], Vec<D>(-vij));
+    }
+  });
+  if (!i_awake) return;
+  row_vec<D>(p.acceleration, i) += a;
+  if constexpr (Density != no_density_terms) p.density_rate[i] += r;
+  if constexpr (UseXsph) row_vec<D>(*xsph_correction_, i) += x;
+}
+
+// visit(j, j_awake, batch, k) for each pair grain i holds (its half list, in order) with an awake
+// grain in it, the kernel of a batch of them evaluated at once (W too when WithValue); returns
+// whether i is awake. A frozen grain whose held pairs are all with frozen grains is skipped whole.
+template <int D>
+template <bool WithValue, class Visit>
+bool Simulation<D>::for_each_held_pair(Index i, Visit&& visit) const {
+  const bool i_awake = !frozen(i);
+  if (!i_awake && !has_awake_half_neighbour(i)) return false;
+  const Vec<D> xi = row_vec<D>(granular_.position, i);
+  const Index end = granular_half_.offsets[i + 1];
+  for (Index first = granular_half_.offsets[i]; first < end; first += kPairBatch) {
+    const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
+    const std::int32_t* js = granular_half_.indices.data() + first;
+    PairBatch<D> batch;
+    gather_pairs<D, WithValue>(kernel_, js, count, xi, granular_.position, batch);
+    for (int k = 0; k < count; ++k) {
+      const bool j_awake = !frozen(js[k]);
+      if (i_awake || j_awake) visit(js[k], j_awake, batch, k);
+    }
+  }
+  return i_awake;
 }
 
 // Whether grain i lies closer than Δx/2 to an interior wall particle (the leak diagnostic).
@@ -1219,7 +1438,8 @@ template <int D> std::size_t Simulation<D>::memory_bytes() const {
     return l.offsets.capacity() * sizeof(Index) + l.indices.capacity() * sizeof(std::int32_t);
   };
   return granular_.fields.bytes() + walls_.fields.bytes() + list_bytes(granular_granular_) +
-         list_bytes(granular_wall_) + list_bytes(wall_granular_) +
+         list_bytes(granular_wall_) + list_bytes(wall_granular_) + list_bytes(granular_half_) +
+         strip_start_.capacity() * sizeof(Index) + strip_members_.capacity() * sizeof(std::int32_t) +
          static_cast<std::size_t>(pair_wall_force_.size()) * sizeof(double);
 }
 

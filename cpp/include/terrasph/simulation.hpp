@@ -189,6 +189,14 @@ template <int D> class Simulation {
   void add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment, double& drho) const;
   template <class Model> void wall_stress_pass();
   template <int Density, bool UseXsph, bool KeepPairForces, bool UseWallFriction> void force_pass(double dt);
+  template <int Density, bool UseXsph> void granular_pairs_once(const ForceConstants<D>& constants);
+  template <int Density, bool UseXsph> void add_half_list_pairs(Index i, const ForceConstants<D>& constants);
+  template <int Density> void granular_gradient_pairs_once(const ForceConstants<D>& constants);
+  template <int Density> void add_half_list_gradient_pairs(Index i, const ForceConstants<D>& constants);
+  template <class Body> void for_each_grain_by_strips(Body&& body);
+  bool has_awake_half_neighbour(Index i) const;
+  template <bool WithValue, class Visit> bool for_each_held_pair(Index i, Visit&& visit) const;
+  void build_pair_strips(const VecArray<D>& granular_at, double radius);
   bool keeps_pair_forces() const { return !bodies_.empty() || tracks_wall_loads_; }
   int attach_body(std::int32_t wall_group, RigidBody<D> body);
   void move_bodies(double time);
@@ -235,6 +243,12 @@ template <int D> class Simulation {
   NeighbourList granular_granular_;
   NeighbourList granular_wall_;
   NeighbourList wall_granular_;
+  // numerics.symmetric_pairs: the granular particles by strip (strip k holds
+  // strip_members_[strip_start_[k], strip_start_[k + 1]) in index order) and each granular pair
+  // once, listed by the particle of the lower strip, or of the lower index within a strip
+  std::vector<Index> strip_start_;
+  std::vector<std::int32_t> strip_members_;
+  NeighbourList granular_half_;
   // active domain: walls whose granular neighbours are all frozen (this step and the last), whose
   // passes are skipped; derived each step, reset at neighbour builds
   std::vector<std::uint8_t> wall_idle_;
