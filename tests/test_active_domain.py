@@ -18,6 +18,9 @@ Scene: a 0.4 m × 0.04 m bed of the packed glass beads (Δx = 5 mm) in a rough b
   freezes grains under the plate at the same thresholds);
 * the radius is measured to the body's particles, not to a circle about its reference point: with
   the reference 30 cm away from the plate, above the far part of the bed, that part still freezes;
+* the proximity test (each body's distance field, particles visited near its contour only) gives
+  brute force's answer about a turned leg-wheel, for scattered points and points 10⁻⁶ R either side
+  of the contour;
 * determinism (1, 2, 3 threads) and a checkpoint restart stay bitwise with the active domain and
   the cell-ordered storage both on (coarse column collapse with a high freeze speed, so that
   grains freeze and wake during the few hundred steps).
