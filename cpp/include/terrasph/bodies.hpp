@@ -234,13 +234,15 @@ template <int D> class BodyDistanceField {
 
   bool within(const Vec<D>& local) const {
     Index n = 0, stride = 1;
+    Vec<D> nearest_node;
     for (int d = 0; d < D; ++d) {
       const double k = std::round((local[d] - origin_[d]) / spacing_);
       if (!(k >= 0.0 && k < static_cast<double>(dims_[d]))) return false;  // > R + 1.5g from the box
+      nearest_node[d] = origin_[d] + spacing_ * k;
       n += static_cast<Index>(k) * stride;
       stride *= dims_[d];
     }
-    const double offset = (local - node(n)).norm();
+    const double offset = (local - nearest_node).norm();
     const double sampled = distance_[static_cast<std::size_t>(n)];
     if (sampled - offset > radius_ + margin_) return false;
     if (sampled + offset < radius_ - margin_) return true;

@@ -102,7 +102,7 @@ template <> struct ChoiceNames<PlasticFlow> {
     "velocity at the drifted positions (symplectic Euler in velocity and density, as the stress is); "   \
     "false = kicked in halves with the velocity (forward Euler in the pair, held by delta-SPH)")          \
   X(bool, symmetric_pairs, false, "1", exclusive(-inf), exclusive(inf),                                   \
-    "the force pass evaluates each granular pair once and adds it to both grains (Newton's third law "   \
+    "both pair passes evaluate each granular pair once and add it to both grains (Newton's third law "   \
     "on a half neighbour list, the grains dealt to threads in strips so that no two write one grain): "  \
     "every pair term as before, summed in another order; false = each pair from both sides (gather)")   \
   X(double, mass_scaling, 1.0, "1", inclusive(1.0), exclusive(inf),                                     \
