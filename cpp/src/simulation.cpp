@@ -378,11 +378,10 @@ void Simulation<D>::build_neighbour_lists(const VecArray<D>& granular_at, const 
 // Strips for numerics.symmetric_pairs: the grains binned along one axis into strips one list radius
 // wide, so that every listed pair lies in one strip or two neighbouring ones; a strip then writes
 // only its own grains and the next strip's, and the even strips (then the odd ones) can run side by
-// side. The strips are layers across the cell order's slowest axis (z): the particle loops' blocks
-// of indices are layers too, so that a thread meets about the grains it has there, and each layer
-// spans the bed's width, so that an active domain's awake region falls into every thread's share
-// (strips across x, dealt in blocks, gave one thread the awake half of a leg-wheel bed and were
-// 1.4x slower there). The half list keeps, of each grain's list and in its order, the
+// side. The strips are layers across the cell order's slowest axis (z), so a strip's grains are
+// contiguous in memory (strips across x, a row's worth of scattered cells each, were 12 % slower on
+// the leg-wheel when dealt to free threads, 1.4x slower when dealt in blocks, which gave one thread
+// the awake half of the bed). The half list keeps, of each grain's list and in its order, the
 // pairs the grain holds: with a grain of the next strip, or of its own strip and a higher index.
 // Every choice depends on the positions alone, so the sums are the same for any thread count.
 template <int D> void Simulation<D>::build_pair_strips(const VecArray<D>& granular_at, double radius) {
@@ -911,14 +910,15 @@ template <int D> bool Simulation<D>::has_awake_half_neighbour(Index i) const {
 }
 
 // body(i) for every grain, strip by strip (numerics.symmetric_pairs): the even strips side by side,
-// then the odd ones, the strips of a parity dealt to the threads in contiguous blocks (strips run
-// along the cell order's slowest axis, so a thread meets about the grains it has in the
-// particle loops), the grains of a strip in index order. A body that writes only to the grains of
-// its strip and of the next is free of races, and its sums do not depend on the thread count.
+// then the odd ones, the grains of a strip in index order. A body that writes only to the grains of
+// its strip and of the next is free of races, and the order of every grain's sums is fixed by the
+// strips alone, whichever thread takes a strip: so the strips of a parity go to whichever thread is
+// free next (a bed of 11 strips a parity left one of two threads idle for about a strip's time when
+// dealt in fixed blocks).
 template <int D> template <class Body> void Simulation<D>::for_each_grain_by_strips(Body&& body) {
   const Index strips = static_cast<Index>(strip_start_.size()) - 1;
   for (Index parity = 0; parity < 2; ++parity) {
-#pragma omp parallel for schedule(static) num_threads(team_size(granular_.size()))
+#pragma omp parallel for schedule(dynamic, 1) num_threads(team_size(granular_.size()))
     for (Index k = parity; k < strips; k += 2)
       for (Index m = strip_start_[k]; m < strip_start_[k + 1]; ++m) body(strip_members_[static_cast<std::size_t>(m)]);
   }
