@@ -6,7 +6,8 @@ A speed change to the core that should not change any result (a reordered loop, 
 pass structure) must leave every line the same; run it before and after and `diff` the output.
 The variants switch each optional term on and off (δ-SPH, XSPH, the rate or hypoelastic μ(I)
 model, kernel gradient correction, Shepard filter) and include a rotating leg, with and without the
-active domain's radius, so each code path of the two pair passes and of the freezing is hashed. Same output for any thread count (the core's determinism).
+active domain's radius (and with it, each pair once in cell order), so each code path of the two pair
+passes and of the freezing is hashed. Same output for any thread count (the core's determinism).
 """
 
 from __future__ import annotations
@@ -71,6 +72,13 @@ def main() -> None:
     sim = Simulation(scene, material, numerics, width=config.width)
     sim.advance(1e9, max_steps=2 * args.steps)
     print("leg+active-radius", digest(sim), int(np.sum(sim.core.field("frozen"))), "frozen", flush=True)
+    # the same with the bed in cell order and each pair once (the robot levers' pair loops)
+    config = LegRotation(settle_time=0.0, omega=2.0, bed_depth=0.08, bed_width=0.12,
+                         numerics={**active, "cell_order": True, "symmetric_pairs": True})
+    scene, material, numerics = build_leg_rotation(config)
+    sim = Simulation(scene, material, numerics, width=config.width)
+    sim.advance(1e9, max_steps=2 * args.steps)
+    print("leg+active-radius+pairs-once", digest(sim), int(np.sum(sim.core.field("frozen"))), "frozen", flush=True)
 
 
 if __name__ == "__main__":
