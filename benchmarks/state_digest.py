@@ -50,6 +50,18 @@ def bed_variants() -> dict[str, tuple[Material, Numerics]]:
     }
 
 
+def leg_digest(numerics: dict[str, bool | int | float], steps: int) -> str:
+    """Digest of a small rotating-leg scene with `numerics` after `steps` steps, and with an active
+    domain the number of grains frozen then."""
+    config = LegRotation(settle_time=0.0, omega=2.0, bed_depth=0.08, bed_width=0.12, numerics=numerics)
+    scene, material, leg_numerics = build_leg_rotation(config)
+    sim = Simulation(scene, material, leg_numerics, width=config.width)
+    sim.advance(1e9, max_steps=steps)
+    if "frozen" not in sim.core.field_names("granular"):
+        return digest(sim)
+    return f"{digest(sim)} {int(np.sum(sim.core.field('frozen')))} frozen"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--threads", type=int, default=1)
@@ -60,26 +72,13 @@ def main() -> None:
         sim = bed(3000, material, numerics)
         sim.advance(1e9, max_steps=args.steps)
         print(name, digest(sim), flush=True)
-    config = LegRotation(settle_time=0.0, omega=2.0, bed_depth=0.08, bed_width=0.12)
-    scene, material, numerics = build_leg_rotation(config)
-    sim = Simulation(scene, material, numerics, width=config.width)
-    sim.advance(1e9, max_steps=2 * args.steps)
-    print("leg", digest(sim), flush=True)
+    print("leg", leg_digest({}, 2 * args.steps), flush=True)
     # the active domain with a radius about the turning leg: grains freeze, and wake as it nears
     active = {"freeze_speed": 0.05, "freeze_steps": 20, "active_radius": 0.03}
-    config = LegRotation(settle_time=0.0, omega=2.0, bed_depth=0.08, bed_width=0.12, numerics=active)
-    scene, material, numerics = build_leg_rotation(config)
-    sim = Simulation(scene, material, numerics, width=config.width)
-    sim.advance(1e9, max_steps=2 * args.steps)
-    print("leg+active-radius", digest(sim), int(np.sum(sim.core.field("frozen"))), "frozen", flush=True)
+    print("leg+active-radius", leg_digest(active, 2 * args.steps), flush=True)
     # the same with the bed in cell order and each pair once (the robot levers' pair loops)
-    config = LegRotation(settle_time=0.0, omega=2.0, bed_depth=0.08, bed_width=0.12,
-                         numerics={**active, "cell_order": True, "symmetric_pairs": True})
-    scene, material, numerics = build_leg_rotation(config)
-    sim = Simulation(scene, material, numerics, width=config.width)
-    sim.advance(1e9, max_steps=2 * args.steps)
-    print("leg+active-radius+pairs-once", digest(sim), int(np.sum(sim.core.field("frozen"))), "frozen", flush=True)
-
+    pairs_once = {**active, "cell_order": True, "symmetric_pairs": True}
+    print("leg+active-radius+pairs-once", leg_digest(pairs_once, 2 * args.steps), flush=True)
 
 if __name__ == "__main__":
     main()
