@@ -8,6 +8,7 @@ The coupled step from t_n to t_{n+1} = t_n + dt (docs/robots.md):
    in MuJoCo's ``xfrc_applied`` (world frame, at the centre of mass, torque about +y = clockwise).
 3. MuJoCo advances by dt (its integrator, default semi-implicit Euler): q_{n+1}, q̇_{n+1}, with the
    load held constant over the step (Eq. 4.4–4.5 done by MuJoCo, with joints, motors and gravity).
+   A torque-limited velocity servo at its limit is given its force instead (below).
 4. Each coupled body's pose and velocity at t_{n+1} and its acceleration over the step,
    a = (v_{n+1} − v_n)/dt and α = (ω_{n+1} − ω_n)/dt of the frame origin (for a body on its own
    slide–slide–hinge joints this is MuJoCo's q̈ of the step exactly), are given to
@@ -18,10 +19,24 @@ The coupled step from t_n to t_{n+1} = t_n + dt (docs/robots.md):
 
 The scheme is explicit (the load lags the body by one step), deterministic (MuJoCo runs
 serially, the SPH is bitwise thread-count independent) and keeps the two clocks equal.
+
+Torque-limited velocity servos (MJCF ``<velocity kv=...>`` with a ``forcerange``): MuJoCo's
+implicit integrators take a servo's damping kv into the step's solve, but not while its force is
+held at the limit, where the step is explicit and changes the joint speed by τ_max dt/M (M the
+joint's inertia). Where kv dt > M that jump carries the speed past the servo's linear band
+|ω_cmd − ω| < τ_max/kv to the limit on the other side, and the servo can lock into a swing of
+±τ_max dt/M every step: a C-leg wheel of 4 cm legs at Δx = 5 mm (kv dt/M = 6–19), commanded
+1.5 rad/s, swung between ±2.4 rad/s and barely advanced (slip 0.97 instead of 0.44) once the step
+passed C = 0.55 on the wave speed (docs/benchmarks.md, eleventh round). So a servo whose force at
+the step's start would be clamped takes the step as a plain force: the limit, or the smaller force
+M·(ω_cmd − ω)/dt that brings the speed to the command by the step's end (the other loads aside),
+which cannot carry it past. Within the limits it stays MuJoCo's servo, its damping implicit. The
+caller's command and the model's servo are put back after the step.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import warnings
@@ -77,6 +92,69 @@ def _check_mass_ratios(robot: PlanarRobot, grain_density: float) -> None:
                           RuntimeWarning, stacklevel=3)
 
 
+@dataclasses.dataclass(frozen=True)
+class _VelocityServo:
+    """A torque-limited velocity servo of the robot: actuator `actuator`, force kv·(ctrl − gear·q̇)
+    on joint DOF `dof`, held within [lower, upper] (N·m or N); `inertia` is the joint's inertia seen
+    by the actuator, M/gear² (module docstring)."""
+
+    actuator: int
+    dof: int
+    kv: float
+    gear: float
+    lower: float
+    upper: float
+    inertia: float
+
+    def prepare(self, model: mujoco.MjModel, data: mujoco.MjData, command: float, dt: float) -> None:
+        """Sets the actuator for a step of dt toward `command`: MuJoCo's servo while its force at the
+        step's start is within the limits (its damping then implicit); else a plain force, the limit
+        or the smaller force that brings the speed to the command by the step's end."""
+        error = command - self.gear * float(data.qvel[self.dof])
+        if self.lower <= self.kv * error <= self.upper:
+            self._set(model, gain=self.kv, damping=-self.kv)
+            data.ctrl[self.actuator] = command
+        else:
+            self._set(model, gain=1.0, damping=0.0)
+            data.ctrl[self.actuator] = min(max(error * self.inertia / dt, self.lower), self.upper)
+
+    def restore(self, model: mujoco.MjModel) -> None:
+        """The servo as the model defines it."""
+        self._set(model, gain=self.kv, damping=-self.kv)
+
+    def _set(self, model: mujoco.MjModel, gain: float, damping: float) -> None:
+        model.actuator_gainprm[self.actuator, 0] = gain
+        model.actuator_biasprm[self.actuator, 2] = damping
+
+
+def _velocity_servos(model: mujoco.MjModel, data: mujoco.MjData) -> list[_VelocityServo]:
+    """The model's torque-limited velocity servos: joint transmission, no activation, gain kv, bias
+    −kv times the actuator's speed (MJCF ``<velocity>``), a force range and no control range (the
+    force given in its place must not be clamped again); the joint's inertia from the mass matrix
+    at `data`'s pose (a scratch copy; `data` is left untouched)."""
+    scratch = mujoco.MjData(model)
+    scratch.qpos[:] = data.qpos
+    mujoco.mj_forward(model, scratch)
+    mass_matrix = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, scratch, mass_matrix)
+    servos = []
+    for a in range(model.nu):
+        kv = float(model.actuator_gainprm[a, 0])
+        is_limited_velocity_servo = (model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
+                                     and model.actuator_dyntype[a] == mujoco.mjtDyn.mjDYN_NONE
+                                     and model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
+                                     and model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
+                                     and kv > 0 and model.actuator_biasprm[a, 0] == 0
+                                     and model.actuator_biasprm[a, 1] == 0 and model.actuator_biasprm[a, 2] == -kv
+                                     and bool(model.actuator_forcelimited[a]) and not model.actuator_ctrllimited[a])
+        if is_limited_velocity_servo:
+            lower, upper = (float(f) for f in model.actuator_forcerange[a])
+            dof = int(model.jnt_dofadr[model.actuator_trnid[a, 0]])
+            gear = float(model.actuator_gear[a, 0])
+            servos.append(_VelocityServo(a, dof, kv, gear, lower, upper, float(mass_matrix[dof, dof]) / gear**2))
+    return servos
+
+
 class CoupledSimulation:
     """A :class:`PlanarRobot` two-way coupled with a :class:`Simulation` whose scene holds its coupled
     bodies as driven bodies (add them with :meth:`PlanarRobot.add_to_scene`)."""
@@ -94,6 +172,7 @@ class CoupledSimulation:
         _check_mass_ratios(robot, sim.material.reference_density)
         self.robot = robot
         self.sim = sim
+        self._servos = _velocity_servos(robot.model, robot.data)
         #: the core's index of each coupled body (Simulation.bodies is in the core's order)
         self._core_index = {body.name: [b.name for b in sim.bodies].index(body.name) for body in robot.coupled}
         self.robot.data.time = sim.time
@@ -118,7 +197,13 @@ class CoupledSimulation:
             force, torque = self.granular_load(body)
             robot.apply_load(body, force, torque)
         model.opt.timestep = dt
+        command = data.ctrl.copy()
+        for servo in self._servos:
+            servo.prepare(model, data, float(command[servo.actuator]), dt)
         mujoco.mj_step(model, data)
+        for servo in self._servos:
+            servo.restore(model)
+        data.ctrl[:] = command  # the caller's command stays the state (checkpoints, the next step)
         # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
