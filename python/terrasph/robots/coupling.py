@@ -198,12 +198,14 @@ class CoupledSimulation:
             robot.apply_load(body, force, torque)
         model.opt.timestep = dt
         command = data.ctrl.copy()
-        for servo in self._servos:
-            servo.prepare(model, data, float(command[servo.actuator]), dt)
-        mujoco.mj_step(model, data)
-        for servo in self._servos:
-            servo.restore(model)
-        data.ctrl[:] = command  # the caller's command stays the state (checkpoints, the next step)
+        try:
+            for servo in self._servos:
+                servo.prepare(model, data, float(command[servo.actuator]), dt)
+            mujoco.mj_step(model, data)
+        finally:  # the model's servos and the caller's command stay the state (checkpoints, the next step)
+            for servo in self._servos:
+                servo.restore(model)
+            data.ctrl[:] = command
         # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
