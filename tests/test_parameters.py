@@ -25,8 +25,8 @@ PYTHON_CLASS = {"material": Material, "numerics": Numerics}
 CORE_CLASS = {"material": _core.MaterialParams, "numerics": _core.NumericsParams}
 
 #: values of other parameters that a bound needs so that no rule linking parameters refuses it
-#: (μ2 = 0 is only admissible with μ1 = 0)
-COMPANIONS: dict[str, dict[str, Any]] = {"material.mu2": {"mu1": 0.0}}
+#: (μ2 = 0 is only admissible with μ1 = 0, a step above C = 0.5 only with the density advanced first)
+COMPANIONS: dict[str, dict[str, Any]] = {"material.mu2": {"mu1": 0.0}, "numerics.cfl": {"symplectic_density": True}}
 
 
 def core_struct(group: str, values: dict[str, Any]) -> Any:
