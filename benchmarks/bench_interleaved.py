@@ -61,8 +61,9 @@ def main() -> None:
         for name in names if k % 2 == 0 else names[::-1]:
             t_start, start = runs[name].time, time.perf_counter()
             steps[name] += advance(runs[name], wheels[name], t_end)
-            seconds[name] += time.perf_counter() - start
-            wall[name].append((time.perf_counter() - start) / (runs[name].time - t_start))
+            elapsed = time.perf_counter() - start
+            seconds[name] += elapsed
+            wall[name].append(elapsed / (runs[name].time - t_start))
     reference = names[0]
     print("| variant | steps | wall s per sim. s | speed-up against the first: median (quartiles) over the windows |")
     print("|---|---|---|---|")

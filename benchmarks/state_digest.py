@@ -80,5 +80,6 @@ def main() -> None:
     pairs_once = {**active, "cell_order": True, "symmetric_pairs": True}
     print("leg+active-radius+pairs-once", leg_digest(pairs_once, 2 * args.steps), flush=True)
 
+
 if __name__ == "__main__":
     main()

@@ -59,10 +59,10 @@ def tiny_wheel_summary(cfl: float) -> tuple[dict[str, float], np.ndarray]:
 def test_a_torque_limited_servo_stiffer_than_the_step_holds_its_command() -> None:
     """The wheel's servo (kv = 20 N·m·s/rad, 5 N·m) on a wheel of M = 2.9e-4 kg·m² has kv·dt/M = 6
     at the default step and 19 at C = 0.8 on the wave speed: held at its torque limit, MuJoCo's step
-    of it is explicit and jumps ω by τ_max·dt/M = 4.6 rad/s. Measured before the coupling gave the
-    servo its limited command (robots/coupling.py): at C = 0.8 ω swung between −2.4 and +2.4 rad/s
+    of it is explicit and jumps ω by τ_max·dt/M = 4.6 rad/s. Measured before the coupling gave a
+    servo at its limit its force (robots/coupling.py): at C = 0.8 ω swung between −2.4 and +2.4 rad/s
     every step and the slip was 0.99, against 0.45 at C = 0.25. Now ω holds the command and the slip
-    is that of the 3.2× finer step within 2 % (measured 0.4 %, from C = 0.125 to 1)."""
+    is that of the 3.2× finer step within 2 % (measured within 0.4 % from C = 0.25 to 1)."""
     fine, _ = tiny_wheel_summary(0.25)
     coarse, omega = tiny_wheel_summary(0.8)
     assert np.abs(omega - 1.5).max() < 0.05, (omega.min(), omega.max())

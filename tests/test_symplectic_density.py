@@ -64,7 +64,6 @@ def test_the_undamped_bed_grows_when_the_density_is_kicked() -> None:
     assert len(speeds) < 15 or max(speeds) > 0.1, speeds
 
 
-
 def coarse_leg_wheel_outcome(cfl: float) -> dict[str, float]:
     """Chapter 4's leg-wheel (50 × 10 cm bed, 8 cm C-leg wheel under 4.9 N at 1.5 rad/s) at Δx = 5 mm,
     1 s pause, 2.5 s in all, the step at the wave speed and the density advanced first."""
@@ -79,7 +78,7 @@ def test_the_leg_wheel_at_twice_the_step_keeps_its_slip_and_sinkage() -> None:
     """With the density advanced first the step can pass C = 0.5 (numerics.cfl up to 1): the robot
     scene at C = 0.9 gives the mean slip and sinkage of C = 0.35 (a 2.6 times finer step, within the
     range where the step moved them by under 1 %, docs/benchmarks.md) within the issue's 2 %.
-    Measured when written (3 s runs): C = 0.5, 0.7, 0.9 and 1.0 within 1.4 % of each other."""
+    Measured when written (3 s runs): C = 0.5, 0.7, 0.9 and 1.0 within 0.6 % of the default run."""
     fine, coarse = coarse_leg_wheel_outcome(0.35), coarse_leg_wheel_outcome(0.9)
     assert coarse["leaked_particles"] == 0
     assert coarse["mean_slip"] == pytest.approx(fine["mean_slip"], rel=0.02)
