@@ -112,11 +112,9 @@ class _VelocityServo:
         or the smaller force that brings the speed to the command by the step's end."""
         error = command - self.gear * float(data.qvel[self.dof])
         if self.lower <= self.kv * error <= self.upper:
-            self._set(model, gain=self.kv, damping=-self.kv)
-            data.ctrl[self.actuator] = command
-        else:
-            self._set(model, gain=1.0, damping=0.0)
-            data.ctrl[self.actuator] = min(max(error * self.inertia / dt, self.lower), self.upper)
+            return  # the model's servo and the command, as restore() and the caller left them
+        self._set(model, gain=1.0, damping=0.0)
+        data.ctrl[self.actuator] = min(max(error * self.inertia / dt, self.lower), self.upper)
 
     def restore(self, model: mujoco.MjModel) -> None:
         """The servo as the model defines it."""
