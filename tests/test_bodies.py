@@ -193,3 +193,49 @@ def test_shape_is_immutable():
     leg = bodies.flat_leg(R, T, W, DX)
     with pytest.raises(ValueError):
         leg.position[0, 0] = 1.0
+
+
+def _signed_area(loop: np.ndarray) -> float:
+    """Shoelace formula: positive for a counter-clockwise loop in x–z."""
+    x, z = loop[:, 0], loop[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(z, -1) - np.roll(x, -1) * z))
+
+
+def _winding(points: np.ndarray, loop: np.ndarray) -> np.ndarray:
+    """Winding number of `loop` around each point (sum of the edges' subtended angles / 2π)."""
+    a = loop[None, :, :] - points[:, None, :]
+    b = np.roll(loop, -1, axis=0)[None, :, :] - points[:, None, :]
+    cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    dot = (a * b).sum(-1)
+    return np.rint(np.arctan2(cross, dot).sum(axis=1) / (2 * math.pi))
+
+
+@pytest.mark.parametrize("make", [lambda: bodies.flat_leg(0.05, 0.006, 0.1, 0.002),
+                                  lambda: bodies.c_leg(0.05, 0.006, 0.1, 0.002),
+                                  lambda: bodies.reversed_c_leg(0.05, 0.006, 0.1, 0.002),
+                                  lambda: bodies.l_leg(0.05, 0.006, 0.1, 0.002, 0.5),
+                                  lambda: bodies.reversed_l_leg(0.05, 0.006, 0.1, 0.002, 0.5),
+                                  lambda: bodies.wheel(0.04, 0.006, 0.1, 0.002),
+                                  lambda: bodies.plate(0.04, 0.004, 0.1, 0.002)])
+def test_outline_bounds_the_particles(make):
+    """The outline is the boundary the particles fill: every particle lies inside it (winding number
+    1 summed over the loops), and the loops' signed area (holes negative) is the particles' area
+    M·Δx² within 3 % (each particle is a Δx × Δx cell; the arcs' rows are resampled to ≈Δx)."""
+    shape = make()
+    assert shape.outline, "a generated shape carries its outline"
+    inside = sum(_winding(shape.position, loop) for loop in shape.outline)
+    assert np.all(inside == 1)
+    area = sum(_signed_area(loop) for loop in shape.outline)
+    assert area == pytest.approx(len(shape) * shape.spacing ** 2, rel=0.03)
+
+
+def test_leg_wheel_outline_is_the_rotated_spokes():
+    """A leg-wheel's loops are its spokes' loops rotated by 2πk/n: each keeps its area and
+    orientation, and every particle lies inside at least one of them."""
+    leg = bodies.c_leg(0.04, 0.006, 0.1, 0.002)
+    wheel = bodies.leg_wheel("c-leg", 3, 0.04, 0.006, 0.1, 0.002)
+    assert len(wheel.outline) == 3 * len(leg.outline)
+    for loop in wheel.outline:
+        assert _signed_area(loop) == pytest.approx(_signed_area(leg.outline[0]), rel=1e-12)
+    inside = sum(_winding(wheel.position, loop) for loop in wheel.outline)
+    assert np.all(inside >= 1)

@@ -97,6 +97,12 @@ class BodyShape:
             reported in N for this real width (per-depth force × width), DESIGN §2.
         radius: R, distance from the axle to the leg tip along the centre line / to the wheel
             rim (m) -- the construction parameter (an L-leg's toe is at √(1 + fl²)·R).
+        outline: the body's boundary in its own frame, the one geometry the particles fill and that
+            surface models (resistive force theory) read: closed polygons (last vertex not
+            repeated), each oriented with the body on its left (outer boundaries counter-clockwise,
+            holes clockwise in x–z). Loops may overlap where parts meet (a leg-wheel's spokes at
+            the hub); a consumer that needs the outer surface alone drops what lies inside another
+            loop. Empty for a shape given as particles only.
     """
 
     name: str
@@ -106,6 +112,7 @@ class BodyShape:
     thickness: float
     width: float
     radius: float
+    outline: tuple[np.ndarray, ...] = ()
 
     def __post_init__(self) -> None:
         pos = np.asarray(self.position, dtype=float)
@@ -116,6 +123,12 @@ class BodyShape:
         nrm.setflags(write=False)
         object.__setattr__(self, "position", pos)
         object.__setattr__(self, "normal", nrm)
+        loops = tuple(np.array(loop, dtype=float) for loop in self.outline)
+        for loop in loops:
+            if loop.ndim != 2 or loop.shape[1] != 2 or len(loop) < 3:
+                raise ValueError("each outline loop must be an (K, 2) array with K >= 3 vertices")
+            loop.setflags(write=False)
+        object.__setattr__(self, "outline", loops)
 
     def __len__(self) -> int:
         return len(self.position)
@@ -127,6 +140,11 @@ class BodyShape:
         positions = self.position @ rot.T + np.asarray(origin, dtype=float)
         normals = self.normal @ rot.T
         return positions, normals
+
+    def transformed_outline(self, angle: float, origin: tuple[float, float]) -> tuple[np.ndarray, ...]:
+        """The outline loops at the pose of :meth:`transformed` (rotation then translation)."""
+        rot = rotation_matrix(angle)
+        return tuple(loop @ rot.T + np.asarray(origin, dtype=float) for loop in self.outline)
 
     def lowest_point(self, angle: float = 0.0, origin: tuple[float, float] = (0.0, 0.0)) -> float:
         """Lowest z of the body at this pose: min z of its particles minus Δx/2 (the particles are
@@ -291,13 +309,15 @@ def _build(name: str, points: np.ndarray, loops: list[np.ndarray], spacing: floa
            width: float, radius: float) -> BodyShape:
     keep = _merge_indices(points, 0.5 * spacing)
     pts = points[keep]
-    return BodyShape(name, pts, _outline_normals(pts, loops, spacing), spacing, thickness, width, radius)
+    return BodyShape(name, pts, _outline_normals(pts, loops, spacing), spacing, thickness, width, radius,
+                     tuple(loops))
 
 
 def _mirrored(shape: BodyShape, name: str) -> BodyShape:
     flip = np.array([-1.0, 1.0])
+    # a mirror reverses a loop's orientation: reversing its vertices keeps the body on its left
     return BodyShape(name, shape.position * flip, shape.normal * flip, shape.spacing, shape.thickness,
-                     shape.width, shape.radius)
+                     shape.width, shape.radius, tuple((loop * flip)[::-1] for loop in shape.outline))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -448,12 +468,13 @@ def leg_wheel(spoke: Callable[..., BodyShape] | str, n_spokes: int, radius: floa
     if isinstance(n_spokes, bool) or not isinstance(n_spokes, (int, np.integer)) or n_spokes < 1:
         raise ValueError(f"n_spokes = {n_spokes!r} must be an integer >= 1")
     leg = make(radius, thickness, width, spacing, **kw)
-    positions, normals = [], []
+    positions, normals, loops = [], [], []
     for k in range(int(n_spokes)):
         p, n = leg.transformed(2 * math.pi * k / n_spokes, (0.0, 0.0))
         positions.append(p)
         normals.append(n)
+        loops.extend(leg.transformed_outline(2 * math.pi * k / n_spokes, (0.0, 0.0)))
     pts = np.concatenate(positions)
     keep = _merge_indices(pts, 0.5 * leg.spacing)
     return BodyShape(f"{leg.name}-wheel-{int(n_spokes)}", pts[keep], np.concatenate(normals)[keep],
-                     leg.spacing, leg.thickness, leg.width, leg.radius)
+                     leg.spacing, leg.thickness, leg.width, leg.radius, tuple(loops))
