@@ -76,7 +76,7 @@ def rig(ratio: float, dx: float, t_end: float, load: float) -> LegWheel:
 
 def build(config: LegWheel, torque: float | None) -> CoupledSimulation:
     """terrasph.robots.leg_wheel.build_leg_wheel, with a constant-torque motor if `torque` is given."""
-    scene, numerics, surface, shape = bed_and_wheel(config)
+    scene, numerics, surface, shape = bed_and_wheel(config, "leg-wheel")
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     xml = leg_wheel_mjcf(config, shape, axle, scene.gravity)
     if torque is not None:

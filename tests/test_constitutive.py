@@ -32,6 +32,7 @@ MU1, MU2, I0 = math.tan(math.radians(21)), math.tan(math.radians(33)), 0.279
 
 def params(*, hypoelastic: bool, water_content: float = 0.0) -> _core.ModelParams2D:
     p = _core.ModelParams2D()
+    p.material.reference_density = RHO0  # Table 2.1's bulk density, the references' above
     p.material.model = "mu_i_hypoelastic" if hypoelastic else "mu_i_rate"
     p.material.water_content = water_content
     return p
@@ -47,7 +48,8 @@ def eos_pressure(rho: float) -> float:
 
 
 def friction(shear_rate: float, pressure: float) -> float:
-    inertial = shear_rate * D / math.sqrt(pressure / RHO_S)  # Eq. 2.32
+    # Eq. 2.32 with Jop, Forterre & Pouliquen (2006)'s rate γ̇ = √(2 D′:D′) = 2|D′| (simple shear: du/dy)
+    inertial = 2.0 * shear_rate * D / math.sqrt(pressure / RHO_S)
     return MU1 + (MU2 - MU1) / (I0 / inertial + 1.0)  # Eq. 2.31
 
 
@@ -70,7 +72,7 @@ def test_rate_form_stress_follows_the_equations(rate) -> None:
     strain_rate = 0.5 * (grad + grad.T)
     deviator = strain_rate - 0.5 * np.trace(strain_rate) * np.eye(2)
     shear_rate = magnitude(deviator)
-    epsilon = 0.01 * (p.numerics.h_factor * p.numerics.spacing) ** 2
+    epsilon = p.numerics.strain_rate_epsilon  # a rate in 1/s, independent of h
     expected = (friction(shear_rate, pressure) * pressure) / (shear_rate + epsilon) * deviator - pressure * np.eye(2)
     assert np.allclose(out["stress"], expected, rtol=1e-12, atol=1e-12 * pressure)
     shear = out["stress"] + pressure * np.eye(2)
@@ -87,7 +89,7 @@ def test_cohesion_adds_to_the_yield_stress() -> None:
     cohesion = wet_params.material.cohesion()
     assert cohesion > 100.0  # about 115 Pa for the default bridges of Table 2.1
     shear_rate = 25.0
-    epsilon = 0.01 * (0.0026 * 1.3) ** 2
+    epsilon = _core.NumericsParams().strain_rate_epsilon
     for p, water, c in ((params(hypoelastic=False), 0.0, 0.0), (wet_params, w, cohesion)):
         out = update(p, grad, rho)
         pressure = eos_pressure(rho) * (1.0 + water)

@@ -98,7 +98,9 @@ def test_defaults_are_the_documented_values() -> None:
     material, numerics = Material(), Numerics()
     assert material.mu1 == math.tan(math.radians(21.0)) and material.mu2 == math.tan(math.radians(33.0))
     assert material.filling_angle == math.radians(15.0)
-    assert (material.grain_density, material.reference_density, material.grain_diameter) == (2532.0, 2507.0, 0.002)
+    # ρ0 = ν ρ_s, the bulk density of the beads at the default packing fraction (not Table 2.1's 2507)
+    assert (material.grain_density, material.grain_diameter) == (2532.0, 0.002)
+    assert material.reference_density == pytest.approx(material.packing_fraction * material.grain_density, rel=1e-12)
     assert material.model == "mu_i_hypoelastic"
     assert (numerics.spacing, numerics.h_factor, numerics.xsph) == (0.0026, 1.3, 0.2)
 
@@ -200,7 +202,7 @@ def test_cohesion_of_table_2_1_equals_the_hand_value() -> None:
     c = 0.6·6·4.02536e-4/(π·4e-6) = 115.318 Pa (Eq. 2.33).
     """
     material = Material.wet(0.005, surface_tension=0.0725, filling_angle=math.radians(15.0), bridges_per_grain=6.0,
-                            packing_fraction=0.6, grain_diameter=0.002)
+                            packing_fraction=0.6, grain_diameter=0.002, reference_density=2507.0)
     assert material.cohesion == pytest.approx(115.318, rel=1e-5)
     assert material.grain_density == pytest.approx(2532 * 1.005)
     assert material.reference_density == pytest.approx(2507 * 1.005)

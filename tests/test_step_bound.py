@@ -1,33 +1,27 @@
-"""The step's signal speed apart from c0 (numerics.step_at_wave_speed, issue 12).
+"""The step's signal speed: every term's, so no term outruns the step.
 
-The step bound is C·h/(c + |v|) with c = max(c0, the model's wave speed) by default; c0 of
-Eq. 2.44 also sets the artificial viscosity α c0 and the density diffusion δ h c0.
-step_at_wave_speed takes the step from the model's fastest physical wave alone and keeps the damping. For the Table 2.1 beads c0 = 89 m/s and the hypoelastic P-wave speed is
-c_P = √((K + 4G/3)/ρ0) = 11.24 m/s (K = κγ, G from Poisson's ratio 0.3): 7.9× fewer steps.
-
-Scene: test_settling's bed (Δx = 5 mm, 0.12 × 0.05 m, rough box), 0.2 s. References:
-* at c = c_P the bed comes to rest as at the default step (mean |v| < 1e-4 m/s, max < 2e-3 m/s)
-  and its vertical stress profile equals the default run's, layer by layer, within 0.5 % of the
-  deepest layer's stress [measured 0.02 %];
-* the first step from rest is C·h/c with c the model's wave speed by its formula: c_P for the
-  hypoelastic model, the EOS speed √(κγ/ρ0) for the rate model (to 1e-12).
+The step bound is C·h/(c + |v|) with c = max(c0, the model's fastest physical wave): c0 of Eq. 2.44
+sets the artificial viscosity α c0 (Eq. 2.46) and the density diffusion δ h c0 (Eq. 2.42-2.43),
+both integrated explicitly, and the wave is the elastic one of the model. References:
+* with the packing's bulk density (ρ0 = ν ρ_s, the default) c0 = 18 m/s exceeds the hypoelastic
+  P-wave speed c_P = √((K + 4G/3)/ρ0) = 14.4 m/s (K = κγ, G from Poisson's ratio 0.3), so the first
+  step from rest is C·h/c0 (to 1e-12);
+* with c0 set below the wave speed (numerics.sound_speed), the first step is C·h/c_P for the
+  hypoelastic model and C·h/√(κγ/ρ0) for the rate model (to 1e-12).
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
-from terrasph import analysis
+from terrasph import _core
 from terrasph.config import Material, Numerics
-from terrasph.geometry import wall_layers_needed
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
 DX = 0.005
 WIDTH, HEIGHT = 0.12, 0.05
-T_END = 0.2
 
 
 def p_wave_speed(material: Material) -> float:
@@ -37,44 +31,38 @@ def p_wave_speed(material: Material) -> float:
     return math.sqrt((bulk + 4 * shear / 3) / material.reference_density)
 
 
-def settled_bed(**numerics: float) -> Simulation:
-    config = Numerics(spacing=DX, **numerics)
-    scene = Scene(spacing=DX)
-    scene.add_block(0.0, 0.0, WIDTH, HEIGHT)
-    top = HEIGHT + 6 * DX
-    scene.add_wall("box", [(0.0, top), (0.0, 0.0), (WIDTH, 0.0), (WIDTH, top)],
-                   layers=wall_layers_needed(config.h_factor), no_slip=True)
-    sim = Simulation(scene, Material(), config)
-    sim.advance(T_END)
-    return sim
+def eq_2_44_sound_speed(material: Material) -> float:
+    """c0 = √(κγρ_s/(ρ0(ρ_s − ρ0))) (Eq. 2.44)."""
+    m = material
+    return math.sqrt(m.bulk_stiffness * m.eos_exponent * m.grain_density /
+                     (m.reference_density * (m.grain_density - m.reference_density)))
 
 
-def stress_profile(sim: Simulation) -> np.ndarray:
-    _, sigma_v = analysis.vertical_stress_profile(np.array(sim.position), np.array(sim.stress), DX,
-                                                  (0.15 * WIDTH, 0.85 * WIDTH))
-    return sigma_v
-
-
-def test_stepping_at_the_wave_speed_keeps_the_settled_bed() -> None:
-    reference = settled_bed()
-    fast = settled_bed(step_at_wave_speed=True)
-    assert reference.step_count > 7 * fast.step_count  # c0 / c_P = 7.9
-    speed = np.hypot(*fast.velocity.T)
-    assert speed.mean() < 1e-4 and speed.max() < 2e-3
-    assert fast.leaked_particles == 0
-    expected, got = stress_profile(reference), stress_profile(fast)
-    assert len(got) == len(expected) >= 8
-    assert np.max(np.abs(got - expected)) < 0.005 * expected.max()
-
-
-@pytest.mark.parametrize("model", ["mu_i_hypoelastic", "mu_i_rate"])
-def test_the_first_step_resolves_the_models_wave_speed(model: str) -> None:
-    material = Material(model=model)
-    eos_speed = math.sqrt(material.bulk_stiffness * material.eos_exponent / material.reference_density)
-    wave_speed = p_wave_speed(material) if model == "mu_i_hypoelastic" else eos_speed
-    numerics = Numerics(spacing=DX, step_at_wave_speed=True)
+def first_step(material: Material, numerics: Numerics) -> float:
     scene = Scene(spacing=DX)
     scene.add_block(0.0, 0.0, WIDTH, HEIGHT)
     sim = Simulation(scene, material, numerics)
     sim.advance(1.0, max_steps=1)
-    assert sim.time == pytest.approx(numerics.cfl * numerics.h_factor * DX / wave_speed, rel=1e-12)
+    return sim.time
+
+
+def test_the_default_step_resolves_c0_above_the_wave() -> None:
+    material, numerics = Material(), Numerics(spacing=DX)
+    c0 = eq_2_44_sound_speed(material)
+    assert c0 == pytest.approx(18.0, abs=0.1) and p_wave_speed(material) == pytest.approx(14.4, abs=0.1)
+    assert first_step(material, numerics) == pytest.approx(numerics.cfl * numerics.h_factor * DX / c0, rel=1e-12)
+
+
+@pytest.mark.parametrize("model", ["mu_i_hypoelastic", "mu_i_rate"])
+def test_a_wave_faster_than_c0_sets_the_step(model: str) -> None:
+    material = Material(model=model)
+    eos_speed = math.sqrt(material.bulk_stiffness * material.eos_exponent / material.reference_density)
+    wave_speed = p_wave_speed(material) if model == "mu_i_hypoelastic" else eos_speed
+    numerics = Numerics(spacing=DX, sound_speed=0.5 * eos_speed)
+    assert first_step(material, numerics) == pytest.approx(
+        numerics.cfl * numerics.h_factor * DX / wave_speed, rel=1e-12)
+
+
+def test_no_numerics_setting_steps_past_c0() -> None:
+    """The wave-speed-only step (which let c0's damping outrun the step) is gone for good."""
+    assert "step_at_wave_speed" not in {entry["name"] for entry in _core.parameter_table()}

@@ -28,7 +28,7 @@ from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
 DX = 0.005
-RHO0 = 2507.0
+RHO0 = Material().reference_density
 
 
 def _patch(model: str = "mu_i_strain") -> Simulation:
@@ -77,12 +77,13 @@ def test_below_the_quasi_static_inertial_number_the_stress_follows_the_strain() 
     assert p > 0
     deviator = strain - 0.5 * np.trace(strain) * np.eye(2)
     magnitude = math.sqrt(0.5 * np.sum(deviator**2))
-    h = 1.3 * Numerics().spacing
+    epsilon = Numerics().strain_rate_epsilon  # a rate (1/s), independent of h
     shear_rate = 0.5e-4  # |D′| of the simple shear: √(½ D′:D′) with D′_xz = ½γ̇
-    inertial = shear_rate * material.grain_diameter / math.sqrt(p / material.grain_density)
+    # I with Jop, Forterre & Pouliquen (2006)'s rate γ̇ = 2|D′| (|D′| = √(½ D′:D′), `shear_rate` here)
+    inertial = 2.0 * shear_rate * material.grain_diameter / math.sqrt(p / material.grain_density)
     assert inertial < 1e-3
     mu = material.mu1 + (material.mu2 - material.mu1) * inertial / (material.inertial_number_i0 + inertial)
-    expected = mu * p / (magnitude + 0.01 * h * h) * deviator - p * np.eye(2)
+    expected = mu * p / (magnitude + epsilon) * deviator - p * np.eye(2)
     np.testing.assert_allclose(out["stress"], expected, rtol=1e-12, atol=1e-12 * p)
     # the shear stress points along E′, not along the strain rate (which is pure xz shear)
     assert out["stress"][0, 0] - out["stress"][1, 1] > 0.2 * mu * p

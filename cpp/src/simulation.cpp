@@ -139,11 +139,10 @@ template <int D> const ModelParams<D>& validated(const ModelParams<D>& params) {
   return params;
 }
 
-// The speed c of the step bound h/(c + |v|): the model's fastest physical wave alone when
-// numerics.step_at_wave_speed, else the larger of c0 and that wave speed.
-template <int D> double step_signal_speed(const ModelParams<D>& params, double c0, double wave_speed) {
-  return params.numerics.step_at_wave_speed ? wave_speed : std::max(c0, wave_speed);
-}
+// The speed c of the step bound h/(c + |v|): the fastest signal of any term, the larger of c0 (which
+// the artificial viscosity Π_ij and δ-SPH carry, Eq. 2.42-2.46) and the model's fastest physical wave.
+// A bound on the wave alone let c0's explicit damping outrun the step (docs/design_decisions.md).
+double step_signal_speed(double c0, double wave_speed) { return std::max(c0, wave_speed); }
 
 }  // namespace
 
@@ -153,7 +152,7 @@ Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> gra
       kernel_(params.smoothing_length()),
       model_(make_model(params, granular.fields)),
       sound_speed_(params.artificial_sound_speed()),
-      signal_speed_(step_signal_speed(params, sound_speed_, std::visit([](const auto& m) { return m.wave_speed(); }, model_))),
+      signal_speed_(step_signal_speed(sound_speed_, std::visit([](const auto& m) { return m.wave_speed(); }, model_))),
       wall_volume_(std::pow(params.numerics.spacing, D)),
       granular_(std::move(granular)),
       walls_(std::move(walls)) {

@@ -120,11 +120,18 @@ class RunResult:
     walls: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
-def _geostatic_hypoelastic(geostatic: bool, material: Material) -> bool:
-    """Whether to start the hypoelastic μ(I) geostatic; ConfigError for a model without stress state."""
+#: The constitutive models that keep a stress state, so a bed at rest can hold K0 = 1 − sin φ.
+STRESS_STATE_MODELS = ("mu_i_hypoelastic", "drucker_prager")
+
+
+def _geostatic_hypoelastic(geostatic: bool | None, material: Material) -> bool:
+    """Whether to start the hypoelastic μ(I) geostatic (None: yes, as every model with a stress
+    state); ConfigError for True with a model without stress state."""
+    if geostatic is None:
+        geostatic = material.model in STRESS_STATE_MODELS
     if not isinstance(geostatic, bool):
-        raise ConfigError(f"parameter 'geostatic' = {geostatic!r} is invalid: allowed True or False")
-    if geostatic and material.model not in ("mu_i_hypoelastic", "drucker_prager"):
+        raise ConfigError(f"parameter 'geostatic' = {geostatic!r} is invalid: allowed True, False or None")
+    if geostatic and material.model not in STRESS_STATE_MODELS:
         raise ConfigError(f"parameter 'geostatic' = True is invalid for material.model = '{material.model}': "
                           "allowed only with a model that keeps a stress state (mu_i_hypoelastic, drucker_prager)")
     return geostatic and material.model == "mu_i_hypoelastic"
@@ -134,10 +141,12 @@ class Simulation:
     """A granular SPH simulation in plane strain, built from a validated scene.
 
     The grains start at the density of the lithostatic pressure ρ0 g depth (``initial_density``
-    overrides it). Drucker–Prager's stress state starts geostatic, σ_xx = σ_yy = K0 σ_zz with
-    K0 = 1 − sin φ; ``geostatic=True`` starts the hypoelastic μ(I) so too (mean stress
-    ½(1 + K0) ρ0 g depth from the EOS, deviatoric stress ½(1 − K0) ρ0 g depth; off by default, the
-    state then starts isotropic).
+    overrides it). Every model with a stress state starts geostatic, σ_xx = σ_yy = K0 σ_zz with
+    K0 = 1 − sin φ (Jáky): Drucker–Prager always; the hypoelastic μ(I) with mean stress
+    ½(1 + K0) ρ0 g depth from the EOS and deviatoric stress ½(1 − K0) ρ0 g depth unless
+    ``geostatic=False`` (an isotropic start, which an elastic bed at rest keeps: K ≈ 1). The rate
+    models hold no shear at rest, so their beds are isotropic whatever ``geostatic`` says
+    (``True`` is refused for them).
 
     Particle arrays (``position``, ``velocity``, ``density``, ``pressure``, ``stress``, any registered
     field through :meth:`field`) are read-only copies in particle-id order: the core may store
@@ -148,7 +157,7 @@ class Simulation:
     """
 
     def __init__(self, scene: Scene, material: Material, numerics: Numerics, *,
-                 initial_density: np.ndarray | None = None, width: float = 1.0, geostatic: bool = False) -> None:
+                 initial_density: np.ndarray | None = None, width: float = 1.0, geostatic: bool | None = None) -> None:
         if not isinstance(material, Material):
             raise ConfigError("parameter 'material' must be a terrasph.Material")
         if not isinstance(numerics, Numerics):

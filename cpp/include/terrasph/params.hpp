@@ -44,15 +44,17 @@ template <> struct ChoiceNames<PlasticFlow> {
 #define TERRASPH_MATERIAL_PARAMETERS(X)                                                                  \
   X(double, grain_density, 2532.0, "kg/m^3", exclusive(0.0), exclusive(inf),                             \
     "rho_s, density of the grains' solid (Table 2.1); > reference_density")                              \
-  X(double, reference_density, 2507.0, "kg/m^3", exclusive(0.0), exclusive(inf),                         \
-    "rho_0, bulk reference density of the EOS (Eq. 2.30)")                                               \
+  X(double, reference_density, 1519.2, "kg/m^3", exclusive(0.0), exclusive(inf),                         \
+    "rho_0, bulk reference density of the EOS (Eq. 2.30): the packing's, packing_fraction*grain_density "  \
+    "(0.6*2532; Table 2.1's 2507 is 99 % of the grains' and gives c0 = 89 m/s, docs/design_decisions.md)") \
   X(double, grain_diameter, 0.002, "m", exclusive(0.0), exclusive(inf), "d, grain diameter")             \
   X(double, mu1, 0.3838640350354158, "1", inclusive(0.0), exclusive(inf),                                \
     "mu_1, quasi-static friction coefficient of mu(I) (Eq. 2.31), tan 21 deg")                           \
   X(double, mu2, 0.6494075931975106, "1", inclusive(0.0), exclusive(inf),                                \
     "mu_2, dynamic friction limit of mu(I) (Eq. 2.31), tan 33 deg; >= mu1")                              \
   X(double, inertial_number_i0, 0.279, "1", exclusive(0.0), exclusive(inf),                              \
-    "I_0 of mu(I) (Eq. 2.31; Jop, Forterre & Pouliquen 2006)")                                           \
+    "I_0 of mu(I) (Eq. 2.31; Jop, Forterre & Pouliquen 2006) with their I = gamma_dot*d/sqrt(P/rho_s), "   \
+    "gamma_dot = sqrt(2 D':D'); the dissertation's I (|D'| = sqrt(D':D'/2)) is I0 = 0.1395")            \
   X(double, bulk_stiffness, 28000.0, "Pa", exclusive(0.0), exclusive(inf),                               \
     "kappa, stiffness of the EOS (Eq. 2.30)")                                                            \
   X(double, eos_exponent, 7.0, "1", inclusive(1.0), exclusive(inf),                                      \
@@ -88,20 +90,18 @@ template <> struct ChoiceNames<PlasticFlow> {
     "dx, lattice spacing; a particle's volume is dx^D")                                                  \
   X(double, h_factor, 1.3, "1", inclusive(1.0), inclusive(2.0),                                          \
     "smoothing length h = h_factor*dx (Wendland C2, support 2h; ~21 neighbours in 2D at 1.3)")           \
-  X(double, cfl, 0.25, "1", exclusive(0.0), inclusive(1.0),                                              \
-    "C in the adaptive step dt = C*min(h/(c + |v|), sqrt(h/|a|)); above 0.5 only with symplectic_density") \
+  X(double, cfl, 0.5, "1", exclusive(0.0), inclusive(1.0),                                               \
+    "C in the adaptive step dt = C*min(h/(c + |v|), sqrt(h/|a|)), c = max(c_0, the model's wave speed); "  \
+    "above 0.5 only with symplectic_density")                                                            \
   X(double, fixed_dt, 0.0, "s", inclusive(0.0), exclusive(inf),                                          \
     "fixed time step, checked against the stable bound every step; 0 = adaptive")                        \
   X(double, sound_speed, 0.0, "m/s", inclusive(0.0), exclusive(inf),                                     \
     "c_0 of the artificial viscosity, the density diffusion and the step; 0 = Eq. 2.44 from the material") \
-  X(bool, step_at_wave_speed, false, "1", exclusive(-inf), exclusive(inf),                                 \
-    "c of the step bound is the model's fastest physical wave alone (c_0 still sets the damping); "      \
-    "false = max(c_0, that wave speed)")                                                                 \
-  X(bool, symplectic_density, false, "1", exclusive(-inf), exclusive(inf),                                \
+  X(bool, symplectic_density, true, "1", exclusive(-inf), exclusive(inf),                                \
     "advance the density over the whole step in the first pair pass, before the forces, from the "       \
     "velocity at the drifted positions (symplectic Euler in velocity and density, as the stress is); "   \
     "false = kicked in halves with the velocity (forward Euler in the pair, held by delta-SPH)")          \
-  X(bool, symmetric_pairs, false, "1", exclusive(-inf), exclusive(inf),                                   \
+  X(bool, symmetric_pairs, true, "1", exclusive(-inf), exclusive(inf),                                   \
     "both pair passes evaluate each granular pair once and add it to both grains (Newton's third law "   \
     "on a half neighbour list, the grains dealt to threads in strips so that no two write one grain): "  \
     "every pair term as before, summed in another order; false = each pair from both sides (gather)")   \
@@ -131,11 +131,12 @@ template <> struct ChoiceNames<PlasticFlow> {
     "MLS regularisation (Eq. 3.26-3.30, linear basis) of the model's stress state every N steps; 0 = off") \
   X(bool, kernel_gradient_correction, false, "1", exclusive(-inf), exclusive(inf),                       \
     "renormalise grad v so that linear velocity fields are exact")                                       \
-  X(double, strain_rate_epsilon, -1.0, "1/s", exclusive(-inf), exclusive(inf),                           \
-    "epsilon of |D'| + epsilon in Eq. 2.29; < 0 = 0.01*h^2 as in the dissertation")                      \
+  X(double, strain_rate_epsilon, 1e-7, "1/s", exclusive(0.0), exclusive(inf),                           \
+    "epsilon of |D'| + epsilon in Eq. 2.29, a strain rate independent of h (the dissertation's 0.01*h^2 " \
+    "read as 1/s is 1.1e-7 at its dx = 2.6 mm)")                                                         \
   X(double, neighbour_skin, 0.15, "1", inclusive(0.0), inclusive(1.0),                                   \
     "Verlet skin of the neighbour lists as a fraction of h")                                             \
-  X(bool, cell_order, false, "1", exclusive(-inf), exclusive(inf),                                       \
+  X(bool, cell_order, true, "1", exclusive(-inf), exclusive(inf),                                       \
     "store particles in cell order, re-sorted at each neighbour build (ids stable; sums reordered)")     \
   X(double, freeze_speed, 0.0, "m/s", inclusive(0.0), exclusive(inf),                                    \
     "active domain: a grain with |v| and freeze_steps*dt*|a| below this for freeze_steps steps, and no " \
@@ -254,10 +255,7 @@ template <int D> struct ModelParams {
                      m.reference_density);
   }
 
-  double strain_rate_epsilon() const {
-    const double h = smoothing_length();
-    return numerics.strain_rate_epsilon >= 0.0 ? numerics.strain_rate_epsilon : 0.01 * h * h;
-  }
+  double strain_rate_epsilon() const { return numerics.strain_rate_epsilon; }
 
   void validate() const {
     material.validate();

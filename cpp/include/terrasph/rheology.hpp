@@ -41,7 +41,8 @@ class EquationOfState {
 
 // σ = −P I + (μ(I) P + c) D′/(|D′| + ε)  (Eq. 2.29, dense branch; DESIGN §3.3)
 // μ(I) = μ1 + (μ2 − μ1)/(I0/I + 1)       (Eq. 2.31)
-// I = |D′| d / √(P/ρ_s)                   (Eq. 2.32), |D′| = √(½ D′:D′)
+// I = γ̇ d / √(P/ρ_s), γ̇ = 2|D′| = √(2 D′:D′)  (Eq. 2.32 with Jop, Forterre & Pouliquen 2006's γ̇,
+//   the rate I0 = 0.279 was fitted with; γ̇ is the shear rate du/dy of a simple shear)
 template <int D> class MuIRheology {
  public:
   MuIRheology(const MaterialParams& m, double epsilon)
@@ -95,8 +96,10 @@ template <int D> class MuIRheology {
   // the quasi-static regime of Eq. 3.6 (and of GDR MiDi 2004): I ≤ 0.001
   static constexpr double quasi_static_inertial_number = 1e-3;
 
-  // I = |D′| d/√(P/ρ_s) (Eq. 2.32) for P > 0.
-  double inertial_number(double shear_rate, double p) const { return shear_rate * d_ * std::sqrt(rho_s_ / p); }
+  // I = γ̇ d/√(P/ρ_s) with γ̇ = 2|D′| (Jop et al. 2006) for P > 0; `shear_rate` is |D′| = √(½ D′:D′).
+  double inertial_number(double shear_rate, double p) const {
+    return 2.0 * shear_rate * d_ * std::sqrt(rho_s_ / p);
+  }
 
   // μ(I) written as μ1 + (μ2 − μ1) I/(I0 + I), which is finite at I = 0.
   double friction(double shear_rate, double p) const {

@@ -29,7 +29,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from terrasph import bodies
-from terrasph.config import ConfigError, Material, Numerics, from_mapping
+from terrasph.config import ConfigError, Material, Numerics
+from terrasph.fidelity import check_tier, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
@@ -75,7 +76,8 @@ class LegWheel:
     water_content: float = 0.0  #: the bed's w (kg water per kg grains); > 0: wet beads with cohesion (Table 2.1)
     series_interval: float = 0.01
     frame_interval: float = 0.05
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
     def __post_init__(self) -> None:
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
@@ -119,9 +121,16 @@ class LegWheel:
         return np.where(after >= 0, driven, 0.0)
 
 
+#: What the bed needs at every fidelity: the Shepard filter every 100 steps and the density floor
+#: ρ ≥ ρ0, as the chapter 3 legs (terrasph.scenes.leg_rotation.SCENE_NUMERICS).
+BED_NUMERICS: dict[str, Any] = {"shepard_interval": 100, "density_floor": 1.0}
+
+
 def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...] = ()) -> None:
-    """Checks what the leg-wheel and rover configurations share (the wheel, the bed, the times) and
-    the extra `positive` / `nonnegative` numbers of each; ConfigError naming the first offender."""
+    """Checks what the leg-wheel and rover configurations share (the wheel, the bed, the times, the
+    fidelity) and the extra `positive` / `nonnegative` numbers of each; ConfigError naming the first
+    offender."""
+    check_tier(config.fidelity)
     if config.wheel not in WHEELS:
         raise ConfigError(f"parameter 'wheel' = {config.wheel!r} is invalid: allowed one of {', '.join(WHEELS)}")
     if isinstance(config.legs, bool) or not isinstance(config.legs, int) or not 1 <= config.legs <= 12:
@@ -149,6 +158,7 @@ class WheelConfig(Protocol):
     spacing: float
     bed_width: float
     bed_depth: float
+    fidelity: str
     numerics: dict[str, Any]
 
 
@@ -161,11 +171,11 @@ def wheel_shape(config: WheelConfig) -> bodies.BodyShape:
     return bodies.leg_wheel(config.wheel, config.legs, *args, **extra)
 
 
-def bed_and_wheel(config: WheelConfig) -> tuple[Scene, Numerics, float, bodies.BodyShape]:
-    """The bed of chapter 4's glass beads in its container (scene, numerics, surface height) and the
-    wheel's shape; a shape the spacing cannot build is refused naming the wheel."""
-    numerics = from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
-                                       **config.numerics})
+def bed_and_wheel(config: WheelConfig, scene_name: str) -> tuple[Scene, Numerics, float, bodies.BodyShape]:
+    """The bed of chapter 4's glass beads in its container (scene, numerics at the fidelity of the
+    registered scene `scene_name`, surface height) and the wheel's shape; a shape the spacing cannot
+    build is refused naming the wheel."""
+    numerics = scene_numerics(scene_name, config.fidelity, config.spacing, BED_NUMERICS, config.numerics)
     scene = Scene(spacing=config.spacing)
     surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
                                             layers=wall_layers_needed(numerics.h_factor))
@@ -201,7 +211,7 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 
 def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
     """Bed, container, robot and coupling, ready to run."""
-    scene, numerics, surface, shape = bed_and_wheel(config)
+    scene, numerics, surface, shape = bed_and_wheel(config, "leg-wheel")
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, scene.gravity), {"wheel": Coupling(shape, config.width)},
                         gravity=scene.gravity)

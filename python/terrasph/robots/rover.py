@@ -51,7 +51,8 @@ class Rover:
     duration: float = 4.0
     series_interval: float = 0.01
     frame_interval: float = 0.05
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
     def __post_init__(self) -> None:
         check_wheel_config(self)
@@ -73,7 +74,7 @@ def build_rover(config: Rover) -> CoupledSimulation:
     # imported here, as the scene registry imports this module
     from terrasph.scenes.leg_rotation import glass_beads
 
-    scene, numerics, surface, shape = bed_and_wheel(config)
+    scene, numerics, surface, shape = bed_and_wheel(config, "rover")
     axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
     robot = PlanarRobot(ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
                         gravity=scene.gravity, initial={"x": config.start_x, "z": axle_z})

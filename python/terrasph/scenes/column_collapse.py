@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from terrasph.config import ConfigError, Material, Numerics, from_mapping
+from terrasph.config import ConfigError, Material, Numerics
+from terrasph.fidelity import check_tier, scene_numerics
 from terrasph.geometry import aligned_wall_layers, elliptical_arc, trough_height, wall_layers_needed
 from terrasph.io import write_results
 from terrasph.scene import Scene
@@ -46,6 +47,7 @@ BEDS = ("flat", "circular", "elliptical")
 #: density of the same beads in a random packing, ρ0 = ν ρ_s with the material's packing fraction
 #: ν = 0.6 (1519 kg/m³; c0 = 18 m/s, the elastic P-wave speed 14 m/s), a five times larger step.
 MATERIAL_PRESETS = ("table_2_1", "packed")
+TABLE_2_1_REFERENCE_DENSITY = 2507.0  #: ρ0 of Table 2.1 (kg/m³), the "table_2_1" preset
 
 
 @dataclass(frozen=True)
@@ -67,11 +69,13 @@ class ColumnCollapse:
     rest_threshold: float = 1e-4  #: stop once mean ½|v|² < rest_threshold·g·Δx (after 0.3 s)
     frame_interval: float = 0.02
     width: float = 0.1  #: out-of-plane width of the quasi-2D sample (m), scales reported energies
-    material_preset: str = "table_2_1"  #: a key of MATERIAL_PRESETS: the bulk density of the beads
+    material_preset: str = "packed"  #: a key of MATERIAL_PRESETS: the bulk density of the beads
     model: str = "mu_i_hypoelastic"  #: the constitutive model, a choice of ``material.model``
+    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
+        check_tier(self.fidelity)
         for name in ("column_width", "column_height", "floor_length", "t_end", "frame_interval", "width"):
             value = getattr(self, name)
             if not (value > 0 and math.isfinite(value)):
@@ -136,9 +140,8 @@ class ColumnCollapse:
         (material_preset) and constitutive model."""
         mu1, mu2 = (math.tan(math.radians(a)) for a in self.friction_angles_deg)
         overrides: dict[str, float | str] = {"mu1": mu1, "mu2": mu2, "model": self.model}
-        if self.material_preset == "packed":
-            table = Material()
-            overrides["reference_density"] = table.packing_fraction * table.grain_density
+        if self.material_preset == "table_2_1":
+            overrides["reference_density"] = TABLE_2_1_REFERENCE_DENSITY
         if self.water_content > 0:
             return Material.wet(self.water_content, **overrides)
         return Material(**overrides)
@@ -147,7 +150,7 @@ class ColumnCollapse:
 def build_column_collapse(config: ColumnCollapse) -> tuple[Scene, Material, Numerics]:
     """The scene (column, rough floor + left wall, gate), material and numerics of a collapse."""
     dx = config.grid_spacing
-    numerics = from_mapping(Numerics, {"spacing": dx, **config.numerics})
+    numerics = scene_numerics("column-collapse", config.fidelity, dx, overrides=config.numerics)
     layers = wall_layers_needed(numerics.h_factor)
     scene = Scene(spacing=dx)
     column = scene.add_block(0.0, 0.0, config.column_width, config.column_height)

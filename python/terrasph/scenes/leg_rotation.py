@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from terrasph import bodies
-from terrasph.config import ConfigError, Material, Numerics, from_mapping
+from terrasph.config import ConfigError, Material, Numerics
+from terrasph.fidelity import check_tier, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import hold_then_rotate
@@ -72,9 +73,11 @@ class LegRotation:
     settle_time: float = 2.0  #: the leg is held still this long before it turns
     samples_per_radian: float = 100.0  #: load samples (each a time average, see Simulation.run)
     frame_interval: float = 0.1
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and terrasph.Numerics
+    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and the tier
 
     def __post_init__(self) -> None:
+        check_tier(self.fidelity)
         if self.leg not in LEGS:
             raise ConfigError(f"parameter 'leg' = {self.leg!r} is invalid: allowed one of {', '.join(LEGS)}")
         for name in ("omega", "leg_length", "thickness", "width", "bed_width", "bed_depth",
@@ -125,7 +128,7 @@ class LegRotation:
 def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
     """The bed in its container, the leg at its start angle, the material and the numerics."""
     dx = config.grid_spacing
-    numerics = from_mapping(Numerics, {"spacing": dx, **SCENE_NUMERICS, **config.numerics})
+    numerics = scene_numerics("leg-rotation", config.fidelity, dx, SCENE_NUMERICS, config.numerics)
     layers = wall_layers_needed(numerics.h_factor)
     scene = Scene(spacing=dx)
     freeboard = max(config.hip_height, 0.0) + config.leg_length  # sand heaped by the leg stays in

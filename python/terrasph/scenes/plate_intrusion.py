@@ -37,7 +37,8 @@ import numpy as np
 
 from terrasph import bodies
 from terrasph.analysis import fit_line
-from terrasph.config import ConfigError, Material, Numerics, from_mapping
+from terrasph.config import ConfigError, Material, Numerics
+from terrasph.fidelity import scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
@@ -81,12 +82,13 @@ class PlateIntrusion:
     sample_travel: float = 0.001  #: plate travel per load sample (each a time average over it)
     frame_interval: float = 0.1
     model: str = "mu_i_hypoelastic"  #: the constitutive model, a choice of ``material.model``
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
     #: None: start above the surface, push in to max_depth, pull out (default). H (m): start buried,
     #: the plate's top face H below the surface, grains placed above it; held, then pulled up
     buried_depth: float | None = None
     pull_distance: float = 0.015  #: buried start: the upward travel of the plate (m)
-    geostatic: bool = False  #: start the hypoelastic μ(I) geostatic (Simulation's ``geostatic``)
+    geostatic: bool | None = None  #: Simulation's ``geostatic``: None = K0 start for models with stress state
 
     def __post_init__(self) -> None:
         for name in ("speed", "max_depth", "spacing", "plate_length", "width", "bed_width", "bed_depth",
@@ -108,8 +110,8 @@ class PlateIntrusion:
                                          and self.spacing * (1 - 1e-9) <= self.gap <= WALL_FREEBOARD / 2):
             raise ConfigError(f"parameter 'gap' = {self.gap!r} is invalid: allowed [{self.spacing:g}, "
                               f"{WALL_FREEBOARD / 2:g}] m (at least one spacing above the surface)")
-        if not isinstance(self.geostatic, bool):
-            raise ConfigError(f"parameter 'geostatic' = {self.geostatic!r} is invalid: allowed True or False")
+        if self.geostatic is not None and not isinstance(self.geostatic, bool):
+            raise ConfigError(f"parameter 'geostatic' = {self.geostatic!r} is invalid: allowed True, False or None")
         # the plate's underside must stay clear of the floor's kernel support, buried or pushed in
         floor_clear = self.bed_depth - self.plate_thickness - 2 * wall_layers_needed(numerics.h_factor) * self.spacing
         if self.buried_depth is not None:
@@ -139,8 +141,8 @@ class PlateIntrusion:
         return dataclasses.replace(glass_beads(), model=self.model)
 
     def build_numerics(self) -> Numerics:
-        """terrasph.Numerics at this spacing with the overrides applied."""
-        return from_mapping(Numerics, {"spacing": self.spacing, **self.numerics})
+        """terrasph.Numerics at this spacing and fidelity with the overrides applied."""
+        return scene_numerics("plate-intrusion", self.fidelity, self.spacing, overrides=self.numerics)
 
     @property
     def plate_thickness(self) -> float:
