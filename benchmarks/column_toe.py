@@ -30,7 +30,7 @@ def main() -> None:
     print("|---" * (len(TIMES) + 5) + "|")
     for mu_w in args.wall_friction:
         config = ColumnCollapse(resolution=args.resolution, model=args.model,
-                                numerics={"step_at_wave_speed": True, "wall_friction_coefficient": mu_w})
+                                numerics={"wall_friction_coefficient": mu_w})
         scene, material, numerics = build_column_collapse(config)
         sim = Simulation(scene, material, numerics)
         start = time.process_time()

@@ -8,8 +8,8 @@ here are the README's coarse trial (Δx = 5 mm, legs 1.5 cm thick and 5 cm long,
         [--bed-width W] [--bed-depth D] [--settle S] [--t-end T] [--wheels w1,w2,...]
         [--numerics NAME=VALUE ...]
 
-``--numerics`` takes the speed levers of docs/benchmarks.md, e.g. ``step_at_wave_speed=true
-freeze_speed=0.005 active_radius=0.1 cell_order=true`` (1.9× within 1.1 % on this scene's outcomes).
+``--numerics`` overrides the scene's fidelity tier (terrasph.fidelity; docs/fidelity.md), e.g.
+``cfl=1.0 freeze_speed=0.001 active_radius=0.1``.
 """
 
 from __future__ import annotations

@@ -33,7 +33,7 @@ from column_runout_lube import column, lube_fit  # noqa: E402
 pytestmark = pytest.mark.slow
 
 WALL_FRICTION = 0.384  #: μ_w = μ1 = tan 21°
-NUMERICS = {"step_at_wave_speed": True, "wall_friction_coefficient": WALL_FRICTION}
+NUMERICS = {"wall_friction_coefficient": WALL_FRICTION}
 
 
 def test_lube_fit_branches() -> None:
@@ -54,8 +54,7 @@ def test_runout_within_a_quarter_of_the_lube_fit(aspect: float) -> None:
 
 @pytest.mark.parametrize("wall_friction", [0.0, WALL_FRICTION])
 def test_the_thin_toe_comes_to_rest(wall_friction: float) -> None:
-    config = ColumnCollapse(resolution="fit", numerics={"step_at_wave_speed": True,
-                                                        "wall_friction_coefficient": wall_friction})
+    config = ColumnCollapse(resolution="fit", numerics={"wall_friction_coefficient": wall_friction})
     scene, material, numerics = build_column_collapse(config)
     sim = Simulation(scene, material, numerics)
     sim.advance(0.6)

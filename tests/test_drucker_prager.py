@@ -34,6 +34,7 @@ ALPHA = MU1 / ROOT
 def params(flow: str = "non_associated", dilatancy: float = 0.0, water: float = 0.0) -> _core.ModelParams2D:
     p = _core.ModelParams2D()
     p.material.model = "drucker_prager"
+    p.material.reference_density = RHO0  # Table 2.1's, the references' bulk density
     p.material.plastic_flow = flow
     p.material.dilatancy_angle = dilatancy
     p.material.water_content = water
@@ -151,7 +152,7 @@ def test_a_drucker_prager_bed_started_geostatic_stays_at_rest() -> None:
     sim.advance(0.1)
     assert np.linalg.norm(sim.velocity, axis=1).mean() < 1e-3
     bottom = (sim.position[:, 1] < dx) & (sim.position[:, 0] > 2 * dx) & (sim.position[:, 0] < width - 2 * dx)
-    lithostatic = RHO0 * 9.81 * (height - 0.5 * dx)
+    lithostatic = material.reference_density * 9.81 * (height - 0.5 * dx)
     stress = sim.stress[bottom]
     assert -stress[:, 1, 1].mean() == pytest.approx(lithostatic, rel=0.05)
     assert (stress[:, 0, 0] / stress[:, 1, 1]).mean() == pytest.approx(1 - math.sin(math.atan(MU1)), abs=0.15)

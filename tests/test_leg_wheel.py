@@ -47,7 +47,7 @@ def tiny_wheel_summary(cfl: float) -> tuple[dict[str, float], np.ndarray]:
     """The small C-leg wheel (4 cm legs, Δx = 5 mm, 20 × 4 cm bed, 2 N) at 1.5 rad/s for 1 s after
     a 0.3 s pause, the step at the wave speed with the density advanced first: its summary and its
     spin ω over the last 0.5 s."""
-    numerics = {"step_at_wave_speed": True, "symplectic_density": True, "cfl": cfl}
+    numerics = {"symplectic_density": True, "cfl": cfl}
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
                       bed_depth=0.04, start_x=0.08, settle_time=0.3, duration=1.3, load=2.0, series_interval=0.002,
                       frame_interval=10.0, numerics=numerics)

@@ -32,7 +32,7 @@ from terrasph.scenes.plate_intrusion import (
 )
 
 BURIED = dict(buried_depth=0.03, pull_distance=0.004, settle_time=0.2, bed_width=0.14, bed_depth=0.07,
-              numerics={"step_at_wave_speed": True})
+              )
 
 
 @pytest.mark.parametrize("depth", [0.0, 0.001, 0.06, float("nan")])

@@ -42,7 +42,7 @@ def collapse_state(numerics: dict, steps: int = 300) -> dict[str, np.ndarray]:
     {"kernel_gradient_correction": True},
 ])
 def test_the_sums_are_the_gathers_within_round_off(numerics: dict) -> None:
-    gather = collapse_state(numerics)
+    gather = collapse_state({**numerics, "symmetric_pairs": False})
     once = collapse_state({**numerics, "symmetric_pairs": True})
     speed = np.abs(gather["velocity"]).max()
     assert speed > 0.05  # the column is flowing

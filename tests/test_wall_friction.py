@@ -30,7 +30,7 @@ def sliding_row(mu_w: float) -> Simulation:
     scene.granular.append(np.array([[0.02 + (i + 0.5) * DX, 0.5 * DX] for i in range(10)]))
     scene.add_wall("floor", [(-0.05, 0.0), (0.5, 0.0)], layers=wall_layers_needed(1.3), no_slip=False)
     scene.domain_lower, scene.domain_upper = (-0.06, -0.05), (0.51, 0.1)
-    sim = Simulation(scene, Material(), Numerics(spacing=DX, wall_friction_coefficient=mu_w, step_at_wave_speed=True))
+    sim = Simulation(scene, Material(), Numerics(spacing=DX, wall_friction_coefficient=mu_w))
     sim.advance(0.02)
     sim.velocity = sim.velocity + [V0, 0.0]
     sim.refresh()

@@ -61,7 +61,7 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
 
 
 def numerics_setting(text: str) -> tuple[str, bool | int | float]:
-    """argparse type: one ``NAME=VALUE`` of terrasph.Numerics (e.g. ``step_at_wave_speed=true``),
+    """argparse type: one ``NAME=VALUE`` of terrasph.Numerics (e.g. ``cfl=0.9``),
     checked against the parameter's type and range at once (the rules that link parameters are
     checked by :func:`numerics_overrides`). The spacing is a scene option."""
     from terrasph.config import ConfigError, Numerics, parameter
@@ -97,10 +97,10 @@ def numerics_setting(text: str) -> tuple[str, bool | int | float]:
 
 def add_numerics_option(parser: argparse.ArgumentParser) -> None:
     """Adds ``--numerics NAME=VALUE ...``: overrides of the scene's numerical options (the speed
-    levers of docs/benchmarks.md, e.g. ``step_at_wave_speed=true``)."""
+    settings of docs/fidelity.md, e.g. ``cfl=0.9``)."""
     parser.add_argument("--numerics", type=numerics_setting, nargs="+", default=[], metavar="NAME=VALUE",
-                        help="numerical options over the scene's (terrasph.Numerics, e.g. step_at_wave_speed=true "
-                             "freeze_speed=0.005 active_radius=0.05; docs/benchmarks.md gives each one's error; default: the "
+                        help="numerical options over the scene's fidelity tier (terrasph.Numerics, e.g. cfl=0.9 "
+                             "freeze_speed=0.001 active_radius=0.1; docs/fidelity.md gives each tier's error; default: the "
                              "scene's own)")
 
 
