@@ -84,8 +84,8 @@ def test_bad_leg_wheel_parameters_are_named(key: str, value: object) -> None:
 
 
 def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, capsys) -> None:
-    """A tiny leg-wheel run stopped by SIGINT after 500 coupled steps (past the pause: the motor is
-    turning) checkpoints the SPH State and MuJoCo's qpos/qvel/act/ctrl/time; ``terrasph resume``
+    """A tiny leg-wheel run stopped by SIGINT after 70 % of its coupled steps (past the pause: the
+    motor is turning) checkpoints the SPH State and MuJoCo's qpos/qvel/act/ctrl/time; ``terrasph resume``
     (through the scene registry) finishes it into the same file. Every series (robot, actuators,
     diagnostics but wall time) and every frame equals that of a run never stopped, bit for bit,
     and the motor work summed across the stop is the same."""
@@ -93,11 +93,11 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
                       bed_depth=0.04, start_x=0.08, settle_time=0.03, duration=0.07, load=2.0,
                       series_interval=0.005, frame_interval=0.02)
     whole = run_leg_wheel(config, tmp_path / "whole.h5")
-    step, taken = CoupledSimulation.step, [0]
+    step, taken, stop_at = CoupledSimulation.step, [0], int(0.7 * whole.summary()["steps"])
 
     def interrupted_step(self: CoupledSimulation) -> float:
         taken[0] += 1
-        if taken[0] == 500:
+        if taken[0] == stop_at:
             os.kill(os.getpid(), signal.SIGINT)  # caught by the run loop, honoured after this step
         return step(self)
 
