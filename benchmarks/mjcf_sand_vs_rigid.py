@@ -1,0 +1,54 @@
+"""A gymnasium model with an open-loop gait on the bed of glass beads and on MuJoCo's rigid floor:
+the mean forward speed of its centre of mass after the pause on each, their ratio and the feet's
+sinkage (docs/mjcf.md).
+
+    python benchmarks/mjcf_sand_vs_rigid.py [--spacing 0.01] [--t-end 2.5] [--out cheetah.h5]
+
+The model file is gymnasium's, as shipped (gymnasium/envs/mujoco/assets/half_cheetah.xml). The
+gait: every motor a sine of full amplitude (ctrl ±1) and period 0.4 s, the back leg's three in
+phase, the front leg's half a period later; it starts after a 0.5 s pause on the bed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import gymnasium
+
+from terrasph.robots.mjcf_scene import MjcfScene, rigid_floor_run, run_mjcf
+
+PERIOD = 0.4
+GAIT = tuple(f"{name}=sin:1,{PERIOD},{phase}" for name, phase in
+             (("bthigh", 0), ("bshin", 0), ("bfoot", 0), ("fthigh", 180), ("fshin", 180), ("ffoot", 180)))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--model", default="half_cheetah.xml", help="a gymnasium asset (default %(default)s)")
+    parser.add_argument("--spacing", type=float, default=0.01)
+    parser.add_argument("--bed-width", type=float, default=3.0)
+    parser.add_argument("--bed-depth", type=float, default=0.1)
+    parser.add_argument("--start-x", type=float, default=0.8)
+    parser.add_argument("--settle-time", type=float, default=0.5)
+    parser.add_argument("--t-end", type=float, default=2.5)
+    parser.add_argument("--couple-below", type=float, default=1.0, help="1 m: every body meets the grains")
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args()
+    model = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets", args.model)
+    config = MjcfScene(model=model, bed_width=args.bed_width, bed_depth=args.bed_depth, spacing=args.spacing,
+                       start_x=args.start_x, settle_time=args.settle_time, duration=args.t_end, ctrl=GAIT,
+                       couple_below=args.couple_below)
+    start = time.perf_counter()
+    sand = run_mjcf(config, args.out).summary()
+    wall = time.perf_counter() - start
+    dt = sand["steps"] and (args.t_end / sand["steps"])
+    rigid = rigid_floor_run(model, None, args.t_end, args.settle_time, timestep=dt, ctrl=GAIT)
+    print(json.dumps({"sand": sand, "rigid": rigid, "speed_ratio_sand_over_rigid": sand["mean_speed"] / rigid["mean_speed"],
+                      "sand_wall_s": round(wall, 1)}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
