@@ -5,7 +5,7 @@ sinkage (docs/mjcf.md).
     python benchmarks/mjcf_sand_vs_rigid.py [--spacing 0.01] [--t-end 2.5] [--out cheetah.h5]
 
 The model file is gymnasium's, as shipped (gymnasium/envs/mujoco/assets/half_cheetah.xml). The
-gait: every motor a sine of full amplitude (ctrl ±1) and period 0.4 s, the back leg's three in
+gait: every motor a sine of half its range (ctrl ±0.5) and period 0.4 s, the back leg's three in
 phase, the front leg's half a period later; it starts after a 0.5 s pause on the bed.
 """
 
@@ -21,7 +21,7 @@ import gymnasium
 from terrasph.robots.mjcf_scene import MjcfScene, rigid_floor_run, run_mjcf
 
 PERIOD = 0.4
-GAIT = tuple(f"{name}=sin:1,{PERIOD},{phase}" for name, phase in
+GAIT = tuple(f"{name}=sin:0.5,{PERIOD},{phase}" for name, phase in
              (("bthigh", 0), ("bshin", 0), ("bfoot", 0), ("fthigh", 180), ("fshin", 180), ("ffoot", 180)))
 
 

@@ -32,27 +32,30 @@ def _area(loop: np.ndarray) -> float:
     return 0.5 * float(np.sum(x * np.roll(z, -1) - np.roll(x, -1) * z))
 
 
-#: geom XML, the area of its projection on x–z and its extent across the plane (closed forms)
+#: geom XML, the area of its projection on x–z, its extent across the plane and its least width in
+#: the plane (closed forms)
 CASES = {
-    "sphere": ('<geom type="sphere" size="0.05" pos="0.02 0 -0.03"/>', math.pi * 0.05**2, 0.1),
-    "capsule at 30°": ('<geom type="capsule" size="0.04 0.1" euler="0 30 0"/>', 4 * 0.1 * 0.04 + math.pi * 0.04**2, 0.08),
+    "sphere": ('<geom type="sphere" size="0.05" pos="0.02 0 -0.03"/>', math.pi * 0.05**2, 0.1, 0.1),
+    "capsule at 30°": ('<geom type="capsule" size="0.04 0.1" euler="0 30 0"/>', 4 * 0.1 * 0.04 + math.pi * 0.04**2,
+                       0.08, 0.08),
     "capsule fromto": ('<geom type="capsule" size="0.03" fromto="-0.1 0 0 0.1 0 -0.1"/>',
-                       2 * math.hypot(0.2, 0.1) * 0.03 + math.pi * 0.03**2, 0.06),
-    "cylinder along y": ('<geom type="cylinder" size="0.05 0.02" euler="90 0 0"/>', math.pi * 0.05**2, 0.04),
-    "cylinder along x": ('<geom type="cylinder" size="0.05 0.1" euler="0 90 0"/>', 0.2 * 0.1, 0.1),
-    "ellipsoid": ('<geom type="ellipsoid" size="0.08 0.03 0.05" euler="0 40 0"/>', math.pi * 0.08 * 0.05, 0.06),
-    "box at 20°": ('<geom type="box" size="0.1 0.04 0.03" euler="0 20 0"/>', 0.2 * 0.06, 0.08),
+                       2 * math.hypot(0.2, 0.1) * 0.03 + math.pi * 0.03**2, 0.06, 0.06),
+    "cylinder along y": ('<geom type="cylinder" size="0.05 0.02" euler="90 0 0"/>', math.pi * 0.05**2, 0.04, 0.1),
+    "cylinder along x": ('<geom type="cylinder" size="0.05 0.1" euler="0 90 0"/>', 0.2 * 0.1, 0.1, 0.1),
+    "ellipsoid": ('<geom type="ellipsoid" size="0.08 0.03 0.05" euler="0 40 0"/>', math.pi * 0.08 * 0.05, 0.06, 0.1),
+    "box at 20°": ('<geom type="box" size="0.1 0.04 0.03" euler="0 20 0"/>', 0.2 * 0.06, 0.08, 0.06),
 }
 
 
 @pytest.mark.parametrize("case", CASES)
 def test_a_geom_becomes_its_outline_filled_with_particles(case: str) -> None:
-    xml, area, width = CASES[case]
+    xml, area, width, thickness = CASES[case]
     shape = body_shape(_model(xml), 1, DX)
     (loop,) = shape.outline
     # the support polygon lies within r(1 − cos(π/256)) of a round outline: area to 3e-4
     assert _area(loop) == pytest.approx(area, rel=3e-4)
     assert shape.width == pytest.approx(width, rel=1e-12)
+    assert shape.thickness == pytest.approx(thickness, rel=1e-9)
     # the particles fill it: N Δx² is the area within the perimeter × Δx/2 band a lattice can miss
     perimeter = float(np.sum(np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)))
     assert abs(len(shape) * DX**2 - area) < 0.5 * perimeter * DX

@@ -31,7 +31,7 @@ from terrasph.bodies import BodyShape, _merge_indices, nearest_edge_normals
 from terrasph.config import ConfigError
 
 __all__ = ["CONVERTIBLE", "SUPPORT_DIRECTIONS", "body_shape", "geom_extent_y", "geom_loop", "geom_support",
-           "is_collision_geom", "shape_from_loops"]
+           "geom_thickness", "is_collision_geom", "shape_from_loops"]
 
 #: the geom types that become terrain shapes
 CONVERTIBLE = {mujoco.mjtGeom.mjGEOM_SPHERE: "sphere", mujoco.mjtGeom.mjGEOM_CAPSULE: "capsule",
@@ -117,6 +117,32 @@ def geom_extent_y(model: mujoco.MjModel, geom: int) -> tuple[float, float]:
     return float(low), float(high)
 
 
+def geom_thickness(model: mujoco.MjModel, geom: int) -> float:
+    """The geom's least width in the x–z plane (m): the minimum over in-plane directions n of
+    h(n) + h(−n), h its exact support function, found by a golden-section search about the best of
+    its outline's edge normals (the outline polygon alone, inscribed in a round geom, would be up to
+    2r(1 − cos(π/N)) too thin, and a capsule's width grows to first order off its normal)."""
+    pose = _in_body_frame(model, geom)
+
+    def width(angle: float) -> float:
+        n = np.array([[math.cos(angle), 0.0, math.sin(angle)]])
+        return float((geom_support(model, geom, *pose, n) - geom_support(model, geom, *pose, -n))[0] @ n[0])
+
+    loop = geom_loop(model, geom)
+    edges = np.roll(loop, -1, axis=0) - loop
+    angles = np.arctan2(-edges[:, 0], edges[:, 1])  # each edge's outward normal (e_z, −e_x)
+    best = float(angles[np.argmin([width(a) for a in angles])])
+    low, high = best - 4 * math.pi / SUPPORT_DIRECTIONS, best + 4 * math.pi / SUPPORT_DIRECTIONS
+    ratio = (math.sqrt(5.0) - 1.0) / 2.0
+    while high - low > 1e-10:
+        a, b = high - ratio * (high - low), low + ratio * (high - low)
+        if width(a) < width(b):
+            high = b
+        else:
+            low = a
+    return min(width(0.5 * (low + high)), width(best))
+
+
 def _principal_axis(loop: np.ndarray) -> np.ndarray:
     """Unit direction of the polygon's longest principal axis (second moments of its vertices; x for
     a polygon as long as it is wide, such as a disc's)."""
@@ -180,13 +206,14 @@ def _outer_edges(loops: Sequence[np.ndarray], spacing: float) -> tuple[np.ndarra
     return np.concatenate(starts), np.concatenate(ends)
 
 
-def shape_from_loops(name: str, loops: Sequence[np.ndarray], spacing: float, width: float) -> BodyShape:
+def shape_from_loops(name: str, loops: Sequence[np.ndarray], spacing: float, width: float,
+                     thickness: float | None = None) -> BodyShape:
     """A body made of the union of convex counter-clockwise `loops` (x–z, body frame, m): particles
     Δx apart filling each loop (module docstring), merged where loops overlap, with the outward
-    normal of the union's nearest outer edge. Its ``thickness`` is the least width of any loop (the
-    thinnest part, checked against :func:`terrasph.bodies.minimum_thickness` when the scene is
-    validated), its ``radius`` the farthest outline point from the body origin, its ``outline`` the
-    loops."""
+    normal of the union's nearest outer edge. Its ``thickness`` (the thinnest part, checked against
+    :func:`terrasph.bodies.minimum_thickness` when the scene is validated) is `thickness` if given,
+    else the least width of any loop; its ``radius`` the farthest outline point from the body
+    origin, its ``outline`` the loops."""
     loops = [np.asarray(loop, dtype=float) for loop in loops]
     if not loops:
         raise ConfigError(f"body '{name}' has no geometry to fill")
@@ -195,7 +222,7 @@ def shape_from_loops(name: str, loops: Sequence[np.ndarray], spacing: float, wid
         raise ConfigError(f"body '{name}' is thinner than the spacing {spacing:g} m everywhere; no particle fits")
     points = points[_merge_indices(points, 0.5 * spacing)]
     normals = nearest_edge_normals(points, *_outer_edges(loops, spacing), spacing)
-    thickness = min(_min_width(loop) for loop in loops)
+    thickness = min(_min_width(loop) for loop in loops) if thickness is None else thickness
     radius = max(float(np.hypot(loop[:, 0], loop[:, 1]).max()) for loop in loops)
     return BodyShape(name, points, normals, spacing, thickness, width, radius, tuple(loops))
 
@@ -211,4 +238,4 @@ def body_shape(model: mujoco.MjModel, body: int, spacing: float, width: float | 
     if width is None:
         extents = np.array([geom_extent_y(model, g) for g in geoms])
         width = float(extents[:, 1].max() - extents[:, 0].min())
-    return shape_from_loops(name, loops, spacing, width)
+    return shape_from_loops(name, loops, spacing, width, min(geom_thickness(model, g) for g in geoms))

@@ -30,7 +30,11 @@ from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
-__all__ = ["MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf"]
+__all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf"]
+
+#: height (m) of the domain box above the container's walls: a grain kicked up at 3 m/s rises
+#: v²/2g = 0.46 m
+KICK_HEIGHT = 1.0
 
 
 @dataclass(frozen=True)
@@ -47,7 +51,7 @@ class MjcfScene:
     ctrl: tuple[str, ...] = ()  #: ``ACTUATOR=FORM`` specs (terrasph.robots.control)
     bodies: tuple[str, ...] = ()  #: coupled bodies by name; empty: those with a geom below couple_below
     couple_below: float = COUPLE_BELOW  #: height above the floor that selects the coupled bodies
-    freeboard: float = 0.1  #: container wall height above the bed's surface
+    freeboard: float = 0.2  #: container wall height above the bed's surface
     series_interval: float = 0.01
     frame_interval: float = 0.05
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
@@ -77,6 +81,8 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation:
     scene = Scene(spacing=config.spacing)
     surface, inner = scene.add_bed_in_container(config.bed_width, config.bed_depth, config.freeboard,
                                                 layers=wall_layers_needed(numerics.h_factor))
+    # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
+    scene.domain_upper = (scene.domain_upper[0], surface + config.freeboard + KICK_HEIGHT)
     robot = terrain_robot(config.model, config.spacing, surface, 0.5 * inner if config.start_x is None else config.start_x,
                           bodies=config.bodies, couple_below=config.couple_below, gravity=scene.gravity)
     robot.add_to_scene(scene)
