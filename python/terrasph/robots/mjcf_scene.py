@@ -113,12 +113,17 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     if plot and output is not None:
         figure = str(pathlib.Path(output).with_suffix(".png"))
         plot_mjcf(series, [b.name for b in coupled.robot.coupled], figure, settle_time=config.settle_time,
-                  title=pathlib.Path(config.model).stem)
+                  title=pathlib.Path(config.model).stem, weight=_weight(coupled))
     return RobotRun(summary, series, figure)
 
 
+def _weight(coupled: CoupledSimulation) -> float:
+    """The whole robot's weight (N)."""
+    return float(coupled.robot.model.body_subtreemass[0]) * coupled.sim.scene.gravity
+
+
 def _summary(config: MjcfScene, coupled: CoupledSimulation, series: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
-    weight = float(coupled.robot.model.body_subtreemass[0]) * coupled.sim.scene.gravity
+    weight = _weight(coupled)
     names = [b.name for b in coupled.robot.coupled]
     time = series[f"robot/{names[0]}"]["time"]
     last = time >= time[-1] - 0.2 * (time[-1] - time[0])
@@ -142,33 +147,37 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation, series: dict[str, di
 
 def rigid_floor_run(model_path: str | os.PathLike[str], controller: Controller | None, duration: float,
                     settle_time: float = 0.0, timestep: float | None = None,
-                    ctrl: tuple[str, ...] = ()) -> dict[str, float]:
+                    ctrl: tuple[str, ...] = ()) -> tuple[dict[str, float], np.ndarray]:
     """The model on MuJoCo's own floor (the file as it is) with the same controller (or ``ctrl``
     specs) for `duration` s at `timestep` (default the model's): the distance and mean speed of
-    its centre of mass after `settle_time`, for comparison with the bed."""
+    its centre of mass after `settle_time`, for comparison with the bed, and its path (rows of
+    time, x, z in the model's frame, each step)."""
+    if not 0 <= settle_time < duration:
+        raise ConfigError(f"parameter 'settle_time' = {settle_time} is invalid: allowed in [0, duration = {duration})")
     model = _load_model(model_path)
     if timestep is not None:
         model.opt.timestep = timestep
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     drive = controller or spec_controller(ctrl, model, data, settle_time)
-    start = None
+    path = [(0.0, *data.subtree_com[0][[0, 2]])]
     while data.time < duration * (1 - 1e-12):
-        if start is None and data.time >= settle_time:
-            start = (float(data.time), float(data.subtree_com[0][0]))
         data.ctrl[:] = drive(data.time, model, data)
         mujoco.mj_step(model, data)
-    mujoco.mj_forward(model, data)
-    if start is None:
-        raise ConfigError(f"parameter 'settle_time' = {settle_time} is invalid: allowed < duration = {duration}")
-    distance = float(data.subtree_com[0][0]) - start[1]
-    return {"distance": distance, "mean_speed": distance / (float(data.time) - start[0])}
+        mujoco.mj_kinematics(model, data)  # mj_step leaves the derived quantities at the step's start
+        mujoco.mj_comPos(model, data)
+        path.append((float(data.time), *data.subtree_com[0][[0, 2]]))
+    trajectory = np.array(path)
+    driven = trajectory[trajectory[:, 0] >= settle_time]
+    distance = float(driven[-1, 1] - driven[0, 1])
+    return {"distance": distance, "mean_speed": distance / float(driven[-1, 0] - driven[0, 0])}, trajectory
 
 
 def plot_mjcf(series: dict[str, dict[str, np.ndarray]], bodies: list[str], path: str | os.PathLike[str] | None = None,
-              *, settle_time: float | None = None, title: str = "") -> Figure:
+              *, settle_time: float | None = None, title: str = "", weight: float | None = None) -> Figure:
     """Three panels against time: the robot's centre of mass (x and z), each coupled body's sinkage,
-    and the total vertical granular force on the coupled bodies (N)."""
+    and the total vertical granular force on the coupled bodies (N), with the robot's `weight` (N)
+    dashed if given."""
     figure = Figure(figsize=(6.4, 7.5), layout="constrained")
     com_ax, sink_ax, force_ax = figure.subplots(3, 1, sharex=True)
     actuators = series.get("robot/actuators")
@@ -181,7 +190,10 @@ def plot_mjcf(series: dict[str, dict[str, np.ndarray]], bodies: list[str], path:
         body = series[f"robot/{name}"]
         sink_ax.plot(body["time"], body["sinkage"] * 100, label=name)
         total = total + body["force"][:, 1]
-    force_ax.plot(series[f"robot/{bodies[0]}"]["time"], total)
+    force_ax.plot(series[f"robot/{bodies[0]}"]["time"], total, label="grains on the coupled bodies")
+    if weight is not None:
+        force_ax.axhline(weight, color="k", linestyle="--", linewidth=1, label="robot's weight")
+        force_ax.legend(fontsize="small")
     com_ax.set(ylabel="centre of mass (cm)", title=title or "MJCF model on the bed")
     sink_ax.set(ylabel="sinkage (cm)")
     force_ax.set(xlabel="t (s)", ylabel="vertical granular force (N)")
