@@ -121,6 +121,9 @@ def register_mjcf(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
                              "lower than --couple-below above the floor)")
     parser.add_argument("--couple-below", type=positive_float, default=defaults["couple_below"].default,
                         help="height above the floor in m that selects the coupled bodies (default %(default)s)")
+    parser.add_argument("--width", action="append", default=[], type=_body_width, dest="widths", metavar="NAME=METRES",
+                        help="a coupled body's out-of-plane width, repeatable (default: its geoms' extent across "
+                             "the plane)")
     parser.add_argument("--out", default="mjcf.h5", help="HDF5 output file; a PNG is written beside it (default %(default)s)")
     add_force_option(parser)
     add_threads_option(parser)
@@ -130,8 +133,19 @@ def register_mjcf(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
     return parser
 
 
+def _body_width(text: str) -> tuple[str, float]:
+    """argparse type: ``NAME=METRES`` with a finite width > 0."""
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=METRES, got {text!r}")
+    try:
+        return name, positive_float(value)
+    except argparse.ArgumentTypeError as error:
+        raise argparse.ArgumentTypeError(f"width of {name}: {error}") from None
+
+
 def _mjcf_values(args: argparse.Namespace) -> dict[str, Any]:
-    return {"model": args.model, "bed_width": args.bed_width, "bed_depth": args.bed_depth, "spacing": args.spacing,
+    return {"widths": dict(args.widths), "model": args.model, "bed_width": args.bed_width, "bed_depth": args.bed_depth, "spacing": args.spacing,
             "start_x": args.start_x, "settle_time": args.settle_time, "duration": args.t_end,
             "ctrl": tuple(args.ctrl), "bodies": tuple(args.bodies), "couple_below": args.couple_below,
             "numerics": numerics_overrides(args.numerics)}

@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 
 from terrasph.config import ConfigError, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots.control import Controller, spec_controller
+from terrasph.robots.control import Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.mjcf import _load_model
 from terrasph.robots.run import RobotRun, run_coupled
@@ -51,6 +51,8 @@ class MjcfScene:
     ctrl: tuple[str, ...] = ()  #: ``ACTUATOR=FORM`` specs (terrasph.robots.control)
     bodies: tuple[str, ...] = ()  #: coupled bodies by name; empty: those with a geom below couple_below
     couple_below: float = COUPLE_BELOW  #: height above the floor that selects the coupled bodies
+    #: out-of-plane width (m) of coupled bodies by name; the others' from their geoms' extent across the plane
+    widths: dict[str, float] = field(default_factory=dict)
     freeboard: float = 0.2  #: container wall height above the bed's surface
     series_interval: float = 0.01
     frame_interval: float = 0.05
@@ -70,6 +72,11 @@ class MjcfScene:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed in (0, bed_width)")
         object.__setattr__(self, "ctrl", tuple(str(c) for c in self.ctrl))
         object.__setattr__(self, "bodies", tuple(str(b) for b in self.bodies))
+        for spec in self.ctrl:
+            parse_spec(spec)  # the forms now; the actuators' names once the model is loaded
+        for body, width in dict(self.widths).items():
+            if not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
+                raise ConfigError(f"parameter 'widths' of body '{body}' = {width!r} is invalid: allowed a finite number > 0 (m)")
 
 
 def build_mjcf(config: MjcfScene) -> CoupledSimulation:
@@ -84,7 +91,8 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation:
     # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
     scene.domain_upper = (scene.domain_upper[0], surface + config.freeboard + KICK_HEIGHT)
     robot = terrain_robot(config.model, config.spacing, surface, 0.5 * inner if config.start_x is None else config.start_x,
-                          bodies=config.bodies, couple_below=config.couple_below, gravity=scene.gravity)
+                          bodies=config.bodies, couple_below=config.couple_below, widths=config.widths,
+                          gravity=scene.gravity)
     robot.add_to_scene(scene)
     return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
 
