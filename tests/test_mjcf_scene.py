@@ -131,3 +131,26 @@ def test_the_half_cheetah_is_slower_on_sand_than_on_the_rigid_floor() -> None:
     assert rigid["mean_speed"] > 0.2  # the gait runs forward on the rigid floor
     assert sand["mean_speed"] < 0.5 * rigid["mean_speed"]
     assert sand["bfoot_final_sinkage"] > 0.03 and sand["ffoot_final_sinkage"] > 0.03
+
+
+def test_a_world_box_whose_top_is_at_the_floor_is_floor_too(tmp_path) -> None:
+    """Without a plane the floor is at z = 0: a world box with its top there is switched off, a box
+    standing on it (an obstacle, top at 0.1 m) keeps its contacts."""
+    path = tmp_path / "boxes.xml"
+    path.write_text('<mujoco><worldbody><geom name="slab" type="box" size="2 2 0.05" pos="0 0 -0.05"/>'
+                    '<geom name="step" type="box" size="0.05 0.5 0.05" pos="1 0 0.05"/>'
+                    + FOOT.format(z=0.1, r=0.03, joint="", mass="") + '</worldbody></mujoco>')
+    robot = terrain_robot(str(path), DX, 0.06, 0.2)
+    slab, step = (mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("slab", "step"))
+    assert robot.model.geom_contype[slab] == 0 and robot.model.geom_contype[step] == 1
+    assert [b.name for b in robot.coupled] == ["foot"]
+
+
+def test_the_scene_configuration_round_trips_through_a_run_file() -> None:
+    """`terrasph resume` rebuilds the configuration by name from the run file's JSON."""
+    import dataclasses
+
+    from terrasph.scenes import SCENES
+
+    config = MjcfScene(model=HOPPER, ctrl=HOLD, bodies=("foot",), widths={"foot": 0.2}, start_x=0.3)
+    assert SCENES["mjcf"].config_from(json.loads(json.dumps(dataclasses.asdict(config)))) == config
