@@ -154,3 +154,17 @@ def test_the_scene_configuration_round_trips_through_a_run_file() -> None:
 
     config = MjcfScene(model=HOPPER, ctrl=HOLD, bodies=("foot",), widths={"foot": 0.2}, start_x=0.3)
     assert SCENES["mjcf"].config_from(json.loads(json.dumps(dataclasses.asdict(config)))) == config
+
+
+def test_an_uncoupled_body_reaching_the_bed_is_warned_of_by_name(tmp_path) -> None:
+    """A ball that is not coupled, its lowest point 7 cm above the floor beside a coupled foot:
+    nothing holds it (the floor being off), it goes below the bed's surface after
+    sqrt(2·0.07 m/g) = 0.12 s of free fall and is named once."""
+    ball = ('<body name="ball" pos="0.2 0 0.1"><joint type="slide" axis="0 0 1"/>'
+            '<geom type="sphere" size="0.03"/></body>')
+    config = MjcfScene(model=_model(tmp_path, FOOT.format(z=0.1, r=0.03, joint="", mass="") + ball),
+                       bed_width=0.8, bed_depth=0.06, spacing=DX, settle_time=0.0, duration=0.2, bodies=("foot",))
+    with pytest.warns(RuntimeWarning, match="body 'ball' is not coupled and reached below the bed's surface") as caught:
+        run = run_mjcf(config)
+    assert len([w for w in caught if "ball" in str(w.message)]) == 1
+    assert run.summary()["through_the_bed"]["ball"] == pytest.approx(np.sqrt(2 * 0.07 / 9.81), abs=0.005)

@@ -26,7 +26,7 @@ from terrasph.robots.control import Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.mjcf import _load_model
 from terrasph.robots.run import RobotRun, run_coupled
-from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot
+from terrasph.robots.terrain_robot import COUPLE_BELOW, BedCrossings, terrain_robot
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
@@ -103,20 +103,24 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     """Runs the scene; `controller` (time, model, data) -> ctrl replaces the ``ctrl`` specs. Returns
     a summary (distance and mean speed of the centre of mass after the pause, each coupled body's
     mean and final sinkage, the grains' lift over the robot's weight in the last fifth of the run,
-    leaks) and the series; with `plot` and an `output`, the PNG beside it. ``resume`` and ``until``
+    leaks, and ``through_the_bed``: the uncoupled bodies that reached below the bed's surface, with
+    the first time, each also warned of) and the series; with `plot` and an `output`, the PNG beside it. ``resume`` and ``until``
     as in :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
     coupled = build_mjcf(config)
     model, data = coupled.robot.model, coupled.robot.data
     drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
+    memory: dict[str, Any] = {}  # the run's checkpointed values: BedCrossings' record
+    crossings = BedCrossings(coupled.robot, float(coupled.sim.scene.surface_level), memory)
 
     def control(run: CoupledSimulation) -> None:
+        crossings.check(run.time)
         data.ctrl[:] = drive(run.time, model, data)
 
     series = run_coupled(coupled, config.duration if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
-                         control=control, progress=progress, resume=resume,
+                         control=control, progress=progress, resume=resume, memory=memory,
                          config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **coupled.sim.describe()})
-    summary = _summary(config, coupled, series)
+    summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"])}
     figure = None
     if plot and output is not None:
         figure = str(pathlib.Path(output).with_suffix(".png"))

@@ -19,6 +19,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 
 import mujoco
@@ -28,7 +29,8 @@ from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
 from terrasph.robots.mjcf import Coupling, PlanarRobot, _load_model, coupled_body_id
 
-__all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "floor_geoms", "lowest_points", "switch_off_floor", "terrain_robot"]
+__all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "BedCrossings", "floor_geoms", "lowest_points", "switch_off_floor",
+           "terrain_robot"]
 
 LOG = logging.getLogger(__name__)
 
@@ -125,3 +127,33 @@ def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float,
         if model.body_parentid[body] == 0:
             model.body_pos[body] += shift
     return PlanarRobot(model, couplings, gravity=gravity)
+
+
+class BedCrossings:
+    """Watches the bodies that are not coupled: with the floor off nothing holds them up, so one that
+    reaches below the bed's surface passes through the grains unseen. The first time a body's
+    collision geom does, :meth:`check` warns once naming it and records the time under
+    ``memory["through_the_bed"]`` (plain data: a run's checkpointed memory, read at each check, so a
+    resumed run's restored memory counts)."""
+
+    def __init__(self, robot: PlanarRobot, surface: float, memory: dict[str, dict[str, float]]) -> None:
+        model = robot.model
+        coupled = {b.body_id for b in robot.coupled}
+        self.robot, self.surface, self.memory = robot, surface, memory
+        memory.setdefault("through_the_bed", {})
+        self.geoms = np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] > 0
+                               and model.geom_bodyid[g] not in coupled and is_collision_geom(model, g)], dtype=int)
+
+    def check(self, time: float) -> None:
+        """Looks at the pose in the robot's data (cheaply: a geom whose bounding sphere clears the
+        surface is not looked at further)."""
+        model, data = self.robot.model, self.robot.data
+        near = self.geoms[data.geom_xpos[self.geoms, 2] - model.geom_rbound[self.geoms] < self.surface]
+        for g in near:
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g])) or f"#{g}"
+            seen = self.memory["through_the_bed"]
+            if name not in seen and _world_support(model, data, int(g), (0.0, 0.0, -1.0))[2] < self.surface:
+                seen[name] = time
+                warnings.warn(f"body '{name}' is not coupled and reached below the bed's surface at t = {time:.4g} s: "
+                              "it passes through the grains (couple it: bodies or couple_below)", RuntimeWarning,
+                              stacklevel=2)
