@@ -5,7 +5,8 @@
 
 Standing: the grains' lift over the hopper's weight in the last fifth of 2 s, the foot's sinkage.
 Hop: the rise of the centre of mass above its standing height after the push, on sand and on the
-rigid floor, and the hopper's pitch at the end. The model file is gymnasium's, as shipped (envs/mujoco/assets/hopper.xml).
+rigid floor, and the hopper's pitch at the end. The model file is gymnasium's, as shipped
+(envs/mujoco/assets/hopper.xml).
 """
 
 from __future__ import annotations

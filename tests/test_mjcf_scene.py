@@ -87,7 +87,8 @@ def _model(tmp_path, body: str, option: str = "") -> str:
 
 
 PLANAR = '<joint name="x" type="slide" axis="1 0 0"/><joint name="z" type="slide" axis="0 0 1"/>'
-FOOT = '<body name="foot" pos="0 0 {z}">' + PLANAR + '{joint}<geom type="capsule" size="{r} 0.1" euler="0 90 0" {mass}/></body>'
+FOOT = ('<body name="foot" pos="0 0 {z}">' + PLANAR
+        + '{joint}<geom type="capsule" size="{r} 0.1" euler="0 90 0" {mass}/></body>')
 
 
 @pytest.mark.parametrize(("body", "option", "message"), [

@@ -124,7 +124,8 @@ def register_mjcf(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument("--width", action="append", default=[], type=_body_width, dest="widths", metavar="NAME=METRES",
                         help="a coupled body's out-of-plane width, repeatable (default: its geoms' extent across "
                              "the plane)")
-    parser.add_argument("--out", default="mjcf.h5", help="HDF5 output file; a PNG is written beside it (default %(default)s)")
+    parser.add_argument("--out", default="mjcf.h5",
+                        help="HDF5 output file; a PNG is written beside it (default %(default)s)")
     add_force_option(parser)
     add_threads_option(parser)
     add_numerics_option(parser)
@@ -145,7 +146,7 @@ def _body_width(text: str) -> tuple[str, float]:
 
 
 def _mjcf_values(args: argparse.Namespace) -> dict[str, Any]:
-    return {"widths": dict(args.widths), "model": args.model, "bed_width": args.bed_width, "bed_depth": args.bed_depth, "spacing": args.spacing,
-            "start_x": args.start_x, "settle_time": args.settle_time, "duration": args.t_end,
-            "ctrl": tuple(args.ctrl), "bodies": tuple(args.bodies), "couple_below": args.couple_below,
+    return {"model": args.model, "bed_width": args.bed_width, "bed_depth": args.bed_depth, "spacing": args.spacing,
+            "widths": dict(args.widths), "start_x": args.start_x, "settle_time": args.settle_time,
+            "duration": args.t_end, "ctrl": tuple(args.ctrl), "bodies": tuple(args.bodies), "couple_below": args.couple_below,
             "numerics": numerics_overrides(args.numerics)}

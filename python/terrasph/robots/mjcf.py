@@ -162,7 +162,8 @@ class PlanarRobot:
     coupled body as a driven terrasph body at MuJoCo's initial pose.
     """
 
-    def __init__(self, mjcf: str | os.PathLike[str] | mujoco.MjModel, couplings: Mapping[str, BodyShape | Coupling | None], *,
+    def __init__(self, mjcf: str | os.PathLike[str] | mujoco.MjModel,
+                 couplings: Mapping[str, BodyShape | Coupling | None], *,
                  gravity: float = 9.81, initial: Mapping[str, float] | None = None) -> None:
         self.model = _load_model(mjcf)
         self.data = mujoco.MjData(self.model)

@@ -76,7 +76,8 @@ class MjcfScene:
             parse_spec(spec)  # the forms now; the actuators' names once the model is loaded
         for body, width in dict(self.widths).items():
             if not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
-                raise ConfigError(f"parameter 'widths' of body '{body}' = {width!r} is invalid: allowed a finite number > 0 (m)")
+                raise ConfigError(f"parameter 'widths' of body '{body}' = {width!r} is invalid: allowed a finite "
+                                  "number > 0 (m)")
 
 
 def build_mjcf(config: MjcfScene) -> CoupledSimulation:
@@ -90,7 +91,8 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation:
                                                 layers=wall_layers_needed(numerics.h_factor))
     # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
     scene.domain_upper = (scene.domain_upper[0], surface + config.freeboard + KICK_HEIGHT)
-    robot = terrain_robot(config.model, config.spacing, surface, 0.5 * inner if config.start_x is None else config.start_x,
+    start_x = 0.5 * inner if config.start_x is None else config.start_x
+    robot = terrain_robot(config.model, config.spacing, surface, start_x,
                           bodies=config.bodies, couple_below=config.couple_below, widths=config.widths,
                           gravity=scene.gravity)
     robot.add_to_scene(scene)
@@ -104,8 +106,8 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     a summary (distance and mean speed of the centre of mass after the pause, each coupled body's
     mean and final sinkage, the grains' lift over the robot's weight in the last fifth of the run,
     leaks, and ``through_the_bed``: the uncoupled bodies that reached below the bed's surface, with
-    the first time, each also warned of) and the series; with `plot` and an `output`, the PNG beside it. ``resume`` and ``until``
-    as in :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
+    the first time, each also warned of) and the series; with `plot` and an `output`, the PNG
+    beside it. ``resume`` and ``until`` as in :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
     coupled = build_mjcf(config)
     model, data = coupled.robot.model, coupled.robot.data
     drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
