@@ -137,6 +137,7 @@ def _weight(coupled: CoupledSimulation) -> float:
 
 
 def _summary(config: MjcfScene, coupled: CoupledSimulation, series: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
+    """The run's summary values (:func:`run_mjcf`) from its series."""
     weight = _weight(coupled)
     names = [b.name for b in coupled.robot.coupled]
     time = series[f"robot/{names[0]}"]["time"]
