@@ -119,7 +119,8 @@ def test_the_half_cheetah_is_slower_on_sand_than_on_the_rigid_floor() -> None:
     """gymnasium's half-cheetah, every body coupled, with an open-loop gait (each motor a sine of
     half its range, period 0.4 s, front and back legs half a period apart): on the bed its centre
     of mass advances at less than half the speed the same gait gives on MuJoCo's floor (measured
-    0.09 of it at Δx = 1.5 cm, docs/mjcf.md; here a coarse 3 cm bed), and its feet sink in."""
+    0.089 of it here at Δx = 3 cm, 0.085 at 1.5 cm and 0.077 at 1 cm, docs/mjcf.md), and its feet
+    sink in (18.9 and 18.5 cm here)."""
     from terrasph.robots.mjcf_scene import rigid_floor_run
 
     gait = tuple(f"{name}=sin:0.5,0.4,{phase}" for name, phase in
