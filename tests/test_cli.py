@@ -163,9 +163,13 @@ def test_run_offers_every_registered_scene_through_run_case(tmp_path, monkeypatc
         return summary
 
     monkeypatch.setattr(scenes_cli, "run_case", recorder)
+    model = tmp_path / "robot.xml"  # the mjcf scene's one required argument, a model file
+    model.write_text('<mujoco><worldbody><body><joint type="slide" axis="0 0 1"/><geom size="0.1"/></body>'
+                     '</worldbody></mujoco>')
+    required = {"mjcf": [str(model)]}
     for name, entry in SCENES.items():
         out = str(tmp_path / f"{name}.h5")
-        assert main(["run", name, "--out", out, "--no-progress"]) == 0
+        assert main(["run", name, *required.get(name, []), "--out", out, "--no-progress"]) == 0
         scene, config, called_out, progress = calls[-1]
         assert (scene, called_out, progress) == (name, out, False)
         assert type(config) is entry.config_type

@@ -281,12 +281,16 @@ def _outline_normals(points: np.ndarray, loops: list[np.ndarray], spacing: float
     (outer boundary counter-clockwise, holes clockwise), so the outward normal of an edge with
     direction e is e rotated clockwise by 90°. Exact ties go to the first edge in loop order.
     """
-    a_list, b_list = [], []
-    for loop in loops:
-        a_list.append(loop)
-        b_list.append(np.roll(loop, -1, axis=0))
-    a = np.concatenate(a_list)
-    b = np.concatenate(b_list)
+    a = np.concatenate(loops)
+    b = np.concatenate([np.roll(loop, -1, axis=0) for loop in loops])
+    return nearest_edge_normals(points, a, b, spacing)
+
+
+def nearest_edge_normals(points: np.ndarray, a: np.ndarray, b: np.ndarray, spacing: float) -> np.ndarray:
+    """Outward normal of the nearest of the edges a_k → b_k (each with the body on its left, so its
+    outward normal is its direction turned clockwise by 90°) for each point; exact ties (within
+    1e-9·`spacing`) go to the first edge. The edges need not close: :func:`_outline_normals` passes
+    whole loops, a union of overlapping parts only the edges on its outer surface."""
     e = b - a
     length = np.hypot(e[:, 0], e[:, 1])
     good = length > 0

@@ -282,7 +282,10 @@ class Scene:
                     check_thickness(body.shape, self.spacing, numerics.h_factor)
             except ValueError as error:
                 raise ConfigError(f"body '{body.name}': {error}") from None
-            others = [w.position for w in self.walls if w is not body]
+            # driven bodies are a multibody engine's, which owns their contacts with each other (the
+            # links of a robot overlap at their joints); each must still clear the fixed walls
+            others = [w.position for w in self.walls
+                      if w is not body and not (body.driven and isinstance(w, BodyGroup) and w.driven)]
             if others:
                 # the solids overlap when particles of the two are closer than one spacing
                 hits, _ = _close_pairs(body.position, np.concatenate(others), 0.99 * self.spacing)

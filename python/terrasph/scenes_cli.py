@@ -14,7 +14,7 @@ from typing import Any
 from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
                                  numerics_overrides)
 from terrasph.config import parameter
-from terrasph.robots.cli import register_leg_wheel, register_rover
+from terrasph.robots.cli import register_leg_wheel, register_mjcf, register_rover
 from terrasph.scenes import SCENES, leg_rotation, plate_intrusion, run_case, scene_entry
 from terrasph.scenes.column_collapse import BEDS, RESOLUTIONS, ColumnCollapse
 from terrasph.scenes.plate_intrusion import PlateIntrusion
@@ -187,6 +187,7 @@ SCENE_OPTIONS: dict[str, SceneOptions] = {
     "leg-rotation": _register_leg,
     "leg-wheel": register_leg_wheel,
     "rover": register_rover,
+    "mjcf": register_mjcf,
 }
 
 

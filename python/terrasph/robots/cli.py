@@ -1,4 +1,5 @@
-"""``terrasph run leg-wheel`` and ``terrasph run rover``: the robot scenes' options on the command line.
+"""``terrasph run leg-wheel``, ``terrasph run rover`` and ``terrasph run mjcf``: the robot scenes'
+options on the command line.
 
 Each scene's parser stores, as ``scene_values``, the function that turns its parsed options into the
 scene's configuration values; ``terrasph run`` then runs the scene through
@@ -11,10 +12,12 @@ from typing import Any
 
 from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
                                  numerics_overrides, positive_float)
+from terrasph.robots.control import FORMS
 from terrasph.robots.leg_wheel import WHEELS, LegWheel
+from terrasph.robots.mjcf_scene import MjcfScene
 from terrasph.robots.rover import Rover
 
-__all__ = ["register_leg_wheel", "register_rover"]
+__all__ = ["register_leg_wheel", "register_mjcf", "register_rover"]
 
 
 def _add_common(parser: argparse.ArgumentParser, defaults: LegWheel | Rover, output: str) -> None:
@@ -87,3 +90,63 @@ def register_rover(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) 
     _add_common(parser, Rover(), "rover.h5")
     parser.set_defaults(scene_values=_common_values)
     return parser
+
+
+def register_mjcf(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
+    """Adds ``run mjcf ROBOT.xml``."""
+    parser = scenes.add_parser("mjcf", help="any planar MJCF model on a bed of glass beads",
+                               description="A planar MuJoCo model (slides in x and z, hinges about y) on a bed of "
+                                           "3 mm glass beads: its floor is replaced by the bed, the bodies near "
+                                           "the floor meet the grains with the shapes of their collision geoms, "
+                                           "and its actuators follow --ctrl (docs/mjcf.md).")
+    defaults = MjcfScene.__dataclass_fields__
+    parser.add_argument("model", metavar="ROBOT.xml", help="the MJCF file (not changed)")
+    parser.add_argument("--bed-width", type=positive_float, default=defaults["bed_width"].default,
+                        help="bed width in m (default %(default)s)")
+    parser.add_argument("--bed-depth", type=positive_float, default=defaults["bed_depth"].default,
+                        help="bed depth in m (default %(default)s)")
+    parser.add_argument("--spacing", type=positive_float, default=defaults["spacing"].default,
+                        help="particle spacing dx in m; every coupled body must be >= 3 dx thick (default %(default)s)")
+    parser.add_argument("--start-x", type=float, default=None,
+                        help="x of the robot's centre of mass at start in m (default: mid-bed)")
+    parser.add_argument("--settle-time", type=float, default=defaults["settle_time"].default,
+                        help="pause before the ctrl schedules start in s (default %(default)s)")
+    parser.add_argument("--t-end", type=positive_float, default=defaults["duration"].default,
+                        help="simulated time in s (default %(default)s)")
+    parser.add_argument("--ctrl", action="append", default=[], metavar="ACTUATOR=FORM",
+                        help="an actuator's input (by name, joint or #index), repeatable; FORM: " + " | ".join(FORMS)
+                             + " (default: 0)")
+    parser.add_argument("--body", action="append", default=[], dest="bodies", metavar="NAME",
+                        help="a body that meets the grains, repeatable (default: every body with a collision geom "
+                             "lower than --couple-below above the floor)")
+    parser.add_argument("--couple-below", type=positive_float, default=defaults["couple_below"].default,
+                        help="height above the floor in m that selects the coupled bodies (default %(default)s)")
+    parser.add_argument("--width", action="append", default=[], type=_body_width, dest="widths", metavar="NAME=METRES",
+                        help="a coupled body's out-of-plane width, repeatable (default: its geoms' extent across "
+                             "the plane)")
+    parser.add_argument("--out", default="mjcf.h5",
+                        help="HDF5 output file; a PNG is written beside it (default %(default)s)")
+    add_force_option(parser)
+    add_threads_option(parser)
+    add_numerics_option(parser)
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    parser.set_defaults(scene_values=_mjcf_values)
+    return parser
+
+
+def _body_width(text: str) -> tuple[str, float]:
+    """argparse type: ``NAME=METRES`` with a finite width > 0."""
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=METRES, got {text!r}")
+    try:
+        return name, positive_float(value)
+    except argparse.ArgumentTypeError as error:
+        raise argparse.ArgumentTypeError(f"width of {name}: {error}") from None
+
+
+def _mjcf_values(args: argparse.Namespace) -> dict[str, Any]:
+    return {"model": args.model, "bed_width": args.bed_width, "bed_depth": args.bed_depth, "spacing": args.spacing,
+            "widths": dict(args.widths), "start_x": args.start_x, "settle_time": args.settle_time,
+            "duration": args.t_end, "ctrl": tuple(args.ctrl), "bodies": tuple(args.bodies), "couple_below": args.couple_below,
+            "numerics": numerics_overrides(args.numerics)}

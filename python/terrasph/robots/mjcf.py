@@ -94,8 +94,11 @@ def shape_inertial(shape: BodyShape, density: float, width: float | None = None)
     return Inertial(float(mass), (float(centre[0]), float(centre[1])), inertia)
 
 
-def _load_model(mjcf: str | os.PathLike[str]) -> mujoco.MjModel:
-    """Compiles an MJCF file or XML string; MuJoCo's compile errors become ConfigErrors."""
+def _load_model(mjcf: str | os.PathLike[str] | mujoco.MjModel) -> mujoco.MjModel:
+    """Compiles an MJCF file or XML string (a compiled model is taken as it is); MuJoCo's compile
+    errors become ConfigErrors."""
+    if isinstance(mjcf, mujoco.MjModel):
+        return mjcf
     text = os.fspath(mjcf)
     is_xml = text.lstrip().startswith("<")
     if not is_xml and not pathlib.Path(text).is_file():
@@ -108,6 +111,16 @@ def _load_model(mjcf: str | os.PathLike[str]) -> mujoco.MjModel:
 
 def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:
     return mujoco.mj_id2name(model, kind, index) or f"#{index}"
+
+
+def coupled_body_id(model: mujoco.MjModel, name: str) -> int:
+    """The id of the body `name` that is to meet the terrain; ConfigError listing the model's bodies
+    if it has none of that name."""
+    body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+    if body_id < 0:
+        bodies = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, model.nbody)]
+        raise ConfigError(f"coupled body '{name}' is not a body of the MJCF model; its bodies: {bodies}")
+    return body_id
 
 
 def _check_planar(model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -137,7 +150,7 @@ def _check_planar(model: mujoco.MjModel, data: mujoco.MjData) -> None:
 
 
 class PlanarRobot:
-    """A MuJoCo model (MJCF file or XML string) moving in the x–z plane, with the bodies that meet
+    """A MuJoCo model (MJCF file, XML string or compiled model) moving in the x–z plane, with the bodies that meet
     the terrain paired to terrasph body shapes.
 
     Checked before any step, each failure a :class:`ConfigError` naming the item: the model
@@ -149,7 +162,8 @@ class PlanarRobot:
     coupled body as a driven terrasph body at MuJoCo's initial pose.
     """
 
-    def __init__(self, mjcf: str | os.PathLike[str], couplings: Mapping[str, BodyShape | Coupling | None], *,
+    def __init__(self, mjcf: str | os.PathLike[str] | mujoco.MjModel,
+                 couplings: Mapping[str, BodyShape | Coupling | None], *,
                  gravity: float = 9.81, initial: Mapping[str, float] | None = None) -> None:
         self.model = _load_model(mjcf)
         self.data = mujoco.MjData(self.model)
@@ -175,10 +189,7 @@ class PlanarRobot:
         self.data.qpos[self.model.jnt_qposadr[joint]] = value
 
     def _pair(self, name: str, value: BodyShape | Coupling | None) -> CoupledBody:
-        body_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
-        if body_id < 0:
-            bodies = [_name(self.model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, self.model.nbody)]
-            raise ConfigError(f"coupled body '{name}' is not a body of the MJCF model; its bodies: {bodies}")
+        body_id = coupled_body_id(self.model, name)
         if body_id == 0:
             raise ConfigError("coupled body 'world' cannot move; couple a body of the robot")
         if isinstance(value, BodyShape):

@@ -6,8 +6,8 @@ reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s
 N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
 the sampling interval, lowest_z m, surface m (the bed's undisturbed free surface at that time,
 :func:`undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8 with the shape's
-radius)); ``/series/robot/actuators`` (time, qpos, qvel, actuator force — a
-motor's torque in N·m for a hinge — and the total actuator power in W).
+radius)); ``/series/robot/actuators`` (time, qpos, qvel, ctrl, the whole robot's centre of mass
+com (x, z) m, actuator force — a motor's torque in N·m for a hinge — and the total actuator power in W).
 """
 
 from __future__ import annotations
@@ -61,8 +61,8 @@ def body_row(coupled: CoupledSimulation, name: str, surface: float) -> dict[str,
 
 def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
     data = coupled.robot.data
-    return {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(),
-            "actuator_force": data.actuator_force.copy(),
+    return {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(), "ctrl": data.ctrl.copy(),
+            "com": data.subtree_com[0][[0, 2]].copy(), "actuator_force": data.actuator_force.copy(),
             "power": float(np.dot(data.actuator_force, data.actuator_velocity))}
 
 

@@ -78,6 +78,7 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
     SceneEntry("plate-intrusion", "plate_intrusion", __name__, "PlateIntrusion", "run_plate_intrusion"),
     SceneEntry("leg-wheel", "leg_wheel", "terrasph.robots.leg_wheel", "LegWheel", "run_leg_wheel"),
     SceneEntry("rover", "rover", "terrasph.robots.rover", "Rover", "run_rover"),
+    SceneEntry("mjcf", "mjcf", "terrasph.robots.mjcf_scene", "MjcfScene", "run_mjcf"),
 )}
 
 

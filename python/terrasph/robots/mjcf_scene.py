@@ -1,0 +1,221 @@
+"""Scene ``mjcf``: any planar MJCF model on a bed of chapter 4's glass beads (docs/mjcf.md).
+
+The model's floor is replaced by the bed, the bodies near the floor become terrain bodies shaped
+by their collision geoms (:mod:`terrasph.robots.terrain_robot`), and its actuators follow the
+``ctrl`` specs (:mod:`terrasph.robots.control`) or, from Python, any controller
+``(time, model, data) -> ctrl``. :func:`rigid_floor_run` runs the same model and controller on
+MuJoCo's own floor, for comparison.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import pathlib
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+from matplotlib.figure import Figure
+
+from terrasph.config import ConfigError, Numerics, from_mapping
+from terrasph.geometry import wall_layers_needed
+from terrasph.robots.control import Controller, parse_spec, spec_controller
+from terrasph.robots.coupling import CoupledSimulation
+from terrasph.robots.mjcf import _load_model
+from terrasph.robots.run import RobotRun, run_coupled
+from terrasph.robots.terrain_robot import COUPLE_BELOW, BedCrossings, terrain_robot
+from terrasph.scene import Scene
+from terrasph.simulation import Simulation
+
+__all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf"]
+
+#: height (m) of the domain box above the container's walls: a grain kicked up at 3 m/s rises
+#: v²/2g = 0.46 m
+KICK_HEIGHT = 1.0
+
+
+@dataclass(frozen=True)
+class MjcfScene:
+    """Configuration of an MJCF model on the bed. Lengths in m, times in s."""
+
+    model: str = ""  #: path of the MJCF file (unchanged; its floor is switched off in the loaded copy)
+    bed_width: float = 1.0
+    bed_depth: float = 0.1
+    spacing: float = 0.01  #: Δx; every coupled body must be >= 3Δx thick
+    start_x: float | None = None  #: the robot's centre of mass at start, bed frame (default: mid-bed)
+    settle_time: float = 0.5  #: the ctrl schedules start after it (``hold`` acts throughout)
+    duration: float = 2.0  #: total simulated time
+    ctrl: tuple[str, ...] = ()  #: ``ACTUATOR=FORM`` specs (terrasph.robots.control)
+    bodies: tuple[str, ...] = ()  #: coupled bodies by name; empty: those with a geom below couple_below
+    couple_below: float = COUPLE_BELOW  #: height above the floor that selects the coupled bodies
+    #: out-of-plane width (m) of coupled bodies by name; the others' from their geoms' extent across the plane
+    widths: dict[str, float] = field(default_factory=dict)
+    freeboard: float = 0.2  #: container wall height above the bed's surface
+    series_interval: float = 0.01
+    frame_interval: float = 0.05
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+
+    def __post_init__(self) -> None:
+        if not pathlib.Path(str(self.model)).is_file():
+            raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: allowed the path of an MJCF file")
+        for name in ("bed_width", "bed_depth", "spacing", "duration", "couple_below", "freeboard",
+                     "series_interval", "frame_interval"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
+        if not (isinstance(self.settle_time, (int, float)) and 0 <= self.settle_time < self.duration):
+            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed in [0, duration)")
+        if self.start_x is not None and not 0 < self.start_x < self.bed_width:
+            raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed in (0, bed_width)")
+        object.__setattr__(self, "ctrl", tuple(str(c) for c in self.ctrl))
+        object.__setattr__(self, "bodies", tuple(str(b) for b in self.bodies))
+        for spec in self.ctrl:
+            parse_spec(spec)  # the forms now; the actuators' names once the model is loaded
+        for body, width in dict(self.widths).items():
+            if not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
+                raise ConfigError(f"parameter 'widths' of body '{body}' = {width!r} is invalid: allowed a finite "
+                                  "number > 0 (m)")
+
+
+def build_mjcf(config: MjcfScene) -> CoupledSimulation:
+    """Bed, container and the model standing on it, coupled; every check done before any step."""
+    from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
+
+    numerics = from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
+                                       **config.numerics})
+    scene = Scene(spacing=config.spacing)
+    surface, inner = scene.add_bed_in_container(config.bed_width, config.bed_depth, config.freeboard,
+                                                layers=wall_layers_needed(numerics.h_factor))
+    # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
+    scene.domain_upper = (scene.domain_upper[0], surface + config.freeboard + KICK_HEIGHT)
+    start_x = 0.5 * inner if config.start_x is None else config.start_x
+    robot = terrain_robot(config.model, config.spacing, surface, start_x,
+                          bodies=config.bodies, couple_below=config.couple_below, widths=config.widths,
+                          gravity=scene.gravity)
+    robot.add_to_scene(scene)
+    return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
+
+
+def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
+             plot: bool = True, resume: bool = False, until: float | None = None,
+             controller: Controller | None = None) -> RobotRun:
+    """Runs the scene; `controller` (time, model, data) -> ctrl replaces the ``ctrl`` specs. Returns
+    a summary (distance and mean speed of the centre of mass after the pause, each coupled body's
+    mean and final sinkage, the grains' lift over the robot's weight in the last fifth of the run,
+    leaks, and ``through_the_bed``: the uncoupled bodies that reached below the bed's surface, with
+    the first time, each also warned of) and the series; with `plot` and an `output`, the PNG
+    beside it. ``resume`` and ``until`` as in :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
+    coupled = build_mjcf(config)
+    model, data = coupled.robot.model, coupled.robot.data
+    drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
+    memory: dict[str, Any] = {}  # the run's checkpointed values: BedCrossings' record
+    crossings = BedCrossings(coupled.robot, float(coupled.sim.scene.surface_level), memory)
+
+    def control(run: CoupledSimulation) -> None:
+        crossings.check(run.time)
+        data.ctrl[:] = drive(run.time, model, data)
+
+    series = run_coupled(coupled, config.duration if until is None else until, output=output,
+                         frame_interval=config.frame_interval, series_interval=config.series_interval,
+                         control=control, progress=progress, resume=resume, memory=memory,
+                         config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **coupled.sim.describe()})
+    summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"])}
+    figure = None
+    if plot and output is not None:
+        figure = str(pathlib.Path(output).with_suffix(".png"))
+        plot_mjcf(series, [b.name for b in coupled.robot.coupled], figure, settle_time=config.settle_time,
+                  title=pathlib.Path(config.model).stem, weight=_weight(coupled))
+    return RobotRun(summary, series, figure)
+
+
+def _weight(coupled: CoupledSimulation) -> float:
+    """The whole robot's weight (N)."""
+    return float(coupled.robot.model.body_subtreemass[0]) * coupled.sim.scene.gravity
+
+
+def _summary(config: MjcfScene, coupled: CoupledSimulation, series: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
+    """The run's summary values (:func:`run_mjcf`) from its series."""
+    weight = _weight(coupled)
+    names = [b.name for b in coupled.robot.coupled]
+    time = series[f"robot/{names[0]}"]["time"]
+    last = time >= time[-1] - 0.2 * (time[-1] - time[0])
+    lift = sum(series[f"robot/{n}"]["force"][:, 1] for n in names)
+    summary: dict[str, Any] = {"model": pathlib.Path(config.model).name, "coupled_bodies": names,
+                               "steps": coupled.sim.step_count, "leaked_particles": coupled.sim.leaked_particles,
+                               "lift_over_weight": float(np.mean(lift[last]) / weight)}
+    actuators = series.get("robot/actuators")
+    if actuators is not None:
+        driven = actuators["time"] >= config.settle_time
+        com = actuators["com"][driven, 0]
+        span = float(actuators["time"][driven][-1] - actuators["time"][driven][0]) if driven.sum() > 1 else 0.0
+        summary["distance"] = float(com[-1] - com[0]) if len(com) else math.nan
+        summary["mean_speed"] = summary["distance"] / span if span > 0 else math.nan
+    for n in names:
+        body = series[f"robot/{n}"]
+        summary[f"{n}_final_sinkage"] = float(body["sinkage"][-1])
+        summary[f"{n}_mean_sinkage"] = float(np.mean(body["sinkage"][body["time"] >= config.settle_time]))
+    return summary
+
+
+def rigid_floor_run(model_path: str | os.PathLike[str], controller: Controller | None, duration: float,
+                    settle_time: float = 0.0, timestep: float | None = None,
+                    ctrl: tuple[str, ...] = ()) -> tuple[dict[str, float], np.ndarray]:
+    """The model on MuJoCo's own floor (the file as it is) with the same controller (or ``ctrl``
+    specs) for `duration` s at `timestep` (default the model's): the distance and mean speed of
+    its centre of mass after `settle_time`, for comparison with the bed, and its path (rows of
+    time, x, z in the model's frame, each step)."""
+    if not 0 <= settle_time < duration:
+        raise ConfigError(f"parameter 'settle_time' = {settle_time} is invalid: allowed in [0, duration = {duration})")
+    model = _load_model(model_path)
+    if timestep is not None:
+        model.opt.timestep = timestep
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    drive = controller or spec_controller(ctrl, model, data, settle_time)
+    path = [(0.0, *data.subtree_com[0][[0, 2]])]
+    while data.time < duration * (1 - 1e-12):
+        data.ctrl[:] = drive(data.time, model, data)
+        mujoco.mj_step(model, data)
+        mujoco.mj_kinematics(model, data)  # mj_step leaves the derived quantities at the step's start
+        mujoco.mj_comPos(model, data)
+        path.append((float(data.time), *data.subtree_com[0][[0, 2]]))
+    trajectory = np.array(path)
+    driven = trajectory[trajectory[:, 0] >= settle_time]
+    distance = float(driven[-1, 1] - driven[0, 1])
+    return {"distance": distance, "mean_speed": distance / float(driven[-1, 0] - driven[0, 0])}, trajectory
+
+
+def plot_mjcf(series: dict[str, dict[str, np.ndarray]], bodies: list[str], path: str | os.PathLike[str] | None = None,
+              *, settle_time: float | None = None, title: str = "", weight: float | None = None) -> Figure:
+    """Three panels against time: the robot's centre of mass (x and z), each coupled body's sinkage,
+    and the total vertical granular force on the coupled bodies (N), with the robot's `weight` (N)
+    dashed if given."""
+    figure = Figure(figsize=(6.4, 7.5), layout="constrained")
+    com_ax, sink_ax, force_ax = figure.subplots(3, 1, sharex=True)
+    actuators = series.get("robot/actuators")
+    if actuators is not None:
+        com_ax.plot(actuators["time"], actuators["com"][:, 0] * 100, label="x")
+        com_ax.plot(actuators["time"], actuators["com"][:, 1] * 100, label="z")
+        com_ax.legend()
+    total = 0.0
+    for name in bodies:
+        body = series[f"robot/{name}"]
+        sink_ax.plot(body["time"], body["sinkage"] * 100, label=name)
+        total = total + body["force"][:, 1]
+    force_ax.plot(series[f"robot/{bodies[0]}"]["time"], total, label="grains on the coupled bodies")
+    if weight is not None:
+        force_ax.axhline(weight, color="k", linestyle="--", linewidth=1, label="robot's weight")
+        force_ax.legend(fontsize="small")
+    com_ax.set(ylabel="centre of mass (cm)", title=title or "MJCF model on the bed")
+    sink_ax.set(ylabel="sinkage (cm)")
+    force_ax.set(xlabel="t (s)", ylabel="vertical granular force (N)")
+    sink_ax.legend(fontsize="small")
+    if settle_time is not None:
+        for ax in (com_ax, sink_ax, force_ax):
+            ax.axvline(settle_time, color="0.5", linestyle=":", linewidth=1)
+    if path is not None:
+        figure.savefig(path, dpi=120)
+    return figure
