@@ -173,7 +173,7 @@ def test_an_uncoupled_body_reaching_the_bed_is_warned_of_by_name(tmp_path) -> No
 
 
 def test_an_interrupted_mjcf_run_resumes_bitwise(tmp_path, monkeypatch, capsys) -> None:
-    """The hopper run stopped by SIGINT after 150 coupled steps and finished by ``terrasph resume``
+    """The hopper run stopped by SIGINT after 60 % of its coupled steps and finished by ``terrasph resume``
     (the scene found by name in the run file, its ctrl specs rebuilt) equals the run never stopped
     in every series but wall time, bit for bit."""
     import signal
@@ -183,12 +183,12 @@ def test_an_interrupted_mjcf_run_resumes_bitwise(tmp_path, monkeypatch, capsys) 
 
     config = MjcfScene(model=HOPPER, bed_width=0.8, bed_depth=0.06, spacing=DX, settle_time=0.02, duration=0.08,
                        ctrl=(*HOLD[:2], "foot_joint=sin:0.2,0.05"), series_interval=0.005)
-    run_mjcf(config, tmp_path / "whole.h5")
-    step, taken = CoupledSimulation.step, [0]
+    whole = run_mjcf(config, tmp_path / "whole.h5")
+    step, taken, stop_at = CoupledSimulation.step, [0], int(0.6 * whole.summary()["steps"])
 
     def interrupted_step(self: CoupledSimulation) -> float:
         taken[0] += 1
-        if taken[0] == 150:
+        if taken[0] == stop_at:
             os.kill(os.getpid(), signal.SIGINT)  # caught by the run loop, honoured after this step
         return step(self)
 

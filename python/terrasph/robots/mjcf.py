@@ -23,7 +23,7 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.scene import Scene
 
-__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "PlanarRobot", "shape_inertial"]
+__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "PlanarRobot", "load_model", "shape_inertial"]
 
 #: the example planar rover shipped with the package (a chassis and two driven wheels; see the file)
 ROVER = pathlib.Path(__file__).with_name("models") / "rover.xml"
@@ -94,7 +94,7 @@ def shape_inertial(shape: BodyShape, density: float, width: float | None = None)
     return Inertial(float(mass), (float(centre[0]), float(centre[1])), inertia)
 
 
-def _load_model(mjcf: str | os.PathLike[str] | mujoco.MjModel) -> mujoco.MjModel:
+def load_model(mjcf: str | os.PathLike[str] | mujoco.MjModel) -> mujoco.MjModel:
     """Compiles an MJCF file or XML string (a compiled model is taken as it is); MuJoCo's compile
     errors become ConfigErrors."""
     if isinstance(mjcf, mujoco.MjModel):
@@ -165,7 +165,7 @@ class PlanarRobot:
     def __init__(self, mjcf: str | os.PathLike[str] | mujoco.MjModel,
                  couplings: Mapping[str, BodyShape | Coupling | None], *,
                  gravity: float = 9.81, initial: Mapping[str, float] | None = None) -> None:
-        self.model = _load_model(mjcf)
+        self.model = load_model(mjcf)
         self.data = mujoco.MjData(self.model)
         for joint, value in (initial or {}).items():
             self._set_joint(joint, value)

@@ -20,11 +20,13 @@ import mujoco
 import numpy as np
 from matplotlib.figure import Figure
 
-from terrasph.config import ConfigError, Numerics, from_mapping
+from terrasph.config import ConfigError
+from terrasph.fidelity import check_tier, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots.control import Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.mjcf import _load_model
+from terrasph.robots.leg_wheel import BED_NUMERICS
+from terrasph.robots.mjcf import load_model
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.robots.terrain_robot import COUPLE_BELOW, BedCrossings, terrain_robot
 from terrasph.scene import Scene
@@ -56,9 +58,11 @@ class MjcfScene:
     freeboard: float = 0.2  #: container wall height above the bed's surface
     series_interval: float = 0.01
     frame_interval: float = 0.05
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
     def __post_init__(self) -> None:
+        check_tier(self.fidelity)
         if not pathlib.Path(str(self.model)).is_file():
             raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: allowed the path of an MJCF file")
         for name in ("bed_width", "bed_depth", "spacing", "duration", "couple_below", "freeboard",
@@ -84,8 +88,7 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation:
     """Bed, container and the model standing on it, coupled; every check done before any step."""
     from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
 
-    numerics = from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
-                                       **config.numerics})
+    numerics = scene_numerics("mjcf", config.fidelity, config.spacing, BED_NUMERICS, config.numerics)
     scene = Scene(spacing=config.spacing)
     surface, inner = scene.add_bed_in_container(config.bed_width, config.bed_depth, config.freeboard,
                                                 layers=wall_layers_needed(numerics.h_factor))
@@ -169,7 +172,7 @@ def rigid_floor_run(model_path: str | os.PathLike[str], controller: Controller |
     time, x, z in the model's frame, each step)."""
     if not 0 <= settle_time < duration:
         raise ConfigError(f"parameter 'settle_time' = {settle_time} is invalid: allowed in [0, duration = {duration})")
-    model = _load_model(model_path)
+    model = load_model(model_path)
     if timestep is not None:
         model.opt.timestep = timestep
     data = mujoco.MjData(model)

@@ -27,7 +27,7 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
-from terrasph.robots.mjcf import Coupling, PlanarRobot, _load_model, coupled_body_id
+from terrasph.robots.mjcf import Coupling, PlanarRobot, load_model, coupled_body_id
 
 __all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "BedCrossings", "floor_geoms", "lowest_points", "switch_off_floor",
            "terrain_robot"]
@@ -102,7 +102,7 @@ def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float,
     mass) are :class:`PlanarRobot`'s and :class:`CoupledSimulation`'s."""
     if not (isinstance(couple_below, (int, float)) and math.isfinite(couple_below) and couple_below > 0):
         raise ConfigError(f"parameter 'couple_below' = {couple_below!r} is invalid: allowed a finite number > 0 (m)")
-    model = _load_model(mjcf)
+    model = load_model(mjcf)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     floor, level = floor_geoms(model, data)
