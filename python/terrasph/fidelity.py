@@ -78,6 +78,11 @@ _SCENE_TIERS: dict[str, dict[str, Tier]] = {
         "fast": Tier({"cfl": 1.0, "freeze_speed": 0.001, "active_radius": 0.1},
                      "as the leg-wheel's fast tier (not measured on the rover)"),
     },
+    "mjcf": {
+        "reference": _REFERENCE,
+        "standard": Tier({}, "not measured (C = 0.5, the core's default)"),
+        "fast": Tier({"cfl": 0.9}, "not measured (the leg-wheel's standard step)"),
+    },
 }
 
 
@@ -89,8 +94,10 @@ def check_tier(tier: str) -> str:
 
 
 def scene_tiers(scene: str) -> dict[str, Tier]:
-    """The tiers of the registered `scene`; scenes without their own table get the generic one."""
-    return _SCENE_TIERS.get(scene, {"reference": _REFERENCE, "standard": Tier(), "fast": Tier({"cfl": 0.9})})
+    """The tiers of the registered `scene`; ConfigError for a scene without a table."""
+    if scene not in _SCENE_TIERS:
+        raise ConfigError(f"scene {scene!r} has no fidelity tiers: allowed one of {', '.join(_SCENE_TIERS)}")
+    return _SCENE_TIERS[scene]
 
 
 def tier_help(scene: str) -> str:
