@@ -41,6 +41,7 @@ import math
 import os
 import warnings
 import pathlib
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
@@ -233,13 +234,41 @@ class CoupledSimulation:
         self._angle[body.name] = angle
         self._velocity[body.name] = (velocity, omega)
 
-    def advance(self, t_end: float) -> int:
-        """Coupled steps until `t_end` (s) is reached or passed; returns the number taken."""
+    @property
+    def step_count(self) -> int:
+        """Coupled steps taken so far (the SPH's step count: one SPH step per coupled step)."""
+        return self.sim.step_count
+
+    def advance(self, t_end: float, max_steps: int = 2**62,
+                control: Callable[[CoupledSimulation], None] | None = None) -> int:
+        """Coupled steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the
+        number taken. Each step is the SPH's full dt: the last one may end past `t_end`.
+        `control`, if given, is called before each step (to set MuJoCo's ``data.ctrl``, say)."""
         taken = 0
-        while self.sim.time < t_end * (1 - 1e-14):
+        while taken < max_steps and self.sim.time < t_end * (1 - 1e-14):
+            if control:
+                control(self)
             self.step()
             taken += 1
         return taken
+
+    # -- what the run loop records (terrasph.run_loop.Stepper) ------------------------------
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        """The SPH's frame fields and ``wall_position`` of every wall particle (id order), so the
+        moving bodies can be drawn with the fixed walls."""
+        return {**self.sim.frame_fields(), "wall_position": np.array(self.sim.core.wall_position)}
+
+    def static_arrays(self) -> dict[str, np.ndarray]:
+        """As :meth:`Simulation.static_arrays`."""
+        return self.sim.static_arrays()
+
+    def diagnostics(self) -> dict[str, float]:
+        """As :meth:`Simulation.diagnostics`."""
+        return self.sim.diagnostics()
+
+    def run_attributes(self) -> dict[str, int]:
+        """As :meth:`Simulation.run_attributes`."""
+        return self.sim.run_attributes()
 
     def angle(self, name: str) -> float:
         """Clockwise angle (rad) of a coupled body, continuous over turns."""
