@@ -333,8 +333,7 @@ class RunLoop:
             if writer and not writer.closed:
                 record_end("failed", message=f"{type(error).__name__}: {error}")
             raise
-        if status == "completed":
-            bar.total = bar.n  # a run that ends early (at rest) ends its bar at 100 %
+        bar.total = bar.n  # a run that ends early (at rest) ends its bar at 100 %
         bar.refresh()
         bar.close()
         record_end(status, **({"checkpoint": checkpoint_path(self.output).name} if writer else {}))
