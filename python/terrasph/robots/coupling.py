@@ -252,23 +252,10 @@ class CoupledSimulation:
             taken += 1
         return taken
 
-    # -- what the run loop records (terrasph.run_loop.Stepper) ------------------------------
     def frame_fields(self) -> dict[str, np.ndarray]:
         """The SPH's frame fields and ``wall_position`` of every wall particle (id order), so the
-        moving bodies can be drawn with the fixed walls."""
+        moving bodies can be drawn with the fixed walls (a run file's frames)."""
         return {**self.sim.frame_fields(), "wall_position": np.array(self.sim.core.wall_position)}
-
-    def static_arrays(self) -> dict[str, np.ndarray]:
-        """As :meth:`Simulation.static_arrays`."""
-        return self.sim.static_arrays()
-
-    def diagnostics(self) -> dict[str, float]:
-        """As :meth:`Simulation.diagnostics`."""
-        return self.sim.diagnostics()
-
-    def run_attributes(self) -> dict[str, int]:
-        """As :meth:`Simulation.run_attributes`."""
-        return self.sim.run_attributes()
 
     def angle(self, name: str) -> float:
         """Clockwise angle (rad) of a coupled body, continuous over turns."""

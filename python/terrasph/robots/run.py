@@ -119,13 +119,13 @@ class ControlledRun:
         return self.coupled.frame_fields()
 
     def static_arrays(self) -> dict[str, np.ndarray]:
-        return self.coupled.static_arrays()
+        return self.coupled.sim.static_arrays()
 
     def diagnostics(self) -> dict[str, float]:
-        return self.coupled.diagnostics()
+        return self.coupled.sim.diagnostics()
 
     def run_attributes(self) -> dict[str, int]:
-        return self.coupled.run_attributes()
+        return self.coupled.sim.run_attributes()
 
 
 @dataclass
