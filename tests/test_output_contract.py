@@ -135,6 +135,7 @@ def test_completed_run_keeps_its_contract_and_continues_bitwise(scene, tmp_path,
     assert_same_run(out, references(scene))
 
 
+@pytest.mark.slow  # ~15 s for the five scenes; the fast suite continues a completed run of each
 @pytest.mark.parametrize("scene", list(CASES))
 def test_interrupted_run_continues_bitwise(scene, tmp_path, references, monkeypatch, capsys) -> None:
     out = tmp_path / "run.h5"
@@ -213,3 +214,26 @@ def test_a_run_ended_in_the_settling_pause_has_a_valid_summary(tmp_path, capsys)
     assert leg.with_suffix(".png").is_file()
     with h5py.File(leg, "r") as file:
         assert "peak_lift" not in file["results"].attrs and file["results"].attrs["time"] >= 0.004 * (1 - 1e-12)
+
+
+def test_a_run_that_fails_says_so_in_its_file(tmp_path) -> None:
+    """An error that is not a blow-up (here raised by the caller's frame callback after the second
+    frame) is recorded as ``failed`` with its message before it propagates; the file stays readable."""
+    from terrasph.scenes import build_column_collapse
+    from terrasph.simulation import Simulation
+
+    scene, material, numerics = build_column_collapse(ColumnCollapse())
+    sim = Simulation(scene, material, numerics)
+    frames = []
+
+    def fail_on_second_frame(_: Simulation) -> None:
+        frames.append(sim.time)
+        if len(frames) == 2:
+            raise RuntimeError("the caller's callback broke")
+
+    out = tmp_path / "run.h5"
+    with pytest.raises(RuntimeError, match="callback broke"):
+        sim.run(0.01, output=out, frame_interval=0.002, progress=False, on_frame=fail_on_second_frame)
+    status = read_run(out).group_attrs["/run"]
+    assert status["status"] == "failed" and "callback broke" in status["message"]
+    assert status["time"] == pytest.approx(frames[-1]) and "checkpoint" not in status
