@@ -237,3 +237,27 @@ def test_a_run_that_fails_says_so_in_its_file(tmp_path) -> None:
     status = read_run(out).group_attrs["/run"]
     assert status["status"] == "failed" and "callback broke" in status["message"]
     assert status["time"] == pytest.approx(frames[-1]) and "checkpoint" not in status
+
+
+def test_a_run_stopped_inside_a_step_names_no_checkpoint_it_has_not_got(tmp_path, monkeypatch) -> None:
+    """A second Ctrl-C stops the run at once, maybe inside a step (here: raised in the third call
+    into the stepper): no state of that instant is saved; the file is readable, says
+    ``interrupted``, and names a checkpoint only if the run has one from before (here none)."""
+    from terrasph.simulation import Simulation
+
+    advance, calls = Simulation.advance, [0]
+
+    def advance_then_stop(self, t_end, max_steps=2**62):
+        calls[0] += 1
+        if calls[0] == 3:
+            raise KeyboardInterrupt
+        return advance(self, t_end, max_steps)
+
+    monkeypatch.setattr(Simulation, "advance", advance_then_stop)
+    out = tmp_path / "run.h5"
+    with pytest.raises(KeyboardInterrupt):
+        run("column-collapse", out)
+    data = read_run(out)
+    status = data.group_attrs["/run"]
+    assert status["status"] == "interrupted" and "checkpoint" not in status
+    assert not checkpoint_path(out).exists() and data.n_frames == 1

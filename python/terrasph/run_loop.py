@@ -208,7 +208,8 @@ class RunLoop:
         """Runs to `t_end` (s); ``resume=True`` continues the run in `output` from its checkpoint
         (frames and rows written after it are dropped, so each appears once). Ctrl-C or SIGTERM
         ends the run at the next step boundary with its last frame, a checkpoint and status
-        ``interrupted``, then raises KeyboardInterrupt; an InstabilityError or any other error is
+        ``interrupted``, then raises KeyboardInterrupt (a second Ctrl-C stops it at once, without
+        either: it then continues from its last checkpoint); an InstabilityError or any other error is
         recorded (``unstable``, ``failed``) before it propagates."""
         from terrasph import _core
         from terrasph.threads import LoadWatch
@@ -279,6 +280,7 @@ class RunLoop:
         load_watch = LoadWatch(_core.set_num_threads, _core.get_max_threads)
         final_stretch_saved = False
         status = "completed"
+        at_step_boundary = False  # a second Ctrl-C may stop the run anywhere, even inside a step
         stop = StopRequest()
         try:
             with stop.catching_signals():
@@ -310,7 +312,10 @@ class RunLoop:
                             status = "at_rest"
                             save_checkpoint()  # a stop on a frame: the longer run's path
                             break
+                    if at_end:  # no checkpoint here: the end state is off a longer run's path
+                        break
                     if stop.requested:
+                        at_step_boundary = True
                         raise KeyboardInterrupt
                     if self.checkpoint_every is not None and \
                             wallclock.perf_counter() - last_checkpoint >= self.checkpoint_every:
@@ -318,11 +323,13 @@ class RunLoop:
                         last_checkpoint = wallclock.perf_counter()
         except KeyboardInterrupt:
             bar.close()
-            if writer:
+            if writer and at_step_boundary:
                 save_checkpoint()  # before the extra frame below, which a resumed run drops
                 writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
                 frames += 1
-            record_end("interrupted", checkpoint=checkpoint_path(self.output).name if writer else "")
+            # stopped inside a step, the run continues from its last checkpoint, if it has one
+            resumable = writer is not None and checkpoint_path(self.output).is_file()
+            record_end("interrupted", **({"checkpoint": checkpoint_path(self.output).name} if resumable else {}))
             raise
         except _core.InstabilityError as error:
             bar.close()
