@@ -197,10 +197,10 @@ def _register_resume(subparsers: argparse._SubParsersAction[argparse.ArgumentPar
     """Adds ``terrasph resume RUN.h5``."""
     resume = subparsers.add_parser(
         "resume", help="continue an interrupted or finished scene run from its checkpoint",
-        description="Continue a scene run from the checkpoint beside its file (RUN.checkpoint.h5, written every "
-                    "10 minutes of wall time and on Ctrl-C or SIGTERM) into the same file: frames and series "
-                    "written after the checkpoint are replaced, so each appears once, and the result is bitwise "
-                    "the run that never stopped.")
+        description="Continue a scene run, interrupted or finished, from the checkpoint beside its file "
+                    "(RUN.checkpoint.h5, written every 10 minutes of wall time, on Ctrl-C or SIGTERM and when the "
+                    "run ends) into the same file: frames and series written after the checkpoint are replaced, "
+                    "so each appears once, and the result is bitwise the run that never stopped.")
     resume.add_argument("run_file", metavar="RUN.h5", help="the run's HDF5 file")
     resume.add_argument("--until", type=float, default=None,
                         help="simulated end time in s (default: the scene's own end time)")
