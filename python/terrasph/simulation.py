@@ -401,8 +401,11 @@ class Simulation:
         stopped. `t_end` may then exceed the original one. An :class:`terrasph.InstabilityError`
         is recorded in the file before it propagates.
         """
-        from terrasph.run_loop import RunLoop
+        from terrasph.run_loop import RunLoop, check_run_options
 
+        # the loop checks them too, under its own names: these are the caller's
+        check_run_options({"frame_interval": frame_interval, "body_interval": body_interval}, checkpoint_every,
+                          resume, output)
         rest_threshold = None if stop_when_at_rest is None else stop_when_at_rest * self.scene.gravity * self.scene.spacing
         total_mass = float(self.mass.sum()) * self.width
 

@@ -163,9 +163,12 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     interrupted or finished run from that checkpoint into the same file (rows and frames written
     after it are dropped), bitwise the run that never stopped.
     """
-    from terrasph.run_loop import RunLoop
+    from terrasph.run_loop import RunLoop, check_run_options
     from terrasph.simulation import WallLoads, versions
 
+    # the loop checks them too, under its own names: these are the caller's
+    check_run_options({"frame_interval": frame_interval, "series_interval": series_interval}, checkpoint_every,
+                      resume, output)
     sim = coupled.sim
     if not resume:  # the first sample's means start now
         sim.reset_body_means()
