@@ -261,3 +261,24 @@ def test_a_run_stopped_inside_a_step_names_no_checkpoint_it_has_not_got(tmp_path
     status = data.group_attrs["/run"]
     assert status["status"] == "interrupted" and "checkpoint" not in status
     assert not checkpoint_path(out).exists() and data.n_frames == 1
+
+
+def test_a_coupled_run_whose_robot_diverges_is_unstable(tmp_path) -> None:
+    """MuJoCo does not fail on a state it cannot integrate: it resets the robot to its initial pose
+    and counts a warning. The coupled step turns that into an InstabilityError, which the run loop
+    records as ``unstable`` (here the robot's speed is made non-finite after 0.01 s)."""
+    from terrasph.robots.leg_wheel import build_leg_wheel
+    from terrasph.robots.run import run_coupled
+
+    coupled = build_leg_wheel(CASES["leg-wheel"][0])
+
+    def spoil(run) -> None:
+        if run.time >= 0.01:
+            run.robot.data.qvel[0] = math.nan
+
+    out = tmp_path / "run.h5"
+    with pytest.raises(InstabilityError, match="MuJoCo could not integrate"):
+        run_coupled(coupled, 0.03, output=out, control=spoil)
+    status = read_run(out).group_attrs["/run"]
+    assert status["status"] == "unstable" and status["particle"] == -1
+    assert status["time"] == pytest.approx(0.01, abs=0.002) and "checkpoint" not in status
