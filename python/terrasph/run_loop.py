@@ -355,8 +355,9 @@ class RunLoop:
         return LoopResult(stepper.time, stepper.step_count, wallclock.perf_counter() - start, frames, status, arrays)
 
     def _open_writer(self, saved: dict[str, Any], resume: bool) -> Any:
-        """The run file's writer: reopened at the checkpoint's frame and row counts, or created with
-        the configuration, versions and static arrays (None without an output)."""
+        """The run file's writer: reopened at the checkpoint's frame and row counts, or created (an
+        earlier run's checkpoint beside it removed) with the configuration, versions and static
+        arrays; None without an output."""
         from terrasph.io import RunWriter
 
         if self.output is None:
@@ -364,6 +365,7 @@ class RunLoop:
         if resume:
             return RunWriter.reopen(self.output, frames=saved["frames"], series_rows=saved["series_rows"])
         writer = RunWriter(self.output, self.config, versions=self.versions)
+        checkpoint_path(self.output).unlink(missing_ok=True)  # an earlier run's, which this file no longer is
         for name, values in self.stepper.static_arrays().items():
             writer.write_static(name, values)
         return writer
