@@ -282,3 +282,23 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(tmp_path) -> None:
     status = read_run(out).group_attrs["/run"]
     assert status["status"] == "unstable" and status["particle"] == -1
     assert status["time"] == pytest.approx(0.01, abs=0.002) and "checkpoint" not in status
+
+
+def test_ctrl_c_on_a_sweep_says_how_to_go_on(tmp_path, monkeypatch, capsys) -> None:
+    """Ctrl-C on a sweep (the run itself replaced) ends in one line, exit 130, that names the sweep
+    and the command that runs its remaining cases — not the single run's message."""
+    from terrasph.sweeps import runner
+
+    def interrupted_sweep(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner, "run_sweep", interrupted_sweep)
+    from sweep_helpers import tiny_spec
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps(tiny_spec()))  # JSON is YAML
+    with pytest.raises(SystemExit) as stopped:
+        main(["sweep", str(spec), "--out", str(tmp_path / "sweep"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert stopped.value.code == 130 and len(err.strip().splitlines()) == 1
+    assert "sweep interrupted" in err and f"terrasph sweep {spec} --out {tmp_path / 'sweep'}" in err
