@@ -263,13 +263,14 @@ def test_a_run_stopped_inside_a_step_names_no_checkpoint_it_has_not_got(tmp_path
     assert not checkpoint_path(out).exists() and data.n_frames == 1
 
 
-def test_a_coupled_run_whose_robot_diverges_is_unstable(tmp_path) -> None:
+def test_a_coupled_run_whose_robot_diverges_is_unstable(tmp_path, monkeypatch) -> None:
     """MuJoCo does not fail on a state it cannot integrate: it resets the robot to its initial pose
     and counts a warning. The coupled step turns that into an InstabilityError, which the run loop
     records as ``unstable`` (here the robot's speed is made non-finite after 0.01 s)."""
     from terrasph.robots.leg_wheel import build_leg_wheel
     from terrasph.robots.run import run_coupled
 
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its warning to MUJOCO_LOG.TXT in the working directory
     coupled = build_leg_wheel(CASES["leg-wheel"][0])
 
     def spoil(run) -> None:
