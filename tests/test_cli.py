@@ -204,7 +204,8 @@ def test_cli_run_and_run_case_write_the_same_file(tmp_path) -> None:
     """0.02 s of the coarse collapse, once by `terrasph run` and once by run_case on the
     configuration the run file records: the same file content (datasets bit for bit, attributes,
     the configuration) apart from wall-clock records, and the same summary."""
-    via_cli, via_case = tmp_path / "cli.h5", tmp_path / "case.h5"
+    (tmp_path / "cli").mkdir(), (tmp_path / "case").mkdir()  # one name: /run names the checkpoint beside it
+    via_cli, via_case = tmp_path / "cli" / "run.h5", tmp_path / "case" / "run.h5"
     result = run_cli("run", "column-collapse", "--t-end", "0.02", "--out", str(via_cli), "--no-progress",
                      "--threads", "1")
     assert result.returncode == 0, result.stderr

@@ -121,19 +121,21 @@ def _interrupt_after_frames(frames: int):
 def test_an_interrupted_run_that_tracks_wall_loads_resumes_bitwise(tmp_path) -> None:
     """Checkpoints keep the tracked loads (the last force and torque and the running impulses): the
     resumed run's wall series, frames and body series equal the uninterrupted run's bit for bit."""
-    def tracked_run(out, *, resume: bool = False, on_frame=None) -> None:
+    def tracked_run(out, *, resume: bool = False, on_frame=None):
         sim = Simulation(bed_in_container(with_plate=True), MATERIAL, Numerics(spacing=DX), width=WIDTH)
         sim.track_wall_loads(about=(0.05, 0.0))
-        sim.run(0.06, output=out, frame_interval=0.01, body_interval=0.007, progress=False,
-                checkpoint_every=None, resume=resume, on_frame=on_frame)
+        return sim.run(0.06, output=out, frame_interval=0.01, body_interval=0.007, progress=False,
+                       checkpoint_every=None, resume=resume, on_frame=on_frame)
 
     straight, stopped = tmp_path / "straight.h5", tmp_path / "stopped.h5"
     tracked_run(straight)
     with pytest.raises(KeyboardInterrupt):
         tracked_run(stopped, on_frame=_interrupt_after_frames(3))
     assert read_run(stopped).series["walls/container"]["time"][-1] < 0.05
-    tracked_run(stopped, resume=True)
+    resumed = tracked_run(stopped, resume=True)
     a, b = read_run(stopped), read_run(straight)
+    # the resumed run's result holds the whole run's wall series, as its file does
+    assert np.array_equal(resumed.walls["container"]["force"], b.series["walls/container"]["force"])
     for group in ("walls/container", "bodies/plate"):
         assert set(a.series[group]) == set(b.series[group])
         for name, values in b.series[group].items():

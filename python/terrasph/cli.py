@@ -88,9 +88,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     except EXPECTED_ERRORS as error:
         _exit(parser, 2, f"terrasph: error: {error_message(error)}")
     except KeyboardInterrupt:
-        figures = _figures_of_unfinished_run(args)
-        _exit(parser, 130, f"terrasph: interrupted; the output file is closed and readable{figures} "
-                           "(`terrasph info FILE` shows how far it got)")
+        _exit(parser, 130, _interrupted_message(args))
+
+
+def _interrupted_message(args: argparse.Namespace) -> str:
+    """What Ctrl-C left and how to go on: a sweep is rerun by the same command (its finished cases
+    are kept), a scene run is continued from its checkpoint."""
+    from pathlib import Path
+
+    if getattr(args, "command", None) == "sweep":
+        return (f"terrasph: sweep interrupted; its finished cases are kept in {args.out}: rerun `terrasph sweep "
+                f"{args.spec} --out {args.out}` to run the others")
+    figures = _figures_of_unfinished_run(args)
+    out = getattr(args, "out", None) or getattr(args, "run_file", None)
+    if getattr(args, "command", None) in ("run", "resume") and out is not None and Path(out).is_file():
+        return (f"terrasph: interrupted; {out} is closed and readable{figures}; `terrasph resume {out}` "
+                "continues it")
+    return "terrasph: interrupted"
 
 
 def _figures_of_unfinished_run(args: argparse.Namespace) -> str:
@@ -99,8 +113,8 @@ def _figures_of_unfinished_run(args: argparse.Namespace) -> str:
 
     from terrasph.run_files import plot_run
 
-    out = getattr(args, "out", None)
-    if getattr(args, "command", None) != "run" or out is None or not Path(out).is_file():
+    out = getattr(args, "out", None) or getattr(args, "run_file", None)
+    if getattr(args, "command", None) not in ("run", "resume") or out is None or not Path(out).is_file():
         return ""
     try:
         png, _ = plot_run(out)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import math
 import os
 import pathlib
 import xml.etree.ElementTree as ET
@@ -31,7 +32,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "read_run", "write_results", "write_xdmf",
+__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "defined_values", "read_run", "write_results", "write_xdmf",
            "write_xdmf_sets"]
 
 SCHEMA_VERSION = 1
@@ -142,8 +143,10 @@ class RunWriter:
         writer.path = pathlib.Path(path)
         writer._filters = {} if compression == "none" else {"compression": compression, "shuffle": True}
         writer._file = h5py.File(writer.path, "r+")
-        if "run" in writer._file:  # the interrupted run's status and checkpoint name no longer hold
+        if "run" in writer._file:  # the earlier run's status and checkpoint name no longer hold
             writer._file["run"].attrs.clear()
+        if "results" in writer._file:  # nor a finished run's results: the scene writes them anew
+            del writer._file["results"]
         frame_group = writer._file["frames"]
         for dataset in frame_group.values():
             dataset.resize(frames, axis=0)
@@ -445,14 +448,24 @@ def _read_series(series: h5py.Group) -> dict[str, dict[str, np.ndarray]]:
     return grouped
 
 
+def defined_values(summary: Mapping[str, Any]) -> dict[str, Any]:
+    """`summary` with every value that is not a finite number where a number is expected (NaN,
+    ±inf: a quantity the run did not define, say a slip before the robot moved) as None, so it
+    prints as valid JSON (``null``)."""
+    return {key: None if isinstance(value, (float, np.floating)) and not math.isfinite(value) else value
+            for key, value in summary.items()}
+
+
 def write_results(path: str | os.PathLike[str], summary: Mapping[str, Any],
                   arrays: Mapping[str, np.ndarray] | None = None) -> None:
-    """Stores a finished run's results in its file: `summary` as attributes of ``/results`` and
-    `arrays` as datasets under it (replacing any of the same name)."""
+    """Stores a finished run's results in its file: `summary` as attributes of ``/results`` (a
+    value the run did not define, NaN or None, is left out: :func:`defined_values`) and `arrays`
+    as datasets under it (replacing any of the same name)."""
     with h5py.File(path, "a") as file:
         group = file.require_group("results")
-        for key, value in summary.items():
-            group.attrs[key] = value
+        for key, value in defined_values(summary).items():
+            if value is not None:
+                group.attrs[key] = value
         for key, value in (arrays or {}).items():
             if key in group:
                 del group[key]

@@ -105,6 +105,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
                      if "checkpoint" in info else "to go further, run the scene again")
         print(f"  the run did not finish: its frames up to the time reached are readable and "
               f"`terrasph plot {info['file']}` draws them; {next_step}")
+    elif "checkpoint" in info:
+        print(f"  `terrasph resume {info['file']} --until T` continues it to a later time T from {info['checkpoint']}")
     return 0
 
 

@@ -14,7 +14,9 @@ from typing import Any
 from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
                                  numerics_overrides)
 from terrasph.config import parameter
+from terrasph.io import defined_values
 from terrasph.robots.cli import register_leg_wheel, register_mjcf, register_rover
+from terrasph.run_loop import claimed_output
 from terrasph.scenes import SCENES, leg_rotation, plate_intrusion, run_case, scene_entry
 from terrasph.scenes.column_collapse import BEDS, RESOLUTIONS, ColumnCollapse
 from terrasph.scenes.plate_intrusion import PlateIntrusion
@@ -43,10 +45,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 def _run_scene(args: argparse.Namespace) -> int:
     """Runs the chosen scene through run_case: its configuration from the options (checked), then
-    ``--out`` and ``--threads``, then the run; prints its summary."""
+    ``--out`` (claimed for this run alone) and ``--threads``, then the run; prints its summary."""
     config = scene_entry(args.scene).config_from(args.scene_values(args))
     _prepare(args)
-    summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
+    with claimed_output(args.out, args.force):  # a second run into the same file refuses, before any work
+        summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
     return _print_summary(summary, args.out, summary.plot)
 
 
@@ -114,7 +117,7 @@ def _apply_threads(args: argparse.Namespace) -> None:
 
 def _print_summary(summary: dict[str, Any], output: str, plot: str | None) -> int:
     """Prints a run's summary as JSON with the paths of its files; the command's exit code."""
-    print(json.dumps({**summary, "output": output, "plot": plot}, indent=2))
+    print(json.dumps(defined_values({**summary, "output": output, "plot": plot}), indent=2, allow_nan=False))
     return 0
 
 
@@ -195,10 +198,10 @@ def _register_resume(subparsers: argparse._SubParsersAction[argparse.ArgumentPar
     """Adds ``terrasph resume RUN.h5``."""
     resume = subparsers.add_parser(
         "resume", help="continue an interrupted or finished scene run from its checkpoint",
-        description="Continue a scene run from the checkpoint beside its file (RUN.checkpoint.h5, written every "
-                    "10 minutes of wall time and on Ctrl-C or SIGTERM) into the same file: frames and series "
-                    "written after the checkpoint are replaced, so each appears once, and the result is bitwise "
-                    "the run that never stopped.")
+        description="Continue a scene run, interrupted or finished, from the checkpoint beside its file "
+                    "(RUN.checkpoint.h5, written every 10 minutes of wall time, on Ctrl-C or SIGTERM and when the "
+                    "run ends) into the same file: frames and series written after the checkpoint are replaced, "
+                    "so each appears once, and the result is bitwise the run that never stopped.")
     resume.add_argument("run_file", metavar="RUN.h5", help="the run's HDF5 file")
     resume.add_argument("--until", type=float, default=None,
                         help="simulated end time in s (default: the scene's own end time)")

@@ -1,18 +1,15 @@
-"""The Python face of a run: a scene + material + numerics turned into a core simulation, and the
-run loop with progress, HDF5 output, scheduled wall removal and safe interruption."""
+"""The Python face of a run: a scene + material + numerics turned into a core simulation, the
+stepper that terrasph.run_loop runs (progress, HDF5 output, checkpoints, safe interruption), and
+the recorders of its bodies' and fixed walls' loads."""
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
 import os
 import pathlib
 import platform
-import signal
-import threading
-import time as wallclock
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -20,7 +17,7 @@ import numpy as np
 
 from terrasph import _core
 from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_units
-from terrasph.threads import LoadWatch
+from terrasph.run_loop import checkpoint_path
 from terrasph.scene import (
     Scene,
     earth_pressure_at_rest,
@@ -29,68 +26,7 @@ from terrasph.scene import (
     hydrostatic_density,
 )
 
-__all__ = ["RunResult", "Simulation", "checkpoint_path", "versions"]
-
-#: Wall time (s) one call into the core may take, so Ctrl-C and the progress bar stay responsive
-#: however slow a step is; the steps per call follow from the last call's seconds per step.
-CHUNK_SECONDS = 0.2
-MAX_STEPS_PER_CHUNK = 500
-
-
-def checkpoint_path(output: str | os.PathLike[str]) -> pathlib.Path:
-    """Where a run writing `output` keeps its checkpoint: ``run.h5`` → ``run.checkpoint.h5``."""
-    path = pathlib.Path(output)
-    return path.with_name(path.stem + ".checkpoint.h5")
-
-
-def check_run_options(intervals: dict[str, float], checkpoint_every: float | None, resume: bool,
-                      output: str | os.PathLike[str] | None) -> None:
-    """ConfigError naming the first bad option of a run loop (Simulation.run, the coupled robots'
-    run): every interval > 0 s, `checkpoint_every` > 0 s or None, `resume` only with an `output`."""
-    for name, value in intervals.items():
-        if not value > 0:
-            raise ConfigError(f"parameter '{name}' = {value} is invalid: allowed > 0 s")
-    if checkpoint_every is not None and not checkpoint_every > 0:
-        raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
-    if resume and output is None:
-        raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
-
-
-def simulated_time_bar(total: float, progress: bool) -> Any:
-    """A progress bar over `total` seconds of simulated time (disabled unless `progress`)."""
-    if progress:
-        from tqdm.auto import tqdm
-    else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
-        from tqdm import tqdm
-    return tqdm(total=round(total, 9), unit="s", disable=not progress, mininterval=0.5,
-                bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
-
-
-class _StopRequest:
-    """Turns SIGINT and SIGTERM into a request that the run loop honours at the next step
-    boundary, so a stop never lands in the middle of writing a frame or a checkpoint. Outside the
-    main thread (where Python cannot install handlers) signals keep their default behaviour."""
-
-    def __init__(self) -> None:
-        self.requested = False
-
-    @contextlib.contextmanager
-    def catching_signals(self) -> Iterator[None]:
-        if threading.current_thread() is not threading.main_thread():
-            yield
-            return
-
-        def request(signum: int, frame: object) -> None:
-            if self.requested:  # a second Ctrl-C: stop now
-                raise KeyboardInterrupt
-            self.requested = True
-
-        previous = {sig: signal.signal(sig, request) for sig in (signal.SIGINT, signal.SIGTERM)}
-        try:
-            yield
-        finally:
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
+__all__ = ["BodyLoads", "RunResult", "Simulation", "WallLoads", "checkpoint_path", "versions"]
 
 
 def versions() -> dict[str, str]:
@@ -118,6 +54,36 @@ class RunResult:
     bodies: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
     #: per fixed wall, when tracked: time series of its load as in :meth:`Simulation.wall_loads` (arrays)
     walls: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+
+
+class BodyLoads:
+    """Recorder of the run loop: each body's pose and load (:meth:`Simulation.body_state`) as
+    ``bodies/<name>``, its means restarted after each sample."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+        self.groups = [f"bodies/{body.name}" for body in sim.bodies]
+
+    def rows(self) -> dict[str, dict[str, Any]]:
+        rows = {f"bodies/{body.name}": {"time": self.sim.time, **self.sim.body_state(body.name)}
+                for body in self.sim.bodies}
+        self.sim.reset_body_means()
+        return rows
+
+
+class WallLoads:
+    """Recorder of the run loop: after :meth:`Simulation.track_wall_loads`, each fixed wall's load
+    (:meth:`Simulation.wall_loads`) as ``walls/<name>``, its means restarted after each sample."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+        self.names = list(sim.wall_loads())
+        self.groups = [f"walls/{name}" for name in self.names]
+
+    def rows(self) -> dict[str, dict[str, Any]]:
+        rows = {f"walls/{name}": {"time": self.sim.time, **load} for name, load in self.sim.wall_loads().items()}
+        self.sim.reset_wall_load_means()
+        return rows
 
 
 #: The constitutive models that keep a stress state, so a bed at rest can hold K0 = 1 − sin φ.
@@ -421,7 +387,8 @@ class Simulation:
             on_frame: Callable[[Simulation], None] | None = None,
             body_interval: float = 0.01, checkpoint_every: float | None = 600.0,
             resume: bool = False) -> RunResult:
-        """Runs to `t_end` (s), writing a frame every `frame_interval` (s) to `output` (HDF5).
+        """Runs to `t_end` (s), writing a frame every `frame_interval` (s) to `output` (HDF5),
+        through :class:`terrasph.run_loop.RunLoop` (its output contract: docs/hdf5_schema.md).
 
         Every `body_interval` (s) each body's pose and load, averaged over the interval, is
         appended to ``/series/bodies/<name>`` and to ``RunResult.bodies``; after
@@ -434,185 +401,61 @@ class Simulation:
         √(2r g Δx).
 
         With an `output`, the State is checkpointed to :func:`checkpoint_path` (`output` with
-        ``.checkpoint.h5``) every `checkpoint_every` seconds of wall time (None: never) and when
-        the run is stopped by Ctrl-C (SIGINT) or SIGTERM: the run then ends at the next step
-        boundary, the last frame is written, the file closed, and ``KeyboardInterrupt`` raised.
-        ``resume=True`` continues such a run from its checkpoint into the same file (frames and
-        series written after the checkpoint are dropped first, so each appears once); the
-        continued run is bitwise identical to one that never stopped. `t_end` may then exceed
-        the original one. An :class:`terrasph.InstabilityError` is recorded in the file before
-        it propagates.
+        ``.checkpoint.h5``) every `checkpoint_every` seconds of wall time (None: never), when the
+        run ends, and when it is stopped by Ctrl-C (SIGINT) or SIGTERM: the run then ends at the
+        next step boundary, the last frame is written, the file closed, and ``KeyboardInterrupt``
+        raised. ``resume=True`` continues such a run — interrupted or finished — from its
+        checkpoint into the same file (frames and series written after the checkpoint are dropped
+        first, so each appears once); the continued run is bitwise identical to one that never
+        stopped. `t_end` may then exceed the original one. An :class:`terrasph.InstabilityError`
+        is recorded in the file before it propagates.
         """
+        from terrasph.run_loop import RunLoop, check_run_options
+
+        # the loop checks them too, under its own names: these are the caller's
         check_run_options({"frame_interval": frame_interval, "body_interval": body_interval}, checkpoint_every,
                           resume, output)
-
-        from terrasph.io import RunWriter, read_run, write_xdmf
-
-        saved = self.restore(checkpoint_path(output)) if resume else {}
-        if not (t_end > self.time):
-            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {self.time}")
-        if resume:
-            writer = RunWriter.reopen(output, frames=saved["frames"], series_rows=saved["series_rows"])
-        else:
-            writer = RunWriter(output, config or self.describe(), versions=versions()) if output else None
-            if writer:
-                writer.write_static("granular/mass", np.array(self.mass))
-                writer.write_static("granular/id", np.array(self.core.id))
-                body = np.asarray(self.core.wall_body)  # body index of each wall particle, -1: a fixed wall
-                for name in ("position", "group", "id"):
-                    writer.write_static(f"walls/{name}", np.array(np.asarray(getattr(self.core, f"wall_{name}"))[body < 0]))
-                if self.bodies:  # ids and body index of each particle of the frames' body_* fields
-                    writer.write_static("bodies/id", np.array(np.asarray(self.core.wall_id)[body >= 0]))
-                    writer.write_static("bodies/index", np.array(body[body >= 0], dtype=np.int32))
-        diagnostics: dict[str, list[float]] = {k: [] for k in ("time", "step", "dt", "kinetic_energy",
-                                                                 "max_speed", "neighbour_builds", "wall_time",
-                                                                 "leaked_particles")}
-        body_series: dict[str, dict[str, list[Any]]] = {b.name: {} for b in self.bodies}
-        wall_series: dict[str, dict[str, list[Any]]] = {name: {} for name in self.wall_loads()}
-        sampled = bool(self.bodies or wall_series)
-        start = wallclock.perf_counter() - saved.get("wall_time", 0.0)
-        frames = saved.get("frames", 0)
-        series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
-        status = "completed"
-        total_mass = float(self.mass.sum())
         rest_threshold = None if stop_when_at_rest is None else stop_when_at_rest * self.scene.gravity * self.scene.spacing
+        total_mass = float(self.mass.sum()) * self.width
 
-        def append_series(group: str, row: dict[str, Any]) -> None:
-            if writer:
-                writer.append_series(group, row)
-                series_rows[group] = series_rows.get(group, 0) + 1
+        def at_rest(row: dict[str, float]) -> bool:
+            return row["time"] >= min_time and row["kinetic_energy"] / total_mass < rest_threshold
 
-        def record() -> None:
-            nonlocal frames
-            row = {"time": self.time, "step": self.step_count, "dt": self.core.last_dt,
-                   "kinetic_energy": self.kinetic_energy(), "max_speed": self.core.max_speed,
-                   "neighbour_builds": self.core.neighbour_builds,
-                   "wall_time": wallclock.perf_counter() - start, "leaked_particles": self.leaked_particles}
-            for key, value in row.items():
-                diagnostics[key].append(float(value))
-            if writer:
-                writer.write_frame(self.time, self.step_count, self.frame_fields())
-            append_series("diagnostics", row)
-            frames += 1
-            if on_frame:
-                on_frame(self)
+        recorders = [recorder for recorder in (BodyLoads(self), WallLoads(self)) if recorder.groups]
+        loop = RunLoop(self, output, frame_interval, body_interval, recorders, config or self.describe(), versions(),
+                       checkpoint_every, progress, at_rest if rest_threshold is not None else None,
+                       (lambda: on_frame(self)) if on_frame else None)
+        done = loop.run(t_end, resume)
+        series = done.series
+        diagnostics = {key: list(map(float, values)) for key, values in series.get("diagnostics", {}).items()}
+        bodies = {b.name: dict(series.get(f"bodies/{b.name}", {})) for b in self.bodies}
+        walls = {name: dict(series.get(f"walls/{name}", {})) for name in WallLoads(self).names}
+        return RunResult(done.time, done.steps, done.wall_time, done.frames, os.fspath(output) if output else None,
+                         done.status, diagnostics, bodies, walls)
 
-        def record_loads() -> None:
-            for body in self.bodies:
-                row = {"time": self.time, **self.body_state(body.name)}
-                for key, value in row.items():
-                    body_series[body.name].setdefault(key, []).append(value)
-                append_series(f"bodies/{body.name}", row)
-            self.reset_body_means()
-            for name, load in self.wall_loads().items():
-                row = {"time": self.time, **load}
-                for key, value in row.items():
-                    wall_series[name].setdefault(key, []).append(value)
-                append_series(f"walls/{name}", row)
-            self.reset_wall_load_means()
+    def static_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays a run file holds once (``/static``): grain masses and ids, the fixed walls'
+        positions, groups and ids, and in a scene with bodies the id and body index of each row of
+        the frames' ``body_*`` fields."""
+        body = np.asarray(self.core.wall_body)  # body index of each wall particle, -1: a fixed wall
+        arrays = {"granular/mass": np.array(self.mass), "granular/id": np.array(self.core.id)}
+        for name in ("position", "group", "id"):
+            arrays[f"walls/{name}"] = np.array(np.asarray(getattr(self.core, f"wall_{name}"))[body < 0])
+        if self.bodies:
+            arrays["bodies/id"] = np.array(np.asarray(self.core.wall_id)[body >= 0])
+            arrays["bodies/index"] = np.array(body[body >= 0], dtype=np.int32)
+        return arrays
 
-        def save_checkpoint() -> None:
-            if writer:
-                self.checkpoint(checkpoint_path(output), {
-                    "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
-                    "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start})
+    def diagnostics(self) -> dict[str, float]:
+        """One row of ``/series/diagnostics`` (docs/hdf5_schema.md) but the time and wall time."""
+        return {"step": self.step_count, "dt": self.core.last_dt, "kinetic_energy": self.kinetic_energy(),
+                "max_speed": self.core.max_speed, "neighbour_builds": self.core.neighbour_builds,
+                "leaked_particles": self.leaked_particles}
 
-        t_start = self.time
-        bar = simulated_time_bar(t_end - t_start, progress)
-        chunk_steps = 1  # steps per call into the core, adapted to CHUNK_SECONDS of wall time
-
-        load_watch = LoadWatch(_core.set_num_threads, _core.get_max_threads)
-
-        def advance_chunk(target: float) -> None:
-            nonlocal chunk_steps
-            load_watch.follow()
-            started, steps_before = wallclock.perf_counter(), self.step_count
-            self.advance(target, max_steps=chunk_steps)
-            per_step = (wallclock.perf_counter() - started) / max(1, self.step_count - steps_before)
-            chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
-            # the bar shows simulated time, never past its total (float sums of dt overshoot)
-            bar.update(min(bar.total, round(self.time - t_start, 9)) - bar.n)
-
-        def close_bar(finished: bool) -> None:
-            if finished:  # a run that stops early (at rest) ends its bar at 100 %
-                bar.total = bar.n
-            bar.refresh()
-            bar.close()
-
-        def record_end(end_status: str, **extra: Any) -> None:
-            """The final /run attributes, for every way a run ends."""
-            writer.set_attrs("/run", {"status": end_status, "wall_time": wallclock.perf_counter() - start,
-                                      "steps": self.step_count, "time": self.time, **extra})
-
-        if resume:
-            next_frame, next_sample = saved["next_frame"], saved["next_sample"]
-        else:
-            next_frame = self.time + frame_interval
-            next_sample = self.time + body_interval if sampled else math.inf
-        stop = _StopRequest()
-        try:
-            with stop.catching_signals():
-                if not resume:
-                    record()
-                    if sampled:
-                        record_loads()
-                last_checkpoint = wallclock.perf_counter()
-                while self.time < t_end * (1 - 1e-14):
-                    # short chunks keep Ctrl-C and the progress bar responsive (the GIL is released inside)
-                    advance_chunk(min(next_frame, next_sample, t_end))
-                    if self.time >= next_sample * (1 - 1e-12) or (sampled and self.time >= t_end * (1 - 1e-14)):
-                        record_loads()
-                        next_sample += body_interval
-                    bar.set_postfix(steps=self.step_count, dt=f"{self.core.last_dt:.2e}", refresh=False)
-                    if self.time >= next_frame * (1 - 1e-12) or self.time >= t_end * (1 - 1e-14):
-                        record()
-                        next_frame += frame_interval
-                        specific_energy = diagnostics["kinetic_energy"][-1] / (total_mass * self.width)
-                        if rest_threshold is not None and self.time >= min_time and specific_energy < rest_threshold:
-                            status = "at_rest"
-                            break
-                    if stop.requested:
-                        raise KeyboardInterrupt
-                    if checkpoint_every is not None and wallclock.perf_counter() - last_checkpoint >= checkpoint_every:
-                        save_checkpoint()
-                        last_checkpoint = wallclock.perf_counter()
-        except KeyboardInterrupt:
-            close_bar(finished=False)
-            if writer:
-                save_checkpoint()  # before the extra frame below, which a resumed run drops
-                writer.write_frame(self.time, self.step_count, self.frame_fields())
-                record_end("interrupted", checkpoint=checkpoint_path(output).name)
-                writer.close()
-                write_xdmf(output)
-            raise
-        except _core.InstabilityError as error:
-            close_bar(finished=False)
-            if writer:
-                record_end("unstable", message=str(error), step=error.step, particle=error.particle)
-                writer.set_attrs("/run", {"time": error.time})
-                writer.close()
-                write_xdmf(output)
-            raise
-        close_bar(finished=True)
-        wall_time = wallclock.perf_counter() - start
-        bodies = {name: {key: np.asarray(values) for key, values in series.items()}
-                  for name, series in body_series.items()}
-        walls = {name: {key: np.asarray(values) for key, values in series.items()}
-                 for name, series in wall_series.items()}
-        if writer:
-            writer.set_attrs("/run", {"status": status, "wall_time": wall_time, "steps": self.step_count,
-                                      "time": self.time, "granular_particles": len(self.mass),
-                                      "wall_particles": len(self.core.wall_position),
-                                      "leaked_particles": self.leaked_particles})
-            writer.close()
-            write_xdmf(output)
-            if resume:  # the whole run's series, not only the resumed part
-                series = read_run(output).series
-                diagnostics = {key: list(values) for key, values in series.get("diagnostics", {}).items()}
-                bodies = {b.name: dict(series.get(f"bodies/{b.name}", {})) for b in self.bodies}
-                frames = read_run(output).n_frames
-        return RunResult(self.time, self.step_count, wall_time, frames, os.fspath(output) if output else None,
-                         status, diagnostics, bodies, walls)
+    def run_attributes(self) -> dict[str, int]:
+        """Particle counts and the leak counter, for a run file's ``/run``."""
+        return {"granular_particles": len(self.mass), "wall_particles": len(self.core.wall_position),
+                "leaked_particles": self.leaked_particles}
 
     def frame_fields(self) -> dict[str, np.ndarray]:
         """Copies of the per-particle fields written to each frame: the grains' fields and, in a

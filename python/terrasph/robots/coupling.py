@@ -18,7 +18,9 @@ The coupled step from t_n to t_{n+1} = t_n + dt (docs/robots.md):
    t_{n+1} gives the load used in step 2 of the next coupled step.
 
 The scheme is explicit (the load lags the body by one step), deterministic (MuJoCo runs
-serially, the SPH is bitwise thread-count independent) and keeps the two clocks equal.
+serially, the SPH is bitwise thread-count independent) and keeps the two clocks equal. A MuJoCo
+step that cannot be integrated (MuJoCo then silently resets the robot) raises
+:class:`terrasph.InstabilityError`, as an SPH blow-up does, so the run records it as unstable.
 
 Torque-limited velocity servos (MJCF ``<velocity kv=...>`` with a ``forcerange``): MuJoCo's
 implicit integrators take a servo's damping kv into the step's solve, but not while its force is
@@ -41,11 +43,13 @@ import math
 import os
 import warnings
 import pathlib
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
 import numpy as np
 
+from terrasph import InstabilityError
 from terrasph.config import ConfigError
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
@@ -62,6 +66,17 @@ MIN_MASS_RATIO = 1e-3
 #: spin departs from that of heavier wheels below 1e-2 (x5 at 1e-3; docs/robots.md,
 #: benchmarks/bench_robot_driven.py). A wheel whose spin a velocity servo holds is not affected.
 ACCURATE_MASS_RATIO = 1e-2
+
+
+#: MuJoCo's warnings of a state it cannot integrate (non-finite or huge qacc, qpos, qvel): mj_step
+#: then resets the data to the model's initial state and counts the warning instead of failing
+_DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS,
+                        mujoco.mjtWarning.mjWARN_BADQVEL)
+
+
+def _divergences(data: mujoco.MjData) -> int:
+    """How many times MuJoCo has reset `data` after a state it could not integrate."""
+    return sum(int(data.warning[warning].number) for warning in _DIVERGENCE_WARNINGS)
 
 
 def _unwrapped(previous: float, wrapped: float) -> float:
@@ -176,6 +191,7 @@ class CoupledSimulation:
         self.robot.data.time = sim.time
         self._angle = {b.name: robot.wrapped_angle(b) for b in robot.coupled}
         self._velocity = {b.name: robot.velocity(b) for b in robot.coupled}
+        self._divergences = _divergences(robot.data)
 
     @property
     def time(self) -> float:
@@ -204,6 +220,8 @@ class CoupledSimulation:
             for servo in self._servos:
                 servo.restore(model)
             data.ctrl[:] = command
+        if _divergences(data) > self._divergences:
+            raise self._diverged()
         # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
@@ -215,6 +233,15 @@ class CoupledSimulation:
         if self.sim.core.last_dt != dt:  # cannot happen without wall removals, refused in __init__
             raise RuntimeError(f"the SPH step was {self.sim.core.last_dt} s, MuJoCo's {dt} s")
         return dt
+
+    def _diverged(self) -> InstabilityError:
+        """The error of a MuJoCo step that could not be integrated (it reset the robot's data):
+        the coupled run is unstable, as an SPH blow-up is (particle -1: no grain is at fault)."""
+        error = InstabilityError(f"MuJoCo could not integrate the robot's state (bad qacc, qpos or qvel) at step "
+                                 f"{self.sim.step_count}, t = {self.sim.time:.6g} s, and reset it; a smaller step "
+                                 "(numerics.cfl) or a heavier body may help")
+        error.step, error.time, error.particle, error.reason = self.sim.step_count, self.sim.time, -1, "robot"
+        return error
 
     def granular_load(self, body: CoupledBody) -> tuple[np.ndarray, float]:
         """Force (N) and clockwise torque (N·m, about the body origin) of the grains on `body` from the
@@ -233,13 +260,28 @@ class CoupledSimulation:
         self._angle[body.name] = angle
         self._velocity[body.name] = (velocity, omega)
 
-    def advance(self, t_end: float) -> int:
-        """Coupled steps until `t_end` (s) is reached or passed; returns the number taken."""
+    @property
+    def step_count(self) -> int:
+        """Coupled steps taken so far (the SPH's step count: one SPH step per coupled step)."""
+        return self.sim.step_count
+
+    def advance(self, t_end: float, max_steps: int = 2**62,
+                control: Callable[[CoupledSimulation], None] | None = None) -> int:
+        """Coupled steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the
+        number taken. Each step is the SPH's full dt: the last one may end past `t_end`.
+        `control`, if given, is called before each step (to set MuJoCo's ``data.ctrl``, say)."""
         taken = 0
-        while self.sim.time < t_end * (1 - 1e-14):
+        while taken < max_steps and self.sim.time < t_end * (1 - 1e-14):
+            if control:
+                control(self)
             self.step()
             taken += 1
         return taken
+
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        """The SPH's frame fields and ``wall_position`` of every wall particle (id order), so the
+        moving bodies can be drawn with the fixed walls (a run file's frames)."""
+        return {**self.sim.frame_fields(), "wall_position": np.array(self.sim.core.wall_position)}
 
     def angle(self, name: str) -> float:
         """Clockwise angle (rad) of a coupled body, continuous over turns."""
@@ -275,5 +317,6 @@ class CoupledSimulation:
             getattr(data, key)[:] = saved[key]
         mujoco.mj_forward(self.robot.model, data)
         data.qacc_warmstart[:] = saved["qacc_warmstart"]
+        self._divergences = _divergences(data)
         self._angle = {k: float(v) for k, v in saved["angle"].items()}
         self._velocity = {k: (np.array(v), float(w)) for k, (v, w) in saved["velocity"].items()}

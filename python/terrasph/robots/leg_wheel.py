@@ -32,6 +32,7 @@ from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.fidelity import check_tier, scene_numerics
 from terrasph.geometry import wall_layers_needed
+from terrasph.io import write_results
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
@@ -260,6 +261,8 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                # Eq. 4.8 of the phase's mean speed and spin (a mean of the samples would be dominated
                # by the spin-up, where Rω is near 0)
                "mean_slip": float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any() else math.nan}
+    if output is not None:
+        write_results(output, summary)
     figure = None
     if plot and output is not None:
         figure = str(pathlib.Path(output).with_suffix(".png"))

@@ -10,6 +10,7 @@ MuJoCo's own floor, for comparison.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
 import pathlib
@@ -23,6 +24,7 @@ from matplotlib.figure import Figure
 from terrasph.config import ConfigError
 from terrasph.fidelity import check_tier, scene_numerics
 from terrasph.geometry import wall_layers_needed
+from terrasph.io import write_results
 from terrasph.robots.control import Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.leg_wheel import BED_NUMERICS
@@ -126,6 +128,8 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
                          control=control, progress=progress, resume=resume, memory=memory,
                          config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **coupled.sim.describe()})
     summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"])}
+    if output is not None:  # /results holds plain values: the bodies that went through, by name
+        write_results(output, {**summary, "through_the_bed": json.dumps(summary["through_the_bed"])})
     figure = None
     if plot and output is not None:
         figure = str(pathlib.Path(output).with_suffix(".png"))

@@ -16,6 +16,7 @@ import numpy as np
 
 from terrasph import bodies
 from terrasph.config import ConfigError
+from terrasph.io import write_results
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.leg_wheel import bed_and_wheel, check_wheel_config, wheel_shape
 from terrasph.robots.metrics import slip
@@ -110,6 +111,8 @@ def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, pr
         summary[f"{name}_final_sinkage"] = float(body["sinkage"][-1])
         summary[f"{name}_mean_sinkage"] = float(np.mean(body["sinkage"][driving])) if driving.any() else math.nan
         summary[f"{name}_mean_forward_speed"] = speed
+    if output is not None:
+        write_results(output, summary)
     figure = None
     if plot and output is not None:
         figure = str(pathlib.Path(output).with_suffix(".png"))

@@ -1,7 +1,9 @@
-"""A small run loop for a coupled robot: coupled steps, HDF5 frames and robot time series.
+"""A coupled robot's run: the run loop (terrasph.run_loop) with the coupled step as its stepper
+(:class:`ControlledRun`) and the robot's series as a recorder (:class:`RobotLoads`).
 
-Layout of the file (terrasph.io.RunWriter): frames as for any run; ``/series/diagnostics``
-(time, step, dt, leaked_particles, wall_time); ``/series/robot/<body>`` per coupled body (time,
+Layout of the file (terrasph.io.RunWriter, docs/hdf5_schema.md): frames, ``/static``,
+``/series/diagnostics`` and ``/run`` as for any run, the frames with ``wall_position`` added;
+``/series/robot/<body>`` per coupled body (time,
 reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s, force (F_x, F_z)
 N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
 the sampling interval, lowest_z m, surface m (the bed's undisturbed free surface at that time,
@@ -13,7 +15,7 @@ com (x, z) m, actuator force — a motor's torque in N·m for a hinge — and th
 from __future__ import annotations
 
 import os
-import time as wallclock
+import pathlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -21,11 +23,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph.config import ConfigError
+from terrasph.io import defined_values
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import free_surface, sinkage, slip
 
-__all__ = ["SURFACE_MARGIN", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
+__all__ = ["SURFACE_MARGIN", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
 
 #: columns of the bed closer than this (m) to a coupled body's x extent are disturbed by it (its
 #: rut and the grains it pushes up) and left out of the free-surface level
@@ -66,6 +68,66 @@ def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
             "power": float(np.dot(data.actuator_force, data.actuator_velocity))}
 
 
+class RobotLoads:
+    """Recorder of the run loop: each coupled body's row (:func:`body_row`) as ``robot/<body>`` and,
+    for a robot with actuators, ``robot/actuators``; the bodies' load means restarted after each sample."""
+
+    def __init__(self, coupled: CoupledSimulation) -> None:
+        self.coupled = coupled
+
+    def rows(self) -> dict[str, dict[str, Any]]:
+        coupled = self.coupled
+        surface = undisturbed_surface(coupled)
+        rows = {f"robot/{body.name}": body_row(coupled, body.name, surface) for body in coupled.robot.coupled}
+        if coupled.robot.model.nu:  # a robot without actuators has no such series (HDF5 has no 0-wide columns)
+            rows["robot/actuators"] = _actuator_row(coupled)
+        coupled.sim.reset_body_means()
+        return rows
+
+
+class ControlledRun:
+    """A coupled simulation as the run loop's stepper (terrasph.run_loop.Stepper) with the caller's
+    `control`, called before each step, and its running values `memory` (plain data), kept in the
+    checkpoints with MuJoCo's state."""
+
+    def __init__(self, coupled: CoupledSimulation, control: Callable[[CoupledSimulation], None] | None,
+                 memory: dict[str, Any]) -> None:
+        self.coupled = coupled
+        self.control = control
+        self.memory = memory
+
+    @property
+    def time(self) -> float:
+        return self.coupled.time
+
+    @property
+    def step_count(self) -> int:
+        return self.coupled.step_count
+
+    def advance(self, t_end: float, max_steps: int) -> int:
+        return self.coupled.advance(t_end, max_steps, self.control)
+
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
+        return self.coupled.checkpoint(path, {**(progress or {}), "memory": self.memory})
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        progress = self.coupled.restore(path)
+        self.memory.update(progress.pop("memory", {}))
+        return progress
+
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        return self.coupled.frame_fields()
+
+    def static_arrays(self) -> dict[str, np.ndarray]:
+        return self.coupled.sim.static_arrays()
+
+    def diagnostics(self) -> dict[str, float]:
+        return self.coupled.sim.diagnostics()
+
+    def run_attributes(self) -> dict[str, int]:
+        return self.coupled.sim.run_attributes()
+
+
 @dataclass
 class RobotRun:
     """What a robot scene's run gives back: its summary values, the robot series by group name,
@@ -76,8 +138,8 @@ class RobotRun:
     plot: str | None = None
 
     def summary(self) -> dict[str, Any]:
-        """The summary values (JSON-ready)."""
-        return self.values
+        """The summary values (JSON-ready: an undefined value, NaN, is None)."""
+        return defined_values(self.values)
 
 
 def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.PathLike[str] | None = None,
@@ -88,131 +150,34 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     """Runs `coupled` to `t_end` (s); writes frames every `frame_interval` and robot samples every
     `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
-    `memory` (plain data), which is checkpointed with the run. Returns the robot series by group
-    name (the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
+    `memory` (plain data), which is checkpointed with the run. Returns the run's series by group
+    name (``robot/…``, ``diagnostics``, ``walls/…``; the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
     the grains on each fixed wall (:meth:`terrasph.Simulation.wall_loads`) is sampled too, as
     ``walls/<name>`` (kept in checkpoints: track them again, about the same point, before resuming).
 
-    As :meth:`terrasph.Simulation.run`: with an `output`, the SPH State, MuJoCo's state (qpos,
-    qvel, act, ctrl, warm start, time), the coupling's memory and `memory` go to
-    :func:`terrasph.simulation.checkpoint_path` every `checkpoint_every` s of wall time (None: never)
-    and when SIGINT or SIGTERM stops the run at the next step boundary (the file is closed and
-    ``KeyboardInterrupt`` raised). ``resume=True`` continues from that checkpoint into the same
-    file (rows and frames written after it are dropped), bitwise the run that never stopped.
+    As :meth:`terrasph.Simulation.run` (the same loop, terrasph.run_loop.RunLoop): with an `output`,
+    the SPH State, MuJoCo's state (qpos, qvel, act, ctrl, warm start, time), the coupling's memory
+    and `memory` go to :func:`terrasph.run_loop.checkpoint_path` every `checkpoint_every` s of wall
+    time (None: never), when the run ends and when SIGINT or SIGTERM stops it at the next step
+    boundary (the file is closed and ``KeyboardInterrupt`` raised). ``resume=True`` continues an
+    interrupted or finished run from that checkpoint into the same file (rows and frames written
+    after it are dropped), bitwise the run that never stopped.
     """
-    from terrasph.io import RunWriter, read_run
-    from terrasph.simulation import (
-        _StopRequest,
-        check_run_options,
-        checkpoint_path,
-        simulated_time_bar,
-        versions,
-    )
+    from terrasph.run_loop import RunLoop, check_run_options
+    from terrasph.simulation import WallLoads, versions
 
+    # the loop checks them too, under its own names: these are the caller's
     check_run_options({"frame_interval": frame_interval, "series_interval": series_interval}, checkpoint_every,
                       resume, output)
-
-    memory = {} if memory is None else memory
-    saved = coupled.restore(checkpoint_path(output)) if resume else {}
-    memory.update(saved.get("memory", {}))
-    if not t_end > coupled.time:
-        raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {coupled.time}")
     sim = coupled.sim
-    writer = None
-    if resume:
-        writer = RunWriter.reopen(output, frames=saved["frames"], series_rows=saved["series_rows"])
-    elif output is not None:
-        describe = {**sim.describe(), "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width}
-                                                              for b in coupled.robot.coupled},
-                                                "mujoco": mujoco.__version__}}
-        writer = RunWriter(output, config or describe, versions={**versions(), "mujoco": mujoco.__version__})
-        writer.write_static("granular/mass", np.array(sim.mass))
-        writer.write_static("walls/group", np.array(sim.core.wall_group))
-    series: dict[str, dict[str, list[Any]]] = {}
-    series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
-    frames = saved.get("frames", 0)
-    start = wallclock.perf_counter() - saved.get("wall_time", 0.0)
-
-    def append(group: str, row: dict[str, Any]) -> None:
-        for key, value in row.items():
-            series.setdefault(group, {}).setdefault(key, []).append(value)
-        if writer:
-            writer.append_series(group, row)
-            series_rows[group] = series_rows.get(group, 0) + 1
-
-    def sample() -> None:
-        surface = undisturbed_surface(coupled)
-        for body in coupled.robot.coupled:
-            append(f"robot/{body.name}", body_row(coupled, body.name, surface))
-        if coupled.robot.model.nu:  # a robot without actuators has no such series (HDF5 has no 0-wide columns)
-            append("robot/actuators", _actuator_row(coupled))
-        append("diagnostics", {"time": coupled.time, "step": sim.step_count, "dt": sim.core.last_dt,
-                               "leaked_particles": sim.leaked_particles,
-                               "wall_time": wallclock.perf_counter() - start})
-        sim.reset_body_means()
-        for name, load in sim.wall_loads().items():
-            append(f"walls/{name}", {"time": coupled.time, **load})
-        sim.reset_wall_load_means()
-
-    def frame() -> None:
-        nonlocal frames
-        if writer:
-            writer.write_frame(sim.time, sim.step_count, {**sim.frame_fields(),
-                                                          "wall_position": np.array(sim.core.wall_position)})
-            frames += 1
-
-    def save_checkpoint() -> None:
-        if writer:
-            coupled.checkpoint(checkpoint_path(output), {
-                "next_sample": next_sample, "next_frame": next_frame, "frames": frames, "series_rows": series_rows,
-                "wall_time": wallclock.perf_counter() - start, "memory": memory})
-
-    if resume:
-        next_sample, next_frame = saved["next_sample"], saved["next_frame"]
-    else:
+    if not resume:  # the first sample's means start now
         sim.reset_body_means()
         sim.reset_wall_load_means()
-        sample()
-        frame()
-        next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
-    t_start = coupled.time
-    bar = simulated_time_bar(t_end - t_start, progress)
-    stop = _StopRequest()
-    try:
-        with stop.catching_signals():
-            last_checkpoint = wallclock.perf_counter()
-            while coupled.time < t_end * (1 - 1e-14):
-                if control:
-                    control(coupled)
-                coupled.step()
-                # the last step may end past t_end: the bar stops at its total, never beyond (tqdm clamps with a warning)
-                bar.update(min(bar.total, round(coupled.time - t_start, 9)) - bar.n)
-                if coupled.time >= next_sample * (1 - 1e-12):
-                    sample()
-                    next_sample += series_interval
-                if coupled.time >= next_frame * (1 - 1e-12):
-                    frame()
-                    next_frame += frame_interval
-                if stop.requested:
-                    raise KeyboardInterrupt
-                if checkpoint_every is not None and wallclock.perf_counter() - last_checkpoint >= checkpoint_every:
-                    save_checkpoint()
-                    last_checkpoint = wallclock.perf_counter()
-        if writer:
-            writer.set_attrs("/run", {"status": "completed", "time": sim.time, "steps": sim.step_count,
-                                      "leaked_particles": sim.leaked_particles,
-                                      "wall_time": wallclock.perf_counter() - start})
-    except KeyboardInterrupt:
-        if writer:
-            save_checkpoint()
-            writer.set_attrs("/run", {"status": "interrupted", "time": sim.time, "steps": sim.step_count,
-                                      "checkpoint": checkpoint_path(output).name})
-        raise
-    finally:
-        bar.close()
-        if writer:
-            writer.close()
-    if resume:  # the whole run's series, not only the resumed part
-        return {group: dict(values) for group, values in read_run(output).series.items()
-                if group.startswith("robot/") or group == "diagnostics"}
-    return {group: {key: np.asarray(values) for key, values in rows.items()} for group, rows in series.items()}
+    describe = {**sim.describe(), "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width}
+                                                          for b in coupled.robot.coupled},
+                                            "mujoco": mujoco.__version__}}
+    walls = WallLoads(sim)
+    loop = RunLoop(ControlledRun(coupled, control, {} if memory is None else memory), output, frame_interval,
+                   series_interval, [RobotLoads(coupled), *([walls] if walls.groups else [])], config or describe,
+                   {**versions(), "mujoco": mujoco.__version__}, checkpoint_every, progress)
+    return loop.run(t_end, resume).series

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from terrasph.config import ConfigError
+from terrasph.io import defined_values
 from terrasph.scenes.column_collapse import (
     RESOLUTIONS,
     ColumnCollapse,
@@ -99,7 +100,7 @@ class CaseSummary(dict):
 def run_case(scene: str, config: Mapping[str, Any] | Any, out: str | os.PathLike[str], *,
              progress: bool = False) -> CaseSummary:
     """Runs the registered `scene` with the configuration `config` into the run file `out`; returns
-    the run's summary (with the figure's path as ``.plot``). `config` is the scene's fields by name
+    the run's summary (with the figure's path as ``.plot``; a value the run did not define is None). `config` is the scene's fields by name
     (unknown names refused) or an instance of the scene's configuration class. The one entry point
     that ``terrasph run SCENE``, ``terrasph sweep``, its workers and the tests share; `progress`
     shows the run's progress bar (the command line's, off for sweeps)."""
@@ -107,7 +108,8 @@ def run_case(scene: str, config: Mapping[str, Any] | Any, out: str | os.PathLike
     if not isinstance(config, entry.config_type):
         config = entry.config_from(config)
     result = entry.run(config, output=out, progress=progress)
-    summary = CaseSummary(result.summary())  # a scene's result object or a robot's RobotRun
+    # a scene's result object or a robot's RobotRun; undefined values (NaN) as None: valid JSON
+    summary = CaseSummary(defined_values(result.summary()))
     summary.plot = getattr(result, "plot", None)
     return summary
 

@@ -165,20 +165,26 @@ class LegResult:
 
     @property
     def peak_lift(self) -> float:
-        return float(self.lift.max())
+        """Largest lift of the sweep (N); NaN before the sweep began (a run ended in the pause)."""
+        return float(self.lift.max()) if self.lift.size else math.nan
 
     @property
     def peak_thrust(self) -> float:
-        return float(self.thrust.max())
+        """Largest thrust of the sweep (N); NaN before the sweep began."""
+        return float(self.thrust.max()) if self.thrust.size else math.nan
 
     def noise(self, values: np.ndarray, skip: float = 0.1) -> float:
         """Step-to-step noise of a load curve: the largest deviation of a sample from the mean of its
         two neighbours, as a fraction of the curve's peak magnitude. Each sample is already the
         time average over its interval (1/samples_per_radian of the sweep; the box filter of
         Simulation.run). The first `skip` rad of the sweep, where the load builds up from rest, is
-        left out."""
+        left out; NaN for a sweep too short for a sample with two neighbours."""
+        if self.theta.size == 0:
+            return math.nan
         keep = self.theta >= self.theta[0] + skip
         v = np.asarray(values)[keep]
+        if v.size < 3:
+            return math.nan
         return float(np.abs(v[1:-1] - 0.5 * (v[:-2] + v[2:])).max() / np.abs(values).max())
 
     def summary(self) -> dict[str, Any]:

@@ -258,10 +258,13 @@ class PlateResult:
 
     def fit(self, min_depth: float = 0.0, max_depth: float | None = None) -> tuple[float, float, float]:
         """Line F_z = k·depth + b over the down stroke for min_depth < depth ≤ max_depth (default:
-        the deepest); returns (k in N/m, b in N, R²)."""
+        the deepest); returns (k in N/m, b in N, R²), NaN for a run stopped before two samples of
+        that range."""
         depth, force = self.stroke("down")
-        upper = depth.max() if max_depth is None else max_depth
+        upper = (depth.max() if depth.size else math.nan) if max_depth is None else max_depth
         mask = (depth > min_depth) & (depth <= upper + 1e-12)
+        if np.count_nonzero(mask) < 2:
+            return math.nan, math.nan, math.nan
         return fit_line(depth[mask], force[mask])
 
     @property
@@ -303,13 +306,13 @@ class PlateResult:
 
     def summary(self) -> dict[str, Any]:
         """Flat dict for tables and HDF5 attributes; the fit starts at `fit_from` (FIT_FROM_DEPTH).
-        A buried start has no down stroke: its summary holds the peak extraction load and the
+        Values a run stopped early has not reached yet are NaN. A buried start has no down stroke: its summary holds the peak extraction load and the
         uplift references instead of the fit."""
         run = {"samples": len(self.depth), "granular_particles": self.granular_particles,
                "leaked_particles": self.leaked_particles, "steps": self.run.steps, "time": self.run.time,
                "wall_time": self.run.wall_time, "status": self.run.status}
-        if self.config.buried:
-            uplift, peak = self.extraction_peak()
+        if self.config.buried:  # a run stopped before the pull began has no peak yet (NaN)
+            uplift, peak = self.extraction_peak() if len(self.stroke("up")[1]) else (math.nan, math.nan)
             refs = self.uplift_references()
             return {"speed": self.config.speed, "buried_depth": self.config.buried_depth,
                     "pull_distance": self.config.pull_distance, "spacing": self.config.spacing,
@@ -324,7 +327,7 @@ class PlateResult:
                 "plate_thickness": self.config.plate_thickness, "fit_from": fit_from,
                 "slope": slope, "intercept": intercept,
                 "r_squared": r_squared, "alpha": slope / self.reference_slope,
-                "peak_force": float(down_force.max()), "samples": len(self.depth),
+                "peak_force": float(down_force.max()) if down_force.size else math.nan, "samples": len(self.depth),
                 "granular_particles": self.granular_particles, "leaked_particles": self.leaked_particles,
                 "steps": self.run.steps, "time": self.run.time, "wall_time": self.run.wall_time,
                 "status": self.run.status}
@@ -429,9 +432,10 @@ def _draw_strokes(axes: Axes, result: PlateResult) -> None:
         depth, force = result.stroke(phase)
         axes.plot(1e3 * depth, force, style, ms=3, label=f"{phase} stroke")
     slope, intercept, r_squared = result.fit()
-    line = np.array([0.0, result.config.max_depth])
-    axes.plot(1e3 * line, slope * line + intercept, "k--",
-              label=f"fit: k = {slope:.3g} N/m, R² = {r_squared:.3f}, α = {slope / result.reference_slope:.2g}")
+    if math.isfinite(slope):  # a run stopped early may have no fit yet
+        line = np.array([0.0, result.config.max_depth])
+        axes.plot(1e3 * line, slope * line + intercept, "k--",
+                  label=f"fit: k = {slope:.3g} N/m, R² = {r_squared:.3f}, α = {slope / result.reference_slope:.2g}")
     axes.axhline(0.0, color="0.6", lw=0.8)
     axes.axvline(0.0, color="0.6", lw=0.8)
     axes.set_xlabel("depth of the plate underside (mm)")

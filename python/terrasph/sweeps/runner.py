@@ -12,7 +12,8 @@ Layout of a sweep directory::
 
 A case counts as finished only if ``runs/<case_id>.h5`` opens as HDF5 and its ``/run`` status is
 "completed" or "at_rest"; anything else (no file, a partial or corrupted file, a failed run) is
-run again by the next invocation. A worker writes to ``runs/<case_id>.partial.h5`` and renames.
+run again by the next invocation. A worker runs in ``runs/<case_id>.partial/`` and moves the run
+file and the files beside it (figure, XDMF sidecars) into ``runs/``, the run file last.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import shutil
 import socket
 import time
 import traceback
@@ -77,27 +79,44 @@ def run_one(scene: str, case: Case, out_dir: str, omp_threads: int, session: str
 
     _core.set_num_threads(omp_threads)
     final = run_file(Path(out_dir), case)
-    partial = final.with_name(f"{case.case_id}.partial.h5")
+    staging = final.with_name(f"{case.case_id}.partial")  # the run and the files beside it, until finished
+    partial = staging / final.name
     record: dict[str, Any] = {"case_id": case.case_id, "varied": case.varied, "config": case.config,
                               "worker": f"{socket.gethostname()}:{os.getpid()}", "omp_threads": omp_threads,
                               "versions": versions()}
     log_event(Path(out_dir), session, "started", case.case_id)
     start = time.perf_counter()
     try:
-        partial.unlink(missing_ok=True)
+        shutil.rmtree(staging, ignore_errors=True)
+        staging.mkdir()
         summary = run_case(scene, case.config, partial)
         if not is_finished(partial):
             raise RuntimeError(f"the run of {scene} ended without a finished /run status in its file")
-        os.replace(partial, final)
+        _publish(staging, final)
         record.update(status="completed", summary=summary)
     except Exception as error:  # noqa: BLE001 — a failed case is recorded, the sweep goes on
-        partial.unlink(missing_ok=True)
+        shutil.rmtree(staging, ignore_errors=True)
         record.update(status="failed", error=f"{type(error).__name__}: {error}",
                       traceback=traceback.format_exc(limit=4))
     record["wall_time"] = time.perf_counter() - start
     _write_json_atomically(final.with_suffix(".json"), record)
     log_event(Path(out_dir), session, "finished" if record["status"] == "completed" else "failed", case.case_id)
     return record
+
+
+def _publish(staging: Path, final: Path) -> None:
+    """Moves a finished case's files from its staging directory beside `final` under the names the
+    run gave them (its figure, its XDMF sidecars, which name the run file relative to themselves),
+    the run file last, so a case is finished only once all its files are in place. Its checkpoint
+    is dropped: a sweep's cases are run again, not continued."""
+    from terrasph.run_loop import checkpoint_path
+
+    checkpoint_path(staging / final.name).unlink(missing_ok=True)
+    for produced in sorted(staging.iterdir()):
+        if produced.name != final.name:
+            os.replace(produced, final.parent / produced.name)
+    os.replace(staging / final.name, final)
+    staging.rmdir()
 
 
 def _pending(spec: SweepSpec, out_dir: Path) -> tuple[list[Case], dict[str, dict[str, Any]]]:

@@ -1,0 +1,372 @@
+"""One run loop for every scene: it owns time, frames, series, progress, checkpoints, signals, the
+run's status and the final write; the physics of a step comes from a *stepper*.
+
+The stepper protocol (:class:`Stepper`) is what a terrain model gives the loop — the plain SPH
+:class:`terrasph.Simulation` and the MuJoCo-coupled
+:class:`terrasph.robots.coupling.CoupledSimulation` provide it:
+
+* ``time`` (s) and ``step_count``;
+* ``advance(t_end, max_steps) -> int``: at most `max_steps` steps toward `t_end` (the loop calls
+  it in chunks of about :data:`CHUNK_SECONDS` of wall time so Ctrl-C and the progress bar stay
+  responsive); a blow-up raises :class:`terrasph.InstabilityError`;
+* ``checkpoint(path, progress)`` and ``restore(path) -> progress``: the whole state, bit for bit,
+  with the loop's `progress` (plain data) beside it;
+* ``frame_fields()``, ``static_arrays()``: the per-particle arrays of each frame and those written
+  once (``/frames``, ``/static``); ``diagnostics()``: one row of ``/series/diagnostics`` (the loop
+  adds ``wall_time``); ``run_attributes()``: the particle counts and leak counter for ``/run``.
+
+Series sampled every `sample_interval` come from *recorders* (:class:`Recorder`), registered by the
+module that needs them (the bodies' and fixed walls' loads by terrasph.simulation, the robot's by
+terrasph.robots.run): each returns one row per series group at every sample.
+
+The output contract (docs/hdf5_schema.md), whatever the stepper: ``/run`` holds the status
+(completed, at_rest, interrupted, unstable or failed) with the time, steps, wall time and leak
+counter reached; the XDMF sidecars are written however the run ends; every run but an unstable or
+failed one leaves a checkpoint (:func:`checkpoint_path`) from which ``resume=True`` continues it,
+bitwise the longer run: an interrupted run from where it stopped, a finished one from the start of
+its last stretch (the step that lands on the end time is cut short, so the state at the end time
+is not on the longer run's path, the state before that stretch is).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import pathlib
+import signal
+import threading
+import time as wallclock
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from terrasph.config import ConfigError
+
+__all__ = ["CHUNK_SECONDS", "FINISHED_STATUSES", "LoopResult", "Recorder", "RunLoop", "Stepper", "StopRequest",
+           "check_run_options", "checkpoint_path", "claimed_output", "simulated_time_bar"]
+
+#: Wall time (s) one call into the stepper may take, so Ctrl-C and the progress bar stay responsive
+#: however slow a step is; the steps per call follow from the last call's seconds per step.
+CHUNK_SECONDS = 0.2
+MAX_STEPS_PER_CHUNK = 500
+#: the statuses of a run that reached its end
+FINISHED_STATUSES = ("completed", "at_rest")
+
+
+class Stepper(Protocol):
+    """What a terrain model gives the run loop (module docstring)."""
+
+    @property
+    def time(self) -> float: ...
+
+    @property
+    def step_count(self) -> int: ...
+
+    def advance(self, t_end: float, max_steps: int) -> int: ...
+
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path: ...
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]: ...
+
+    def frame_fields(self) -> dict[str, np.ndarray]: ...
+
+    def static_arrays(self) -> dict[str, np.ndarray]: ...
+
+    def diagnostics(self) -> dict[str, float]: ...
+
+    def run_attributes(self) -> dict[str, int]: ...
+
+
+class Recorder(Protocol):
+    """A source of time series: at each sample, one row (name → scalar or vector) per group."""
+
+    def rows(self) -> dict[str, dict[str, Any]]: ...
+
+
+def checkpoint_path(output: str | os.PathLike[str]) -> pathlib.Path:
+    """Where a run writing `output` keeps its checkpoint: ``run.h5`` → ``run.checkpoint.h5``."""
+    path = pathlib.Path(output)
+    return path.with_name(path.stem + ".checkpoint.h5")
+
+
+def check_run_options(intervals: dict[str, float], checkpoint_every: float | None, resume: bool,
+                      output: str | os.PathLike[str] | None) -> None:
+    """ConfigError naming the first bad option of a run: every interval > 0 s, `checkpoint_every`
+    > 0 s or None, `resume` only with an `output`."""
+    for name, value in intervals.items():
+        if not value > 0:
+            raise ConfigError(f"parameter '{name}' = {value} is invalid: allowed > 0 s")
+    if checkpoint_every is not None and not checkpoint_every > 0:
+        raise ConfigError(f"parameter 'checkpoint_every' = {checkpoint_every} is invalid: allowed > 0 s or None")
+    if resume and output is None:
+        raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
+
+
+@contextlib.contextmanager
+def claimed_output(output: str | os.PathLike[str], force: bool) -> Iterator[pathlib.Path]:
+    """Claims `output` for one run before any work: the file is created exclusively (``O_EXCL``), so
+    of two runs started together into the same file the second refuses with FileExistsError; with
+    `force` an existing file and its checkpoint are replaced first. A stale checkpoint beside a new
+    output is refused likewise. If the run fails before writing its file (say, a scene the spacing
+    cannot build), the empty claim is removed again."""
+    path = pathlib.Path(output)
+    checkpoint = checkpoint_path(path)
+    if force:
+        path.unlink(missing_ok=True)
+        checkpoint.unlink(missing_ok=True)
+    elif checkpoint.exists():
+        raise FileExistsError(f"--out {path}: its checkpoint {checkpoint.name} exists (use --force to replace it)")
+    try:
+        os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+    except FileExistsError:
+        raise FileExistsError(f"--out {path}: file exists, or another run is writing it (use --force to "
+                              "replace it)") from None
+    try:
+        yield path
+    except BaseException:
+        if path.is_file() and path.stat().st_size == 0:  # still the claim: the run wrote nothing
+            path.unlink()
+        raise
+
+
+def simulated_time_bar(total: float, progress: bool) -> Any:
+    """A progress bar over `total` seconds of simulated time (disabled unless `progress`)."""
+    if progress:
+        from tqdm.auto import tqdm
+    else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
+        from tqdm import tqdm
+    return tqdm(total=round(total, 9), unit="s", disable=not progress, mininterval=0.5,
+                bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
+
+
+class StopRequest:
+    """Turns SIGINT and SIGTERM into a request that the run loop honours at the next step
+    boundary, so a stop never lands in the middle of writing a frame or a checkpoint; a second
+    Ctrl-C stops at once. Outside the main thread (where Python cannot install handlers) signals
+    keep their default behaviour."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+    @contextlib.contextmanager
+    def catching_signals(self) -> Iterator[None]:
+        """Installs the handlers for the duration of the block."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def request(signum: int, frame: object) -> None:
+            if self.requested:  # a second Ctrl-C: stop now
+                raise KeyboardInterrupt
+            self.requested = True
+
+        previous = {sig: signal.signal(sig, request) for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+
+@dataclass
+class LoopResult:
+    """How a run ended and what it recorded: the whole run's series by group (a resumed run's
+    included), each ``{name: array}``."""
+
+    time: float
+    steps: int
+    wall_time: float
+    frames: int
+    status: str
+    series: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+
+
+@dataclass
+class RunLoop:
+    """Runs a :class:`Stepper` to an end time, writing the run file `output` (None: nothing
+    written) — frames every `frame_interval` s, the recorders' series every `sample_interval` s —
+    and checkpointing every `checkpoint_every` s of wall time (None: only at the end). `at_rest`,
+    given a frame's diagnostics row, ends the run early (status ``at_rest``); `on_frame` is called
+    after each frame."""
+
+    stepper: Stepper
+    output: str | os.PathLike[str] | None = None
+    frame_interval: float = 0.05
+    sample_interval: float = 0.01
+    recorders: Sequence[Recorder] = ()
+    config: Mapping[str, Any] = field(default_factory=dict)
+    versions: Mapping[str, str] = field(default_factory=dict)
+    checkpoint_every: float | None = 600.0
+    progress: bool = False
+    at_rest: Callable[[dict[str, float]], bool] | None = None
+    on_frame: Callable[[], None] | None = None
+
+    def run(self, t_end: float, resume: bool = False) -> LoopResult:
+        """Runs to `t_end` (s); ``resume=True`` continues the run in `output` from its checkpoint
+        (frames and rows written after it are dropped, so each appears once). Ctrl-C or SIGTERM
+        ends the run at the next step boundary with its last frame, a checkpoint and status
+        ``interrupted``, then raises KeyboardInterrupt (a second Ctrl-C stops it at once, without
+        either: it then continues from its last checkpoint); an InstabilityError or any other error is
+        recorded (``unstable``, ``failed``) before it propagates."""
+        from terrasph import _core
+        from terrasph.threads import LoadWatch
+
+        check_run_options({"frame_interval": self.frame_interval, "sample_interval": self.sample_interval},
+                          self.checkpoint_every, resume, self.output)
+        stepper = self.stepper
+        saved = stepper.restore(checkpoint_path(self.output)) if resume else {}
+        if not t_end > stepper.time:
+            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {stepper.time}")
+        writer = self._open_writer(saved, resume)
+        sampled = bool(self.recorders)
+        series: dict[str, dict[str, list[Any]]] = {}
+        series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
+        frames = saved.get("frames", 0)
+        start = wallclock.perf_counter() - saved.get("wall_time", 0.0)
+        if resume:
+            next_frame, next_sample = saved["next_frame"], saved["next_sample"]
+        else:
+            next_frame = stepper.time + self.frame_interval
+            next_sample = stepper.time + self.sample_interval if sampled else math.inf
+
+        def append(group: str, row: dict[str, Any]) -> None:
+            for key, value in row.items():
+                series.setdefault(group, {}).setdefault(key, []).append(value)
+            if writer:
+                writer.append_series(group, row)
+                series_rows[group] = series_rows.get(group, 0) + 1
+
+        def record_frame() -> dict[str, float]:
+            nonlocal frames
+            row = {"time": stepper.time, **stepper.diagnostics(), "wall_time": wallclock.perf_counter() - start}
+            if writer:
+                writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
+            append("diagnostics", row)
+            frames += 1
+            if self.on_frame:
+                self.on_frame()
+            return row
+
+        def record_sample() -> None:
+            for recorder in self.recorders:
+                for group, row in recorder.rows().items():
+                    append(group, row)
+
+        def save_checkpoint() -> None:
+            if writer:
+                stepper.checkpoint(checkpoint_path(self.output), {
+                    "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
+                    "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start})
+
+        def record_end(status: str, **extra: Any) -> None:
+            """The final /run attributes, the file closed and its XDMF sidecars, however the run ends."""
+            from terrasph.io import write_xdmf
+
+            if not writer:
+                return
+            writer.set_attrs("/run", {"status": status, "wall_time": wallclock.perf_counter() - start,
+                                      "steps": stepper.step_count, "time": stepper.time,
+                                      **stepper.run_attributes(), **extra})
+            writer.close()
+            if frames:
+                write_xdmf(self.output)
+
+        t_start = stepper.time
+        bar = simulated_time_bar(t_end - t_start, self.progress)
+        chunk_steps = 1  # steps per call into the stepper, adapted to CHUNK_SECONDS of wall time
+        load_watch = LoadWatch(_core.set_num_threads, _core.get_max_threads)
+        final_stretch_saved = False
+        status = "completed"
+        at_step_boundary = False  # a second Ctrl-C may stop the run anywhere, even inside a step
+        stop = StopRequest()
+        try:
+            with stop.catching_signals():
+                if not resume:
+                    record_frame()
+                    if sampled:
+                        record_sample()
+                last_checkpoint = wallclock.perf_counter()
+                while stepper.time < t_end * (1 - 1e-14):
+                    target = min(next_frame, next_sample, t_end)
+                    if target == t_end and not final_stretch_saved:
+                        save_checkpoint()  # the last state on the path of a longer run (module docstring)
+                        final_stretch_saved = True
+                    load_watch.follow()
+                    started, steps_before = wallclock.perf_counter(), stepper.step_count
+                    stepper.advance(target, chunk_steps)
+                    per_step = (wallclock.perf_counter() - started) / max(1, stepper.step_count - steps_before)
+                    chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
+                    # the bar shows simulated time, never past its total (the last step may end past t_end)
+                    bar.update(min(bar.total, round(stepper.time - t_start, 9)) - bar.n)
+                    bar.set_postfix(steps=stepper.step_count, refresh=False)
+                    at_end = stepper.time >= t_end * (1 - 1e-14)
+                    if stepper.time >= next_sample * (1 - 1e-12) or (sampled and at_end):
+                        record_sample()
+                        next_sample += self.sample_interval
+                    if stepper.time >= next_frame * (1 - 1e-12) or at_end:
+                        row = record_frame()
+                        next_frame += self.frame_interval
+                        if self.at_rest is not None and self.at_rest(row):
+                            status = "at_rest"
+                            save_checkpoint()  # a stop on a frame: the longer run's path
+                            break
+                    if at_end:  # no checkpoint here: the end state is off a longer run's path
+                        break
+                    if stop.requested:
+                        at_step_boundary = True
+                        raise KeyboardInterrupt
+                    if self.checkpoint_every is not None and \
+                            wallclock.perf_counter() - last_checkpoint >= self.checkpoint_every:
+                        save_checkpoint()
+                        last_checkpoint = wallclock.perf_counter()
+        except KeyboardInterrupt:
+            bar.close()
+            if writer and at_step_boundary:
+                save_checkpoint()  # before the extra frame below, which a resumed run drops
+                writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
+                frames += 1
+            # stopped inside a step, the run continues from its last checkpoint, if it has one
+            resumable = writer is not None and checkpoint_path(self.output).is_file()
+            record_end("interrupted", **({"checkpoint": checkpoint_path(self.output).name} if resumable else {}))
+            raise
+        except _core.InstabilityError as error:
+            bar.close()
+            record_end("unstable", message=str(error), step=error.step, particle=error.particle, time=error.time)
+            raise
+        except Exception as error:
+            bar.close()
+            if writer and not writer.closed:
+                record_end("failed", message=f"{type(error).__name__}: {error}")
+            raise
+        bar.total = bar.n  # a run that ends early (at rest) ends its bar at 100 %
+        bar.refresh()
+        bar.close()
+        record_end(status, **({"checkpoint": checkpoint_path(self.output).name} if writer else {}))
+        if resume:  # the whole run's series, not only the resumed part
+            from terrasph.io import read_run
+
+            whole = read_run(self.output)
+            return LoopResult(stepper.time, stepper.step_count, wallclock.perf_counter() - start, whole.n_frames,
+                              status, whole.series)
+        arrays = {group: {key: np.asarray(values) for key, values in rows.items()} for group, rows in series.items()}
+        return LoopResult(stepper.time, stepper.step_count, wallclock.perf_counter() - start, frames, status, arrays)
+
+    def _open_writer(self, saved: dict[str, Any], resume: bool) -> Any:
+        """The run file's writer: reopened at the checkpoint's frame and row counts, or created (an
+        earlier run's checkpoint beside it removed) with the configuration, versions and static
+        arrays; None without an output."""
+        from terrasph.io import RunWriter
+
+        if self.output is None:
+            return None
+        if resume:
+            return RunWriter.reopen(self.output, frames=saved["frames"], series_rows=saved["series_rows"])
+        writer = RunWriter(self.output, self.config, versions=self.versions)
+        checkpoint_path(self.output).unlink(missing_ok=True)  # an earlier run's, which this file no longer is
+        for name, values in self.stepper.static_arrays().items():
+            writer.write_static(name, values)
+        return writer
+
