@@ -31,6 +31,7 @@ import numpy as np
 from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
+from terrasph.options import option
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
@@ -39,6 +40,7 @@ from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.scene import Scene
 from terrasph.schedules import check_knots, evaluate
 from terrasph.simulation import Simulation
+from terrasph.size_guard import Footprint
 
 __all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
 
@@ -50,31 +52,32 @@ WHEELS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg", "whe
 class LegWheel:
     """Configuration of a leg-wheel run. Lengths in m, times in s, angles in rad (clockwise)."""
 
-    wheel: str = "c-leg"  #: one of WHEELS
-    legs: int = 3  #: legs of a leg-wheel
-    omega: float = 1.5  #: commanded spin after the pause (rad/s, clockwise)
+    wheel: str = option("c-leg", choices=WHEELS, help="morphology (Fig. 4.2) or plain wheel")
+    legs: int = option(3, help="legs of a leg-wheel, 1-12")
+    omega: float = option(1.5, help="commanded spin after the pause, clockwise", unit="rad/s")
     #: if given, the commanded spin after the pause instead of `omega`: knots (t − settle_time, ω) of a
     #: piecewise-linear schedule (terrasph.schedules; a repeated time is a step), ω ≥ 0
     omega_schedule: tuple[tuple[float, float], ...] = ()
-    load: float = 4.9  #: vertical load carried by the chassis (N)
-    leg_length: float = 0.08  #: hip-to-toe length ("2R = 8 cm"), the tip radius
-    thickness: float = 0.005
-    width: float = 0.1  #: out-of-plane width; loads are for it
-    foot_ratio: float = 0.33  #: foot/leg length of the L-legs
-    spacing: float = 0.005 / 3  #: Δx; parts thinner than 3Δx are refused
-    bed_width: float = 0.5
-    bed_depth: float = 0.1
-    start_x: float = 0.12  #: axle x at start
-    settle_time: float = 2.0  #: pause before the spin (s)
-    duration: float = 6.0  #: total simulated time (s)
-    wheel_density: float = 1200.0  #: the wheel's material (kg/m³; a printed polymer)
-    motor_gain: float = 20.0  #: velocity servo gain (N·m·s/rad)
-    motor_torque: float = 5.0  #: motor torque limit (N·m)
-    mu1_deg: float = 23.0  #: the bed's quasi-static friction angle atan μ1 (degrees; μ(I), Eq. 2.31)
-    mu2_deg: float = 33.0  #: the bed's dynamic friction angle atan μ2 (degrees), >= mu1_deg
-    water_content: float = 0.0  #: the bed's w (kg water per kg grains); > 0: wet beads with cohesion (Table 2.1)
-    series_interval: float = 0.01
-    frame_interval: float = 0.05
+    load: float = option(4.9, help="vertical load carried by the chassis", unit="N")
+    leg_length: float = option(0.08, help='hip-to-toe length ("2R = 8 cm"), the tip radius', unit="m")
+    thickness: float = option(0.005, help="leg thickness, >= 3 dx", unit="m")
+    width: float = option(0.1, help="out-of-plane width; loads are for it", unit="m")
+    foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
+    spacing: float = option(0.005 / 3, help="particle spacing dx; parts thinner than 3 dx are refused", unit="m")
+    bed_width: float = option(0.5, help="bed width", unit="m")
+    bed_depth: float = option(0.1, help="bed depth", unit="m")
+    start_x: float = option(0.12, help="axle x at start", unit="m")
+    settle_time: float = option(2.0, help="pause before the spin", unit="s")
+    duration: float = option(6.0, cli="t-end", help="total simulated time", unit="s")
+    wheel_density: float = option(1200.0, help="the wheel's material (a printed polymer)", unit="kg/m^3")
+    motor_gain: float = option(20.0, help="velocity servo gain", unit="N m s/rad")
+    motor_torque: float = option(5.0, help="motor torque limit", unit="N m")
+    mu1_deg: float = option(23.0, help="the bed's quasi-static friction angle atan mu1 (Eq. 2.31)", unit="degrees")
+    mu2_deg: float = option(33.0, help="the bed's dynamic friction angle atan mu2, >= mu1-deg", unit="degrees")
+    water_content: float = option(0.0, help="the bed's water content w; > 0: wet beads with cohesion (Table 2.1)",
+                                  unit="kg/kg")
+    series_interval: float = option(0.01, help="time between series samples", unit="s")
+    frame_interval: float = option(0.05, help="time between saved frames", unit="s")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
@@ -111,6 +114,10 @@ class LegWheel:
     def shape(self) -> bodies.BodyShape:
         """The wheel in its own frame (axle at the origin; leg 0 pointing down)."""
         return wheel_shape(self)
+
+    def footprint(self) -> Footprint:
+        """The bed, the wheel and the container (size guard)."""
+        return wheel_footprint(self, wheels=1, material=self.material())
 
     def commanded_omega(self, time: np.ndarray | float) -> np.ndarray:
         """The motor's commanded spin (rad/s) at `time` (s): 0 during the pause, then `omega` or the schedule."""
@@ -149,6 +156,7 @@ class WheelConfig(Protocol):
     spacing: float
     bed_width: float
     bed_depth: float
+    duration: float
     numerics: dict[str, Any]
 
 
@@ -161,11 +169,25 @@ def wheel_shape(config: WheelConfig) -> bodies.BodyShape:
     return bodies.leg_wheel(config.wheel, config.legs, *args, **extra)
 
 
+def wheel_numerics(config: WheelConfig) -> Numerics:
+    """The numerics of the robot scenes: the Shepard filter every 100 steps and the density floor
+    (as leg-rotation's) at the configured spacing, with the overrides applied."""
+    return from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
+                                   **config.numerics})
+
+
+def wheel_footprint(config: WheelConfig, wheels: int, material: Material) -> Footprint:
+    """The bed, `wheels` wheels and the container of bed_and_wheel (size guard)."""
+    wheel_area = wheels * config.legs * config.leg_length * config.thickness
+    return Footprint(config.spacing, config.bed_width * config.bed_depth + wheel_area,
+                     config.bed_width + 2.0 * (config.bed_depth + 2.5 * config.leg_length), config.duration,
+                     material, wheel_numerics(config))
+
+
 def bed_and_wheel(config: WheelConfig) -> tuple[Scene, Numerics, float, bodies.BodyShape]:
     """The bed of chapter 4's glass beads in its container (scene, numerics, surface height) and the
     wheel's shape; a shape the spacing cannot build is refused naming the wheel."""
-    numerics = from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
-                                       **config.numerics})
+    numerics = wheel_numerics(config)
     scene = Scene(spacing=config.spacing)
     surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
                                             layers=wall_layers_needed(numerics.h_factor))

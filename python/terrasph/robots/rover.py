@@ -17,12 +17,14 @@ import numpy as np
 from terrasph import bodies
 from terrasph.config import ConfigError
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import bed_and_wheel, check_wheel_config, wheel_shape
+from terrasph.options import option
+from terrasph.robots.leg_wheel import WHEELS, bed_and_wheel, check_wheel_config, wheel_footprint, wheel_shape
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
 from terrasph.robots.plots import plot_robot
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.simulation import Simulation
+from terrasph.size_guard import Footprint
 
 __all__ = ["WHEEL_BODIES", "Rover", "build_rover", "run_rover"]
 
@@ -36,25 +38,33 @@ AXLE_SPACING = 0.12
 class Rover:
     """Configuration of a rover run. Lengths in m, times in s, angles in rad (clockwise)."""
 
-    wheel: str = "c-leg"  #: one of terrasph.robots.leg_wheel.WHEELS, for both wheels
-    legs: int = 3
-    omega: float = 1.5  #: commanded spin of both motors after the pause (rad/s, clockwise)
-    leg_length: float = 0.04  #: hip-to-toe length = tip radius (the wheels must clear each other)
-    thickness: float = 0.005
-    width: float = 0.05  #: each wheel's out-of-plane width
-    foot_ratio: float = 0.33
-    spacing: float = 0.005 / 3
-    bed_width: float = 0.5
-    bed_depth: float = 0.1
-    start_x: float = 0.12  #: chassis (axle-line middle) x at start
-    settle_time: float = 1.0
-    duration: float = 4.0
-    series_interval: float = 0.01
-    frame_interval: float = 0.05
+    wheel: str = option("c-leg", choices=WHEELS, help="morphology of both wheels (Fig. 4.2) or plain wheels")
+    legs: int = option(3, help="legs of each leg-wheel, 1-12")
+    omega: float = option(1.5, help="commanded spin of both motors after the pause, clockwise", unit="rad/s")
+    leg_length: float = option(0.04, help="hip-to-toe length = tip radius (the wheels must clear each other)",
+                               unit="m")
+    thickness: float = option(0.005, help="leg thickness, >= 3 dx", unit="m")
+    width: float = option(0.05, help="each wheel's out-of-plane width", unit="m")
+    foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
+    spacing: float = option(0.005 / 3, help="particle spacing dx; parts thinner than 3 dx are refused", unit="m")
+    bed_width: float = option(0.5, help="bed width", unit="m")
+    bed_depth: float = option(0.1, help="bed depth", unit="m")
+    start_x: float = option(0.12, help="chassis (axle-line middle) x at start", unit="m")
+    settle_time: float = option(1.0, help="pause before the spin", unit="s")
+    duration: float = option(4.0, cli="t-end", help="total simulated time", unit="s")
+    series_interval: float = option(0.01, help="time between series samples", unit="s")
+    frame_interval: float = option(0.05, help="time between saved frames", unit="s")
+    #: a planar MJCF robot instead of the example rover; its wheels are the bodies named in WHEEL_BODIES
+    mjcf: str | None = option(None, cli="model", unit="MJCF file",
+                              help="your planar robot: an MJCF whose wheel bodies are named rear_wheel and "
+                                   "front_wheel, each driven by a velocity motor (docs/robots.md)",
+                              default_text="the example rover, terrasph/robots/models/rover.xml")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
         check_wheel_config(self)
+        if self.mjcf is not None and not pathlib.Path(self.mjcf).is_file():
+            raise ConfigError(f"parameter 'mjcf' = {self.mjcf!r} is invalid: allowed an existing MJCF file")
         if not 2 * self.leg_length < AXLE_SPACING:
             raise ConfigError(f"parameter 'leg_length' = {self.leg_length!r} is invalid: allowed < "
                               f"{AXLE_SPACING / 2} m (the wheels, {AXLE_SPACING} m apart, must not touch)")
@@ -67,6 +77,12 @@ class Rover:
         """One wheel in its own frame (axle at the origin)."""
         return wheel_shape(self)
 
+    def footprint(self) -> Footprint:
+        """The bed, both wheels and the container (size guard)."""
+        from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
+
+        return wheel_footprint(self, wheels=len(WHEEL_BODIES), material=glass_beads())
+
 
 def build_rover(config: Rover) -> CoupledSimulation:
     """Bed, container and the rover standing on it (wheels Δx/2 above the surface)."""
@@ -75,7 +91,7 @@ def build_rover(config: Rover) -> CoupledSimulation:
 
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
-    robot = PlanarRobot(ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
+    robot = PlanarRobot(config.mjcf or ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
                         gravity=scene.gravity, initial={"x": config.start_x, "z": axle_z})
     robot.add_to_scene(scene)
     return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))

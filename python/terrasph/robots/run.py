@@ -21,9 +21,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from terrasph import _core
 from terrasph.config import ConfigError
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import free_surface, sinkage, slip
+from terrasph.threads import start_run
 
 __all__ = ["SURFACE_MARGIN", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
 
@@ -118,6 +120,7 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     if not t_end > coupled.time:
         raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {coupled.time}")
     sim = coupled.sim
+    start_run(_core.set_num_threads)  # the thread count, unless the user's (terrasph.threads)
     writer = None
     if resume:
         writer = RunWriter.reopen(output, frames=saved["frames"], series_rows=saved["series_rows"])

@@ -1,0 +1,127 @@
+"""Scene options defined once: a scene's configuration dataclass marks each field the command line
+offers with :func:`option` (help, unit, choices, command-line name), and :func:`add_config_options`
+turns those fields into ``terrasph run SCENE`` options, as ``params.hpp`` defines the physics
+parameters once for C++, Python and the docs.
+
+The option of field ``settle_time`` is ``--settle-time``, unless the field names another. A field
+that is a tuple is one option taking as many values, or one option per element when the field
+names one per element (e.g. ``--mu1-deg`` and ``--mu2-deg`` of ``friction_angles_deg``). The
+values a user leaves out are not passed, so the dataclass's own defaults apply, and its own checks
+(``__post_init__``) judge the ranges: one definition of each default and each range.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import types
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["OPTION", "Option", "add_config_options", "config_values", "option", "option_name"]
+
+#: the key of a field's metadata that holds its :class:`Option`
+OPTION = "terrasph.option"
+
+
+@dataclass(frozen=True)
+class Option:
+    """What the command line shows of one configuration field."""
+
+    help: str  #: what the value means (one phrase, no default: the field's default is appended)
+    unit: str = ""  #: SI unit shown as [unit]
+    choices: tuple[str, ...] | None = None  #: the allowed values of a text field
+    cli: str | tuple[str, ...] | None = None  #: option name(s) without "--"; default: the field's name
+    default_text: str | None = None  #: the default in words, where the value is None or computed
+    #: named presets of this (numeric) field: adds ``--resolution NAME`` setting it, unless given itself
+    presets: Mapping[str, float] | None = None
+
+
+def option(default: Any = dataclasses.MISSING, *, help: str, unit: str = "",  # noqa: A002 (argparse's word)
+           choices: tuple[str, ...] | list[str] | None = None, cli: str | tuple[str, ...] | None = None,
+           default_text: str | None = None, presets: Mapping[str, float] | None = None) -> Any:
+    """A dataclass field with a default that the command line offers as an option."""
+    meta = Option(help, unit, tuple(choices) if choices is not None else None, cli, default_text, presets)
+    return dataclasses.field(default=default, metadata={OPTION: meta})
+
+
+def option_name(field_name: str) -> str:
+    """``--settle-time`` for the field ``settle_time``."""
+    return "--" + field_name.replace("_", "-")
+
+
+def _offered(config_type: type) -> list[tuple[dataclasses.Field[Any], Option, Any]]:
+    """The fields of `config_type` with an option, each with its Option and resolved type."""
+    hints = typing.get_type_hints(config_type)
+    return [(f, f.metadata[OPTION], hints[f.name]) for f in dataclasses.fields(config_type) if OPTION in f.metadata]
+
+
+def _scalar_type(annotation: Any) -> tuple[type, bool]:
+    """(the value type, whether None is allowed) of ``float``, ``float | None``, ``int`` …"""
+    if isinstance(annotation, types.UnionType) or typing.get_origin(annotation) is typing.Union:
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        return args[0], True
+    return annotation, False
+
+
+def _help(meta: Option, default: Any) -> str:
+    unit = f" [{meta.unit}]" if meta.unit else ""
+    shown = meta.default_text if meta.default_text is not None else default
+    if isinstance(shown, tuple):
+        shown = " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in shown)
+    elif isinstance(shown, float):
+        shown = f"{shown:g}"
+    return f"{meta.help}{unit} (default {shown})".replace("%", "%%")
+
+
+def add_config_options(parser: argparse.ArgumentParser, config_type: type) -> None:
+    """Adds one option per offered field of `config_type` (see the module's docstring); the
+    parsed values come back with :func:`config_values`."""
+    for f, meta, annotation in _offered(config_type):
+        value_type, _ = _scalar_type(annotation)
+        dest = f"config__{f.name}"
+        if typing.get_origin(value_type) is tuple:
+            element = typing.get_args(value_type)[0]
+            names = meta.cli if isinstance(meta.cli, tuple) else None
+            if names is not None:
+                for index, name in enumerate(names):
+                    parser.add_argument(f"--{name}", dest=f"{dest}__{index}", type=element, default=argparse.SUPPRESS,
+                                        help=_help(dataclasses.replace(meta, help=f"{meta.help}, element {index + 1}"),
+                                                   f.default[index]))
+                continue
+            parser.add_argument(f"--{meta.cli}" if meta.cli else option_name(f.name), dest=dest, type=element,
+                                nargs=len(f.default), metavar=tuple(f"V{i + 1}" for i in range(len(f.default))),
+                                default=argparse.SUPPRESS, help=_help(meta, f.default))
+            continue
+        name = f"--{meta.cli}" if meta.cli else option_name(f.name)
+        if value_type is bool:
+            parser.add_argument(name, dest=dest, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS,
+                                help=_help(meta, f.default))
+            continue
+        parser.add_argument(name, dest=dest, type=value_type, choices=meta.choices, default=argparse.SUPPRESS,
+                            metavar=None if meta.choices else f.name.upper(), help=_help(meta, f.default))
+        if meta.presets is not None:
+            sizes = ", ".join(f"{key} {value * 1e3:g} mm" for key, value in meta.presets.items())
+            parser.add_argument("--resolution", dest=f"{dest}__preset", choices=list(meta.presets),
+                                default=argparse.SUPPRESS,
+                                help=f"a named {f.name}: {sizes} (default {f.default:g} m; {name} overrides it)")
+
+
+def config_values(args: argparse.Namespace, config_type: type) -> dict[str, Any]:
+    """The configuration fields the user set on the command line, by name (the others keep the
+    dataclass's defaults)."""
+    given = vars(args)
+    values: dict[str, Any] = {}
+    for f, meta, _ in _offered(config_type):
+        dest = f"config__{f.name}"
+        if isinstance(meta.cli, tuple):
+            parts = [given.get(f"{dest}__{i}", default) for i, default in enumerate(f.default)]
+            if any(f"{dest}__{i}" in given for i in range(len(parts))):
+                values[f.name] = tuple(parts)
+        elif dest in given:
+            values[f.name] = tuple(given[dest]) if isinstance(given[dest], list) else given[dest]
+        elif meta.presets is not None and f"{dest}__preset" in given:
+            values[f.name] = meta.presets[given[f"{dest}__preset"]]
+    return values
