@@ -63,7 +63,7 @@ def rig(ratio: float, dx: float, t_end: float, load: float) -> LegWheel:
     wheel weigh `load` N together (the chassis nothing if `load` is 0)."""
     density = ratio * glass_beads().reference_density
     config = LegWheel(wheel="c-leg", legs=3, omega=1.5, load=0.0, leg_length=0.05, thickness=0.015, width=0.1,
-                    spacing=dx, bed_width=0.3, bed_depth=0.05, start_x=0.08, settle_time=SETTLE, duration=t_end,
+                    spacing=dx, bed_width=0.3, bed_depth=0.05, start_x=0.08, settle_time=SETTLE, t_end=t_end,
                     wheel_density=density, motor_gain=20.0, motor_torque=1000.0)
     if load == 0:
         return config

@@ -21,7 +21,7 @@ BED = ("mu1_deg", "mu2_deg", "water_content")
 
 def _bed_spec() -> dict:
     """Two tiny leg-wheel runs (0.1 s pause, 0.1 s driven) in a Latin hypercube over the bed."""
-    fixed = {**TINY_FIXED, "duration": 0.2, "series_interval": 0.01}
+    fixed = {**TINY_FIXED, "t_end": 0.2, "series_interval": 0.01}
     vary = {"mu1_deg": {"range": [18.0, 26.0]}, "mu2_deg": {"range": [30.0, 36.0]},
             "water_content": {"range": [0.0, 0.02]}}
     return {"scene": "leg-wheel", "seed": 3, "fixed": fixed,

@@ -86,3 +86,16 @@ def test_the_step_estimate_matches_the_cores_first_step() -> None:
     size = estimate(config.footprint())
     assert config.end_time / size.steps == pytest.approx(sim.core.last_dt, rel=0.01)
     assert size.particles == pytest.approx(len(sim.position) + len(sim.core.wall_position), rel=0.25)
+
+
+def test_old_field_names_still_read() -> None:
+    """Run files and SPECs written before the rename (duration → t_end) give the same configuration."""
+    from terrasph.sweeps.spec import parse_spec
+    from sweep_helpers import TINY_FIXED
+
+    entry = SCENES["leg-wheel"]
+    assert entry.config_from({"duration": 0.5, "settle_time": 0.1}) == entry.config_from({"t_end": 0.5,
+                                                                                          "settle_time": 0.1})
+    old = {**{k: v for k, v in TINY_FIXED.items() if k != "t_end"}, "duration": 0.3}
+    spec = parse_spec({"scene": "leg-wheel", "fixed": old, "design": {"method": "grid", "vary": {"load": {"values": [2.0]}}}})
+    assert spec.cases[0].config["t_end"] == 0.3

@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["OPTION", "Option", "add_config_options", "config_values", "option", "option_name"]
+__all__ = ["OPTION", "Option", "add_config_options", "config_values", "option", "option_name", "redefault"]
 
 #: the key of a field's metadata that holds its :class:`Option`
 OPTION = "terrasph.option"
@@ -45,6 +45,12 @@ def option(default: Any = dataclasses.MISSING, *, help: str, unit: str = "",  # 
     """A dataclass field with a default that the command line offers as an option."""
     meta = Option(help, unit, tuple(choices) if choices is not None else None, cli, default_text, presets)
     return dataclasses.field(default=default, metadata={OPTION: meta})
+
+
+def redefault(config_type: type, name: str, default: Any) -> Any:
+    """The field `name` of `config_type` (help, unit, …) with another default, for a subclass."""
+    inherited = config_type.__dataclass_fields__[name]  # type: ignore[attr-defined]
+    return dataclasses.field(default=default, metadata=inherited.metadata)
 
 
 def option_name(field_name: str) -> str:

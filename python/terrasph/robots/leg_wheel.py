@@ -23,8 +23,9 @@ import dataclasses
 import math
 import os
 import pathlib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -49,26 +50,39 @@ WHEELS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg", "whe
 
 
 @dataclass(frozen=True)
-class LegWheel:
-    """Configuration of a leg-wheel run. Lengths in m, times in s, angles in rad (clockwise)."""
+class WheelScene:
+    """What the leg-wheel and rover configurations share: the wheel, the bed, the times. Lengths in
+    m, times in s, angles in rad (clockwise)."""
+
+    #: fields saved under another name by earlier versions (run files, sweep SPECs): old → new
+    RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
 
     wheel: str = option("c-leg", choices=WHEELS, help="morphology (Fig. 4.2) or plain wheel")
     legs: int = option(3, help="legs of a leg-wheel, 1-12")
     omega: float = option(1.5, help="commanded spin after the pause, clockwise", unit="rad/s")
-    #: if given, the commanded spin after the pause instead of `omega`: knots (t − settle_time, ω) of a
-    #: piecewise-linear schedule (terrasph.schedules; a repeated time is a step), ω ≥ 0
-    omega_schedule: tuple[tuple[float, float], ...] = ()
-    load: float = option(4.9, help="vertical load carried by the chassis", unit="N")
     leg_length: float = option(0.08, help='hip-to-toe length ("2R = 8 cm"), the tip radius', unit="m")
     thickness: float = option(0.005, help="leg thickness, >= 3 dx", unit="m")
-    width: float = option(0.1, help="out-of-plane width; loads are for it", unit="m")
+    width: float = option(0.1, help="each wheel's out-of-plane width; loads are for it", unit="m")
     foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
     spacing: float = option(0.005 / 3, help="particle spacing dx; parts thinner than 3 dx are refused", unit="m")
     bed_width: float = option(0.5, help="bed width", unit="m")
     bed_depth: float = option(0.1, help="bed depth", unit="m")
-    start_x: float = option(0.12, help="axle x at start", unit="m")
+    start_x: float = option(0.12, help="axle x at start (the rover: the middle of its axles)", unit="m")
     settle_time: float = option(2.0, help="pause before the spin", unit="s")
-    duration: float = option(6.0, cli="t-end", help="total simulated time", unit="s")
+    t_end: float = option(6.0, help="total simulated time", unit="s")
+    series_interval: float = option(0.01, help="time between series samples", unit="s")
+    frame_interval: float = option(0.05, help="time between saved frames", unit="s")
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+
+
+@dataclass(frozen=True)
+class LegWheel(WheelScene):
+    """Configuration of a leg-wheel run: a WheelScene with its load, motor and bed material."""
+
+    #: if given, the commanded spin after the pause instead of `omega`: knots (t − settle_time, ω) of a
+    #: piecewise-linear schedule (terrasph.schedules; a repeated time is a step), ω ≥ 0
+    omega_schedule: tuple[tuple[float, float], ...] = ()
+    load: float = option(4.9, help="vertical load carried by the chassis", unit="N")
     wheel_density: float = option(1200.0, help="the wheel's material (a printed polymer)", unit="kg/m^3")
     motor_gain: float = option(20.0, help="velocity servo gain", unit="N m s/rad")
     motor_torque: float = option(5.0, help="motor torque limit", unit="N m")
@@ -76,9 +90,6 @@ class LegWheel:
     mu2_deg: float = option(33.0, help="the bed's dynamic friction angle atan mu2, >= mu1-deg", unit="degrees")
     water_content: float = option(0.0, help="the bed's water content w; > 0: wet beads with cohesion (Table 2.1)",
                                   unit="kg/kg")
-    series_interval: float = option(0.01, help="time between series samples", unit="s")
-    frame_interval: float = option(0.05, help="time between saved frames", unit="s")
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
@@ -133,7 +144,7 @@ def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative:
         raise ConfigError(f"parameter 'wheel' = {config.wheel!r} is invalid: allowed one of {', '.join(WHEELS)}")
     if isinstance(config.legs, bool) or not isinstance(config.legs, int) or not 1 <= config.legs <= 12:
         raise ConfigError(f"parameter 'legs' = {config.legs!r} is invalid: allowed an integer 1–12")
-    for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "duration",
+    for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "t_end",
                  "series_interval", "frame_interval", *positive):
         value = getattr(config, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -144,23 +155,7 @@ def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative:
             raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number >= 0")
 
 
-class WheelConfig(Protocol):
-    """What the leg-wheel and rover configurations share: the wheel and the bed."""
-
-    wheel: str
-    legs: int
-    leg_length: float
-    thickness: float
-    width: float
-    foot_ratio: float
-    spacing: float
-    bed_width: float
-    bed_depth: float
-    duration: float
-    numerics: dict[str, Any]
-
-
-def wheel_shape(config: WheelConfig) -> bodies.BodyShape:
+def wheel_shape(config: WheelScene) -> bodies.BodyShape:
     """A wheel or leg-wheel in its own frame (axle at the origin; leg 0 pointing down)."""
     args = (config.leg_length, config.thickness, config.width, config.spacing)
     if config.wheel == "wheel":
@@ -169,22 +164,22 @@ def wheel_shape(config: WheelConfig) -> bodies.BodyShape:
     return bodies.leg_wheel(config.wheel, config.legs, *args, **extra)
 
 
-def wheel_numerics(config: WheelConfig) -> Numerics:
+def wheel_numerics(config: WheelScene) -> Numerics:
     """The numerics of the robot scenes: the Shepard filter every 100 steps and the density floor
     (as leg-rotation's) at the configured spacing, with the overrides applied."""
     return from_mapping(Numerics, {"spacing": config.spacing, "shepard_interval": 100, "density_floor": 1.0,
                                    **config.numerics})
 
 
-def wheel_footprint(config: WheelConfig, wheels: int, material: Material) -> Footprint:
+def wheel_footprint(config: WheelScene, wheels: int, material: Material) -> Footprint:
     """The bed, `wheels` wheels and the container of bed_and_wheel (size guard)."""
     wheel_area = wheels * config.legs * config.leg_length * config.thickness
     return Footprint(config.spacing, config.bed_width * config.bed_depth + wheel_area,
-                     config.bed_width + 2.0 * (config.bed_depth + 2.5 * config.leg_length), config.duration,
+                     config.bed_width + 2.0 * (config.bed_depth + 2.5 * config.leg_length), config.t_end,
                      material, wheel_numerics(config))
 
 
-def bed_and_wheel(config: WheelConfig) -> tuple[Scene, Numerics, float, bodies.BodyShape]:
+def bed_and_wheel(config: WheelScene) -> tuple[Scene, Numerics, float, bodies.BodyShape]:
     """The bed of chapter 4's glass beads in its container (scene, numerics, surface height) and the
     wheel's shape; a shape the spacing cannot build is refused naming the wheel."""
     numerics = wheel_numerics(config)
@@ -250,7 +245,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
             # positive motor work, power at the step's start × dt (the motor cannot recover energy)
             work["motor"] += max(float(np.dot(data.actuator_force, data.actuator_velocity)), 0.0) * run.time_step()
 
-    series = run_coupled(coupled, config.duration if until is None else until, output=output,
+    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=motor, progress=progress, memory=work, resume=resume,
                          config={"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config),

@@ -9,16 +9,17 @@ import dataclasses
 import math
 import os
 import pathlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from terrasph import bodies
 from terrasph.config import ConfigError
+from terrasph.options import option, redefault
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.options import option
-from terrasph.robots.leg_wheel import WHEELS, bed_and_wheel, check_wheel_config, wheel_footprint, wheel_shape
+from terrasph.robots.leg_wheel import (WheelScene, bed_and_wheel, check_wheel_config, wheel_footprint,
+                                       wheel_shape)
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
 from terrasph.robots.plots import plot_robot
@@ -35,31 +36,19 @@ AXLE_SPACING = 0.12
 
 
 @dataclass(frozen=True)
-class Rover:
-    """Configuration of a rover run. Lengths in m, times in s, angles in rad (clockwise)."""
+class Rover(WheelScene):
+    """Configuration of a rover run: a WheelScene (both wheels alike) with the rover's own defaults
+    (smaller wheels that clear each other, a shorter run) and the robot's MJCF."""
 
-    wheel: str = option("c-leg", choices=WHEELS, help="morphology of both wheels (Fig. 4.2) or plain wheels")
-    legs: int = option(3, help="legs of each leg-wheel, 1-12")
-    omega: float = option(1.5, help="commanded spin of both motors after the pause, clockwise", unit="rad/s")
-    leg_length: float = option(0.04, help="hip-to-toe length = tip radius (the wheels must clear each other)",
-                               unit="m")
-    thickness: float = option(0.005, help="leg thickness, >= 3 dx", unit="m")
-    width: float = option(0.05, help="each wheel's out-of-plane width", unit="m")
-    foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
-    spacing: float = option(0.005 / 3, help="particle spacing dx; parts thinner than 3 dx are refused", unit="m")
-    bed_width: float = option(0.5, help="bed width", unit="m")
-    bed_depth: float = option(0.1, help="bed depth", unit="m")
-    start_x: float = option(0.12, help="chassis (axle-line middle) x at start", unit="m")
-    settle_time: float = option(1.0, help="pause before the spin", unit="s")
-    duration: float = option(4.0, cli="t-end", help="total simulated time", unit="s")
-    series_interval: float = option(0.01, help="time between series samples", unit="s")
-    frame_interval: float = option(0.05, help="time between saved frames", unit="s")
+    leg_length: float = redefault(WheelScene, "leg_length", 0.04)  #: the wheels, 12 cm apart, must clear each other
+    width: float = redefault(WheelScene, "width", 0.05)
+    settle_time: float = redefault(WheelScene, "settle_time", 1.0)
+    t_end: float = redefault(WheelScene, "t_end", 4.0)
     #: a planar MJCF robot instead of the example rover; its wheels are the bodies named in WHEEL_BODIES
     mjcf: str | None = option(None, cli="model", unit="MJCF file",
                               help="your planar robot: an MJCF whose wheel bodies are named rear_wheel and "
                                    "front_wheel, each driven by a velocity motor (docs/robots.md)",
                               default_text="the example rover, terrasph/robots/models/rover.xml")
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
         check_wheel_config(self)
@@ -107,7 +96,7 @@ def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, pr
     def motors(run: CoupledSimulation) -> None:
         run.robot.data.ctrl[:] = config.omega if run.time >= config.settle_time else 0.0
 
-    series = run_coupled(coupled, config.duration if until is None else until, output=output,
+    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=motors, progress=progress, resume=resume,
                          config={"scene": "rover", "rover": dataclasses.asdict(config), **coupled.sim.describe()})

@@ -63,8 +63,16 @@ class SceneEntry:
         """The scene's run function."""
         return getattr(importlib.import_module(self.module), self.run_function)
 
+    def current_names(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        """`values` with the fields earlier versions saved under other names renamed (the
+        configuration's ``RENAMED_FIELDS``, old → new), so old run files and SPECs still read."""
+        renamed: Mapping[str, str] = getattr(self.config_type, "RENAMED_FIELDS", {})
+        return {renamed.get(key, key): value for key, value in values.items()}
+
     def config_from(self, values: Mapping[str, Any]) -> Any:
-        """The scene's configuration from its saved form (JSON lists back to the tuples it holds)."""
+        """The scene's configuration from its saved form (JSON lists back to the tuples it holds;
+        old field names renamed, :meth:`current_names`)."""
+        values = self.current_names(values)
         fields = {f.name: f for f in dataclasses.fields(self.config_type)}
         unknown = sorted(set(values) - set(fields))
         if unknown:
