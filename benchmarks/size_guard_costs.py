@@ -13,12 +13,16 @@ from terrasph.simulation import Simulation
 _core.set_num_threads(1)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 dx = float(sys.argv[1])
-cfg = PlateIntrusion(spacing=dx, bed_width=float(sys.argv[2]), bed_depth=float(sys.argv[3]), plate_length=float(sys.argv[2])/4, max_depth=0.01)
+width, depth = float(sys.argv[2]), float(sys.argv[3])
+cfg = PlateIntrusion(spacing=dx, bed_width=width, bed_depth=depth, plate_length=width / 4, max_depth=0.01)
 scene, material, numerics = build_plate_intrusion(cfg)[:3]
 sim = Simulation(scene, material, numerics)
 n = len(sim.position)
 sim.advance(1e-12, max_steps=2)
-t0 = time.perf_counter(); steps = sim.advance(1.0, max_steps=20); t1 = time.perf_counter()
+t0 = time.perf_counter()
+steps = sim.advance(1.0, max_steps=20)
+t1 = time.perf_counter()
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(f"dx {dx} granular {n} peak_rss_MiB {peak/1024:.0f} base_MiB {base/1024:.0f} "
-      f"bytes_per_granular {(peak-base)*1024/n:.0f} ns_per_particle_step {(t1-t0)/steps/n*1e9:.0f} dt {sim.core.last_dt:.3e}")
+print(f"dx {dx} granular {n} peak_rss_MiB {peak / 1024:.0f} base_MiB {base / 1024:.0f} "
+      f"bytes_per_granular {(peak - base) * 1024 / n:.0f} ns_per_particle_step {(t1 - t0) / steps / n * 1e9:.0f} "
+      f"dt {sim.core.last_dt:.3e}")

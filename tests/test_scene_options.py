@@ -97,5 +97,6 @@ def test_old_field_names_still_read() -> None:
     assert entry.config_from({"duration": 0.5, "settle_time": 0.1}) == entry.config_from({"t_end": 0.5,
                                                                                           "settle_time": 0.1})
     old = {**{k: v for k, v in TINY_FIXED.items() if k != "t_end"}, "duration": 0.3}
-    spec = parse_spec({"scene": "leg-wheel", "fixed": old, "design": {"method": "grid", "vary": {"load": {"values": [2.0]}}}})
+    design = {"method": "grid", "vary": {"load": {"values": [2.0]}}}
+    spec = parse_spec({"scene": "leg-wheel", "fixed": old, "design": design})
     assert spec.cases[0].config["t_end"] == 0.3

@@ -20,7 +20,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["OPTION", "Option", "add_config_options", "config_values", "option", "option_name", "redefault"]
+__all__ = ["OPTION", "SHARED", "Option", "add_config_options", "config_values", "option", "option_name", "redefault",
+           "shared"]
 
 #: the key of a field's metadata that holds its :class:`Option`
 OPTION = "terrasph.option"
@@ -44,6 +45,24 @@ def option(default: Any = dataclasses.MISSING, *, help: str, unit: str = "",  # 
            default_text: str | None = None, presets: Mapping[str, float] | None = None) -> Any:
     """A dataclass field with a default that the command line offers as an option."""
     meta = Option(help, unit, tuple(choices) if choices is not None else None, cli, default_text, presets)
+    return dataclasses.field(default=default, metadata={OPTION: meta})
+
+
+#: the options several scenes share, written once: each scene gives only its default (:func:`shared`)
+SHARED: dict[str, Option] = {
+    "bed_width": Option("width of the bed of grains", "m"),
+    "bed_depth": Option("depth of the bed of grains", "m"),
+    "leg_length": Option("hip-to-toe length of a leg", "m"),
+    "settle_time": Option("pause before the motion starts, while the bed settles", "s"),
+    "t_end": Option("simulated time", "s"),
+    "frame_interval": Option("time between saved frames", "s"),
+}
+
+
+def shared(name: str, default: Any, **changes: Any) -> Any:
+    """A dataclass field for the shared option `name` (:data:`SHARED`) with this scene's default
+    and any of its Option attributes changed (e.g. ``default_text``)."""
+    meta = dataclasses.replace(SHARED[name], **changes)
     return dataclasses.field(default=default, metadata={OPTION: meta})
 
 

@@ -130,7 +130,8 @@ def plot_run(path: str | os.PathLike[str]) -> tuple[Path, Path]:
         results = run.group_attrs.get("/results", {})
         label = f"t = {run.times[-1]:.2f} s"
         if "runout_normalised" in results:  # the legend the run itself drew
-            label += f", L* = {float(results['runout_normalised']):.2f}, H* = {float(results['final_height_normalised']):.2f}"
+            label += (f", L* = {float(results['runout_normalised']):.2f}, "
+                      f"H* = {float(results['final_height_normalised']):.2f}")
         plotting.plot_profiles([(*analysis.surface_profile(final, dx), label)],
                                initial=analysis.surface_profile(initial, dx), path=png)
     elif scene == "leg-rotation" and "bodies/leg" in run.series:
@@ -225,7 +226,8 @@ def _status(run: RunData) -> str:
 def _cmd_plot(args: argparse.Namespace) -> int:
     if args.time is not None and not args.fields:
         raise ValueError("--time chooses the frame of --fields: give --fields too")
-    figures = [".png", ".xdmf", *([".profiles.png"] if args.profiles else []), *([".fields.png"] if args.fields else [])]
+    figures = [".png", ".xdmf", *([".profiles.png"] if args.profiles else []),
+               *([".fields.png"] if args.fields else [])]
     for suffix in figures:  # all checked before any is written
         check_output_file(args.run.with_suffix(suffix), args.force, option="plot")
     png, xdmf = plot_run(args.run)

@@ -32,7 +32,7 @@ import numpy as np
 from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
-from terrasph.options import option
+from terrasph.options import option, shared
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
@@ -60,18 +60,18 @@ class WheelScene:
     wheel: str = option("c-leg", choices=WHEELS, help="morphology (Fig. 4.2) or plain wheel")
     legs: int = option(3, help="legs of a leg-wheel, 1-12")
     omega: float = option(1.5, help="commanded spin after the pause, clockwise", unit="rad/s")
-    leg_length: float = option(0.08, help='hip-to-toe length ("2R = 8 cm"), the tip radius', unit="m")
+    leg_length: float = shared("leg_length", 0.08)  #: "2R = 8 cm", the tip radius
     thickness: float = option(0.005, help="leg thickness, >= 3 dx", unit="m")
     width: float = option(0.1, help="each wheel's out-of-plane width; loads are for it", unit="m")
     foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
     spacing: float = option(0.005 / 3, help="particle spacing dx; parts thinner than 3 dx are refused", unit="m")
-    bed_width: float = option(0.5, help="bed width", unit="m")
-    bed_depth: float = option(0.1, help="bed depth", unit="m")
+    bed_width: float = shared("bed_width", 0.5)
+    bed_depth: float = shared("bed_depth", 0.1)
     start_x: float = option(0.12, help="axle x at start (the rover: the middle of its axles)", unit="m")
-    settle_time: float = option(2.0, help="pause before the spin", unit="s")
-    t_end: float = option(6.0, help="total simulated time", unit="s")
+    settle_time: float = shared("settle_time", 2.0)
+    t_end: float = shared("t_end", 6.0)
     series_interval: float = option(0.01, help="time between series samples", unit="s")
-    frame_interval: float = option(0.05, help="time between saved frames", unit="s")
+    frame_interval: float = shared("frame_interval", 0.05)
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from terrasph.config import ConfigError, Material, Numerics, from_mapping, parameter
 from terrasph.geometry import aligned_wall_layers, elliptical_arc, trough_height, wall_layers_needed
 from terrasph.io import write_results
-from terrasph.options import option
+from terrasph.options import option, shared
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
@@ -72,9 +72,9 @@ class ColumnCollapse:
     bed_axes: tuple[float, float] = option((0.35, 0.15), help="semi-axes of the elliptical trough, along x then z",
                                            unit="m")
     release_time: float = option(0.0, help="the gate is removed at this time", unit="s")
-    t_end: float = option(1.0, help="simulated time limit; the run stops earlier once at rest", unit="s")
+    t_end: float = shared("t_end", 1.0, help="simulated time; the run stops earlier once at rest")
     rest_threshold: float = 1e-4  #: stop once mean ½|v|² < rest_threshold·g·Δx (after 0.3 s)
-    frame_interval: float = option(0.02, help="time between saved frames", unit="s")
+    frame_interval: float = shared("frame_interval", 0.02)
     width: float = option(0.1, help="out-of-plane width of the quasi-2D sample, scales reported energies", unit="m")
     material_preset: str = option("table_2_1", choices=MATERIAL_PRESETS,
                                   help="bulk density of the beads: Table 2.1's, or a random packing's")

@@ -23,7 +23,7 @@ from terrasph.config import ConfigError, Material, Numerics, from_mapping
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import hold_then_rotate
-from terrasph.options import option
+from terrasph.options import option, shared
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
@@ -66,20 +66,19 @@ class LegRotation:
                                                 "is given)")
     spacing: float | None = option(None, help="particle spacing dx, overrides --resolution", unit="m",
                                    default_text="thickness / rows of --resolution")
-    leg_length: float = option(0.0762, help="2R of the dissertation: hip-to-toe length", unit="m")
+    leg_length: float = shared("leg_length", 0.0762)  #: 2R of the dissertation
     thickness: float = option(0.0064, help="leg thickness", unit="m")
     width: float = option(0.0254, help="out-of-plane leg width; forces are reported for it", unit="m")
-    bed_width: float = option(0.24, help="bed width", unit="m")
-    bed_depth: float = option(0.15, help="bed depth", unit="m")
+    bed_width: float = shared("bed_width", 0.24)
+    bed_depth: float = shared("bed_depth", 0.15)
     hip_height: float = option(0.02, help="axle height above the undisturbed free surface", unit="m")
     start_angle: float = option(-math.pi / 4, help="leg angle at the start, clockwise from down", unit="rad")
     end_angle: float = option(math.pi / 4, help="leg angle at the end of the sweep", unit="rad")
-    settle_time: float = option(2.0, help="the leg is held still this long before it turns", unit="s")
+    settle_time: float = shared("settle_time", 2.0)  #: the leg is held still
     #: load samples (each a time average, see Simulation.run)
     samples_per_radian: float = option(100.0, help="load samples per radian of the sweep", unit="1/rad")
-    frame_interval: float = option(0.1, help="time between saved frames", unit="s")
-    t_end: float | None = option(None, help="simulated time limit", unit="s",
-                                 default_text="the end of the sweep, settle_time + sweep angle / omega")
+    frame_interval: float = shared("frame_interval", 0.1)
+    t_end: float | None = shared("t_end", None, default_text="the end of the sweep, settle_time + sweep angle / omega")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and terrasph.Numerics
 
     def __post_init__(self) -> None:

@@ -41,7 +41,7 @@ from terrasph.config import ConfigError, Material, Numerics, from_mapping, param
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
-from terrasph.options import option
+from terrasph.options import option, shared
 from terrasph.scene import GRAVITY, Scene
 from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import RunResult, Simulation
@@ -78,13 +78,13 @@ class PlateIntrusion:
     thickness: float | None = option(None, help="plate thickness", unit="m",
                                      default_text="the least, 3 dx at h = 1.3 dx")
     width: float = option(0.0254, help="out-of-plane plate width W; forces are reported for it", unit="m")
-    bed_width: float = option(0.20, help="bed width", unit="m")
-    bed_depth: float = option(0.10, help="bed depth", unit="m")
+    bed_width: float = shared("bed_width", 0.20)
+    bed_depth: float = shared("bed_depth", 0.10)
     gap: float | None = option(None, help="start height of the underside above the surface", unit="m",
                                default_text="dx, the least")
-    settle_time: float = option(0.2, help="the plate is held still this long before it moves", unit="s")
+    settle_time: float = shared("settle_time", 0.2)  #: the plate is held still
     sample_travel: float = option(0.001, help="plate travel per load sample (each a time average over it)", unit="m")
-    frame_interval: float = option(0.1, help="time between saved frames", unit="s")
+    frame_interval: float = shared("frame_interval", 0.1)
     model: str = option("mu_i_hypoelastic", choices=parameter("material.model").choices, cli="material-model",
                         help="constitutive model of the beads (material.model)")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
@@ -94,8 +94,7 @@ class PlateIntrusion:
              "(a strip anchor)")
     pull_distance: float = option(0.015, help="with --buried-depth: upward travel of the plate", unit="m")
     geostatic: bool = option(False, help="start the hypoelastic mu(I) geostatic (Simulation's geostatic)")
-    t_end: float | None = option(None, help="simulated time limit", unit="s",
-                                 default_text="the end of the strokes")
+    t_end: float | None = shared("t_end", None, default_text="the end of the strokes")
 
     def __post_init__(self) -> None:
         for name in ("speed", "max_depth", "spacing", "plate_length", "width", "bed_width", "bed_depth",

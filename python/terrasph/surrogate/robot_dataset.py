@@ -76,7 +76,7 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str], bed: Sequence[
         saved = json.loads(f.attrs["config_json"])
         if saved.get("scene") != "leg-wheel":
             raise ValueError(f"{path} is not a leg-wheel run (its scene is {saved.get('scene')!r})")
-        config = _leg_wheel_config(saved["leg_wheel"])  # the scene's own configuration (terrasph.scenes.SCENES' config_key)
+        config = _leg_wheel_config(saved["leg_wheel"])  # the scene's own (terrasph.scenes.SCENES' config_key)
         group = f["series/robot/wheel"]
         time = group["time"][()]
         sampled = {"slip": group["slip"][()], "sinkage": group["sinkage"][()],
