@@ -87,8 +87,11 @@ def load_spec(path: str | Path) -> SweepSpec:
 
         try:
             raw = yaml.safe_load(text)
-        except yaml.YAMLError as error:
-            raise ConfigError(f"sweep spec {path}: not valid YAML ({error})") from None
+        except yaml.YAMLError as error:  # its text spans lines: the one line names where and what
+            mark = getattr(error, "problem_mark", None)
+            where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+            what = getattr(error, "problem", None) or str(error).splitlines()[0]
+            raise ConfigError(f"sweep spec {path}: not valid YAML{where}: {what}") from None
     elif path.suffix == ".toml":
         try:
             raw = tomllib.loads(text)
