@@ -100,3 +100,38 @@ def test_old_field_names_still_read() -> None:
     design = {"method": "grid", "vary": {"load": {"values": [2.0]}}}
     spec = parse_spec({"scene": "leg-wheel", "fixed": old, "design": design})
     assert spec.cases[0].config["t_end"] == 0.3
+
+
+def test_the_leg_shapes_have_one_set_of_names() -> None:
+    """leg-rotation's flat leg is flat-leg as in leg-wheel; the old name reads as the new."""
+    from terrasph.robots.leg_wheel import WHEELS
+    from terrasph.scenes.leg_rotation import LEGS, LegRotation
+
+    assert set(LEGS) <= set(WHEELS)
+    assert LegRotation(leg="flat") == LegRotation(leg="flat-leg")
+
+
+def test_your_own_robot_reaches_the_rover_and_a_missing_file_is_refused(tmp_path, monkeypatch, capsys) -> None:
+    from terrasph.robots import rover
+    from terrasph.robots.mjcf import ROVER
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def planar_robot(mjcf, *args, **kwargs):
+        seen["mjcf"] = mjcf
+        raise Stop
+
+    monkeypatch.setattr(rover, "PlanarRobot", planar_robot)
+    mine = tmp_path / "my_rover.xml"
+    mine.write_text(ROVER.read_text())
+    with pytest.raises(Stop):
+        main(["run", "rover", "--model", str(mine), "--spacing", "0.005", "--thickness", "0.015",
+              "--out", str(tmp_path / "r.h5"), "--no-progress"])
+    assert seen["mjcf"] == str(mine)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["run", "rover", "--model", str(tmp_path / "missing.xml"), "--out", str(tmp_path / "r.h5")])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2 and len(err.splitlines()) == 1 and "missing.xml" in err, err

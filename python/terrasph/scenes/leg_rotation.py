@@ -32,7 +32,10 @@ __all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "LegResult", "LegRotation", 
            "run_leg_rotation"]
 
 #: Leg shapes by name (bodies.py documents each reading of the dissertation's figures).
-LEGS = ("flat", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
+LEGS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
+#: leg names of earlier versions (run files, SPECs), read as their current names: the shape names of
+#: leg-rotation and leg-wheel are one set
+OLD_LEG_NAMES = {"flat": "flat-leg"}
 
 #: Rows across the leg's thickness per resolution: Δx = thickness / rows. Three rows is the least
 #: that fills the kernel support 2h = 2.6Δx (bodies.minimum_thickness), so "coarse" is the coarsest
@@ -82,6 +85,7 @@ class LegRotation:
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and terrasph.Numerics
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "leg", OLD_LEG_NAMES.get(self.leg, self.leg))
         if self.leg not in LEGS:
             raise ConfigError(f"parameter 'leg' = {self.leg!r} is invalid: allowed one of {', '.join(LEGS)}")
         for name in ("omega", "leg_length", "thickness", "width", "bed_width", "bed_depth",
@@ -136,7 +140,7 @@ class LegRotation:
     def shape(self) -> bodies.BodyShape:
         """The leg in its own frame (hip at the origin, pointing down at θ = 0)."""
         args = (self.leg_length, self.thickness, self.width, self.grid_spacing)
-        if self.leg == "flat":
+        if self.leg == "flat-leg":
             return bodies.flat_leg(*args)
         if self.leg == "c-leg":
             return bodies.c_leg(*args)
