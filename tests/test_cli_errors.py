@@ -80,11 +80,13 @@ BAD_INPUT = [
     ("train-out-in-missing-dir", ["train", "{dataset}", "--out", "{root}/no/dir/m.tslstm"], "does not exist"),
     ("train-out-exists", ["train", "{dataset}", "--out", "{good}"], "--force"),
     # make-synthetic-dataset
-    ("synthetic-runs-0", ["make-synthetic-dataset", "{root}/new0", "--runs", "0"], "--runs"),
-    ("synthetic-dt-0", ["make-synthetic-dataset", "{root}/new1", "--dt", "0"], "--dt"),
-    ("synthetic-dt-above-duration", ["make-synthetic-dataset", "{root}/new2", "--dt", "5", "--duration", "3"], "--dt"),
-    ("synthetic-negative-duration", ["make-synthetic-dataset", "{root}/new3", "--duration", "-1"], "--duration"),
-    ("synthetic-into-non-empty-dir", ["make-synthetic-dataset", "{dataset}", "--runs", "3"], "--force"),
+    ("synthetic-runs-0", ["make-synthetic-dataset", "--out", "{root}/new0", "--runs", "0"], "--runs"),
+    ("synthetic-dt-0", ["make-synthetic-dataset", "--out", "{root}/new1", "--dt", "0"], "--dt"),
+    ("synthetic-dt-above-duration",
+     ["make-synthetic-dataset", "--out", "{root}/new2", "--dt", "5", "--duration", "3"], "--dt"),
+    ("synthetic-negative-duration",
+     ["make-synthetic-dataset", "--out", "{root}/new3", "--duration", "-1"], "--duration"),
+    ("synthetic-into-non-empty-dir", ["make-synthetic-dataset", "--out", "{dataset}", "--runs", "3"], "--force"),
     # run: threads, output, geometry
     *[(f"run-{scene}-threads-{n}", ["run", scene, "--threads", n, "--out", "{root}/r.h5"], "--threads")
       for scene in ("column-collapse", "leg-rotation", "plate-intrusion") for n in ("0", "-1")],
@@ -147,8 +149,8 @@ def test_force_replaces_an_existing_output(files, tmp_path, capsys) -> None:
 def test_force_into_a_dataset_directory_leaves_exactly_the_new_runs(tmp_path) -> None:
     """--force removes the runs of an earlier, larger dataset instead of mixing the two."""
     out = tmp_path / "data"
-    assert main(["make-synthetic-dataset", str(out), "--runs", "4", "--duration", "0.2"]) == 0
-    assert main(["make-synthetic-dataset", str(out), "--runs", "2", "--duration", "0.2", "--force"]) == 0
+    assert main(["make-synthetic-dataset", "--out", str(out), "--runs", "4", "--duration", "0.2"]) == 0
+    assert main(["make-synthetic-dataset", "--out", str(out), "--runs", "2", "--duration", "0.2", "--force"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["wheel_0000.h5", "wheel_0001.h5"]
 
 

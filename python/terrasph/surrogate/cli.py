@@ -76,8 +76,8 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "make-synthetic-dataset", help="write driven-wheel runs with a known slip-sinkage law",
         description="Simulate the synthetic driven wheel (terrasph.surrogate.synthetic) and "
-                    "write one HDF5 run file per run into OUT_DIR.")
-    p.add_argument("out_dir", metavar="OUT_DIR", type=Path)
+                    "write one HDF5 run file per run into the directory --out.")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="dataset directory to write")
     p.add_argument("--runs", type=positive_int, default=120,
                    help="number of runs (files wheel_0000.h5, …) (default: %(default)s)")
     p.add_argument("--duration", type=positive_float, default=3.0,
@@ -181,12 +181,12 @@ def _cmd_synthetic(args: argparse.Namespace) -> int:
     if args.dt > args.duration / 2:
         raise ValueError(f"--dt {args.dt:g} is invalid: allowed at most --duration/2 = "
                          f"{args.duration / 2:g} s (a run needs at least 3 samples)")
-    check_output_dir(args.out_dir, args.force)
-    for stale in sorted(args.out_dir.glob("wheel_*.h5")) if args.force else ():
+    check_output_dir(args.out, args.force, "--out")
+    for stale in sorted(args.out.glob("wheel_*.h5")) if args.force else ():
         stale.unlink()  # --force: the directory then holds exactly this dataset, no runs of an earlier one
-    paths = make_dataset(args.out_dir, n_runs=args.runs, seed=args.seed,
+    paths = make_dataset(args.out, n_runs=args.runs, seed=args.seed,
                          duration=args.duration, dt=args.dt)
-    print(f"wrote {len(paths)} runs to {args.out_dir}")
+    print(f"wrote {len(paths)} runs to {args.out}")
     return 0
 
 
