@@ -135,3 +135,13 @@ def test_your_own_robot_reaches_the_rover_and_a_missing_file_is_refused(tmp_path
         main(["run", "rover", "--model", str(tmp_path / "missing.xml"), "--out", str(tmp_path / "r.h5")])
     err = capsys.readouterr().err
     assert exit_info.value.code == 2 and len(err.splitlines()) == 1 and "missing.xml" in err, err
+
+
+def test_a_bad_value_is_refused_naming_its_option_and_range(tmp_path, capsys) -> None:
+    """The configuration's own check judges the value; the one line names the option beside it."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(["run", "leg-rotation", "--settle-time", "-1", "--out", str(tmp_path / "r.h5")])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2 and len(err.splitlines()) == 1, err
+    assert "(--settle-time)" in err and ">= 0" in err
+    assert list(tmp_path.iterdir()) == []

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from typing import Any
 
 __all__ = ["OPTION", "SHARED", "Option", "add_config_options", "config_values", "option", "option_name", "redefault",
-           "shared"]
+           "shared", "with_option_names"]
 
 #: the key of a field's metadata that holds its :class:`Option`
 OPTION = "terrasph.option"
@@ -113,8 +113,7 @@ def add_config_options(parser: argparse.ArgumentParser, config_type: type) -> No
             if names is not None:
                 for index, name in enumerate(names):
                     parser.add_argument(f"--{name}", dest=f"{dest}__{index}", type=element, default=argparse.SUPPRESS,
-                                        help=_help(dataclasses.replace(meta, help=f"{meta.help}, element {index + 1}"),
-                                                   f.default[index]))
+                                        metavar=name.upper().replace("-", "_"), help=_help(meta, f.default[index]))
                 continue
             parser.add_argument(f"--{meta.cli}" if meta.cli else option_name(f.name), dest=dest, type=element,
                                 nargs=len(f.default), metavar=tuple(f"V{i + 1}" for i in range(len(f.default))),
@@ -132,6 +131,15 @@ def add_config_options(parser: argparse.ArgumentParser, config_type: type) -> No
             parser.add_argument("--resolution", dest=f"{dest}__preset", choices=list(meta.presets),
                                 default=argparse.SUPPRESS,
                                 help=f"a named {f.name}: {sizes} (default {f.default:g} m; {name} overrides it)")
+
+
+def with_option_names(message: str, config_type: type) -> str:
+    """`message` (a ConfigError's) with the option beside each offered field it names:
+    "parameter 'settle_time' (--settle-time) = ..."."""
+    for f, meta, _ in _offered(config_type):
+        names = meta.cli if isinstance(meta.cli, tuple) else (meta.cli or f.name.replace("_", "-"),)
+        message = message.replace(f"'{f.name}'", f"'{f.name}' ({', '.join('--' + n for n in names)})")
+    return message
 
 
 def config_values(args: argparse.Namespace, config_type: type) -> dict[str, Any]:

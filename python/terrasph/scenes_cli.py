@@ -14,7 +14,8 @@ from typing import Any
 
 from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
                                  numerics_overrides)
-from terrasph.options import add_config_options, config_values
+from terrasph.config import ConfigError
+from terrasph.options import add_config_options, config_values, with_option_names
 from terrasph.scenes import SCENES, SceneEntry, run_case, scene_entry
 from terrasph.threads import use_threads
 
@@ -52,10 +53,13 @@ def _run_scene(args: argparse.Namespace) -> int:
     from terrasph.size_guard import check_size
 
     entry = scene_entry(args.scene)
-    config = entry.config_from({**config_values(args, entry.config_type),
-                                "numerics": numerics_overrides(args.numerics)})
+    try:
+        config = entry.config_from({**config_values(args, entry.config_type),
+                                    "numerics": numerics_overrides(args.numerics)})
+    except ConfigError as error:
+        raise ConfigError(with_option_names(str(error), entry.config_type)) from None
     check_output_file(args.out, args.force)
-    check_size(config, confirmed=args.yes)
+    check_size(config, confirmed=args.yes, threads=args.threads)
     use_threads(args.threads)
     summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
     return _print_summary(summary, args.out, summary.plot)

@@ -62,7 +62,7 @@ class ColumnCollapse:
                                    default_text="from --resolution")
     friction_angles_deg: tuple[float, float] = option(
         (21.0, 33.0), cli=("mu1-deg", "mu2-deg"), unit="degrees",
-        help="friction angles atan(mu1), atan(mu2) of the mu(I) rheology")
+        help="friction angle of the mu(I) rheology: --mu1-deg atan(mu1), --mu2-deg atan(mu2) >= it")
     water_content: float = option(0.0, help="water content w; > 0 gives the wet material of Table 2.1 with "
                                             "cohesion", unit="kg/kg")
     floor_length: float = option(0.35, help="length of the rough flat floor right of the left wall", unit="m")
