@@ -66,14 +66,17 @@ def test_a_long_spin_only_when_every_core_is_idle() -> None:
 
 
 def test_default_thread_count_is_within_the_available_cores() -> None:
+    """At run start terrasph picks a count within the cores, unless the user chose one first."""
     from terrasph.threads import available_cores
 
-    start = "from terrasph import threads\nthreads.start_run(_core.set_num_threads)\nprint(_core.get_max_threads())"
-    picked = int(fresh_import({"OMP_NUM_THREADS": None}, start))
-    assert 1 <= picked <= available_cores()
-    chosen = "from terrasph import threads\nthreads.use_threads(1)\nthreads.start_run(_core.set_num_threads)\n" \
-             "print(_core.get_max_threads())"
-    assert fresh_import({"OMP_NUM_THREADS": None}, chosen) == "1"  # --threads: left alone at run start
+    def count_at_run_start(before: str) -> str:
+        code = (f"from terrasph import threads\n{before}\n"
+                "threads.start_run(_core.set_num_threads, _core.get_max_threads)\nprint(_core.get_max_threads())")
+        return fresh_import({"OMP_NUM_THREADS": None}, code)
+
+    assert 1 <= int(count_at_run_start("")) <= available_cores()
+    assert count_at_run_start("threads.use_threads(1)") == "1"  # --threads
+    assert count_at_run_start("_core.set_num_threads(1)") == "1"  # the core's own call
 
 
 def test_omp_num_threads_is_respected() -> None:

@@ -146,12 +146,15 @@ def use_threads(threads: int | None) -> None:
     user_chose, chosen_threads, auto_threads = True, None, None
 
 
-def start_run(set_threads: Callable[[int], None]) -> None:
+def start_run(set_threads: Callable[[int], None], get_threads: Callable[[], int]) -> None:
     """At the start of a run: the thread count from the cores idle now (:func:`default_threads`,
     a 50 ms look), once per process, unless the user chose one (``OMP_NUM_THREADS``,
-    :func:`use_threads`)."""
+    :func:`use_threads`, or ``_core.set_num_threads`` with a count other than the OpenMP default of
+    every available core)."""
     global chosen_threads
     if user_chose or chosen_threads is not None or "OMP_NUM_THREADS" in os.environ:
+        return
+    if get_threads() != available_cores():  # set by the user through the core itself
         return
     chosen_threads = default_threads()
     set_threads(chosen_threads)
@@ -184,7 +187,7 @@ class LoadWatch:
                  own_cpu: Callable[[], float] = time.process_time,
                  clock: Callable[[], float] = time.perf_counter) -> None:
         self._set, self._get = set_threads, get_threads
-        start_run(set_threads)
+        start_run(set_threads, get_threads)
         self._interval = interval
         self._read_ticks = read_ticks or _cpu_ticks
         self._own_cpu, self._clock = own_cpu, clock

@@ -120,7 +120,7 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     if not t_end > coupled.time:
         raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {coupled.time}")
     sim = coupled.sim
-    start_run(_core.set_num_threads)  # the thread count, unless the user's (terrasph.threads)
+    start_run(_core.set_num_threads, _core.get_max_threads)  # the thread count, unless the user's (terrasph.threads)
     writer = None
     if resume:
         writer = RunWriter.reopen(output, frames=saved["frames"], series_rows=saved["series_rows"])
