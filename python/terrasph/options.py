@@ -83,12 +83,18 @@ def _offered(config_type: type) -> list[tuple[dataclasses.Field[Any], Option, An
     return [(f, f.metadata[OPTION], hints[f.name]) for f in dataclasses.fields(config_type) if OPTION in f.metadata]
 
 
-def _scalar_type(annotation: Any) -> tuple[type, bool]:
-    """(the value type, whether None is allowed) of ``float``, ``float | None``, ``int`` …"""
+def _value_type(annotation: Any) -> Any:
+    """The type of a field's values: ``float`` of ``float``, ``float | None`` …"""
     if isinstance(annotation, types.UnionType) or typing.get_origin(annotation) is typing.Union:
-        args = [a for a in typing.get_args(annotation) if a is not type(None)]
-        return args[0], True
-    return annotation, False
+        return next(a for a in typing.get_args(annotation) if a is not type(None))
+    return annotation
+
+
+def _option_names(f: dataclasses.Field[Any], meta: Option) -> tuple[str, ...]:
+    """The options of a field: one per element of a tuple field that names one each, else one."""
+    if isinstance(meta.cli, tuple):
+        return tuple(f"--{name}" for name in meta.cli)
+    return (f"--{meta.cli}" if meta.cli else option_name(f.name),)
 
 
 def _help(meta: Option, default: Any) -> str:
@@ -105,40 +111,34 @@ def add_config_options(parser: argparse.ArgumentParser, config_type: type) -> No
     """Adds one option per offered field of `config_type` (see the module's docstring); the
     parsed values come back with :func:`config_values`."""
     for f, meta, annotation in _offered(config_type):
-        value_type, _ = _scalar_type(annotation)
-        dest = f"config__{f.name}"
-        if typing.get_origin(value_type) is tuple:
+        value_type, dest, names = _value_type(annotation), f"config__{f.name}", _option_names(f, meta)
+        if isinstance(meta.cli, tuple):  # a tuple field, one option per element
             element = typing.get_args(value_type)[0]
-            names = meta.cli if isinstance(meta.cli, tuple) else None
-            if names is not None:
-                for index, name in enumerate(names):
-                    parser.add_argument(f"--{name}", dest=f"{dest}__{index}", type=element, default=argparse.SUPPRESS,
-                                        metavar=name.upper().replace("-", "_"), help=_help(meta, f.default[index]))
-                continue
-            parser.add_argument(f"--{meta.cli}" if meta.cli else option_name(f.name), dest=dest, type=element,
-                                nargs=len(f.default), metavar=tuple(f"V{i + 1}" for i in range(len(f.default))),
+            for index, name in enumerate(names):
+                parser.add_argument(name, dest=f"{dest}__{index}", type=element, default=argparse.SUPPRESS,
+                                    metavar=name[2:].upper().replace("-", "_"), help=_help(meta, f.default[index]))
+        elif typing.get_origin(value_type) is tuple:  # a tuple field, one option taking every element
+            parser.add_argument(names[0], dest=dest, type=typing.get_args(value_type)[0], nargs=len(f.default),
+                                metavar=tuple(f"V{i + 1}" for i in range(len(f.default))),
                                 default=argparse.SUPPRESS, help=_help(meta, f.default))
-            continue
-        name = f"--{meta.cli}" if meta.cli else option_name(f.name)
-        if value_type is bool:
-            parser.add_argument(name, dest=dest, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS,
+        elif value_type is bool:
+            parser.add_argument(names[0], dest=dest, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS,
                                 help=_help(meta, f.default))
-            continue
-        parser.add_argument(name, dest=dest, type=value_type, choices=meta.choices, default=argparse.SUPPRESS,
-                            metavar=None if meta.choices else f.name.upper(), help=_help(meta, f.default))
+        else:
+            parser.add_argument(names[0], dest=dest, type=value_type, choices=meta.choices, default=argparse.SUPPRESS,
+                                metavar=None if meta.choices else f.name.upper(), help=_help(meta, f.default))
         if meta.presets is not None:
             sizes = ", ".join(f"{key} {value * 1e3:g} mm" for key, value in meta.presets.items())
             parser.add_argument("--resolution", dest=f"{dest}__preset", choices=list(meta.presets),
                                 default=argparse.SUPPRESS,
-                                help=f"a named {f.name}: {sizes} (default {f.default:g} m; {name} overrides it)")
+                                help=f"a named {f.name}: {sizes} (default {f.default:g} m; {names[0]} overrides it)")
 
 
 def with_option_names(message: str, config_type: type) -> str:
     """`message` (a ConfigError's) with the option beside each offered field it names:
     "parameter 'settle_time' (--settle-time) = ..."."""
     for f, meta, _ in _offered(config_type):
-        names = meta.cli if isinstance(meta.cli, tuple) else (meta.cli or f.name.replace("_", "-"),)
-        message = message.replace(f"'{f.name}'", f"'{f.name}' ({', '.join('--' + n for n in names)})")
+        message = message.replace(f"'{f.name}'", f"'{f.name}' ({', '.join(_option_names(f, meta))})")
     return message
 
 
