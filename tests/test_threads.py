@@ -138,3 +138,12 @@ def test_the_load_watch_gives_a_core_back_to_a_process_that_needs_it(monkeypatch
     machine.run(3.0, others=0.0, own=1.0)
     watch.follow()
     assert count["threads"] == 1
+
+
+def test_the_load_average_gives_idle_cores_within_the_machine() -> None:
+    from terrasph.threads import idle_cores_by_load_average
+
+    idle = idle_cores_by_load_average()
+    if idle is None:
+        pytest.skip("no /proc/loadavg on this system")
+    assert 0.0 <= idle <= (os.cpu_count() or 1)
