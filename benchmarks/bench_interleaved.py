@@ -49,7 +49,7 @@ def main() -> None:
         parser.error("parameter '--variant' must be given at least twice (the first is the reference)")
     _core.set_num_threads(args.threads)
     variants = [parse_variant(text) for text in args.variant]
-    wheels = {name: LegWheel(duration=args.t_end, numerics=numerics) for name, numerics in variants}
+    wheels = {name: LegWheel(t_end=args.t_end, numerics=numerics) for name, numerics in variants}
     runs = {name: build_leg_wheel(wheel) for name, wheel in wheels.items()}
     names = [name for name, _ in variants]
     wall = {name: [] for name in names}  # wall s per simulated s, window by window

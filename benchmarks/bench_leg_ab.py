@@ -54,7 +54,7 @@ import json, time
 from terrasph import _core
 from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
 _core.set_num_threads({threads})
-wheel = LegWheel(spacing=0.005, thickness=0.015, settle_time=1.0, duration={until!r} or 3.0, numerics={numerics!r})
+wheel = LegWheel(spacing=0.005, thickness=0.015, settle_time=1.0, t_end={until!r} or 3.0, numerics={numerics!r})
 start, cpu = time.perf_counter(), time.process_time()
 try:
     result = run_leg_wheel(wheel, plot=False)
@@ -62,14 +62,14 @@ except TypeError:
     result = run_leg_wheel(wheel)
 wall, cpu = time.perf_counter() - start, time.process_time() - cpu
 summary = result.summary() if hasattr(result, "summary") else {{}}
-print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": wheel.duration, "steps": summary.get("steps", 0),
+print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": wheel.t_end, "steps": summary.get("steps", 0),
                   "outcome": [summary.get("mean_slip"), summary.get("mean_sinkage"), summary.get("final_sinkage")]}}))
 """}
 # chapter 4's leg-wheel at its default resolution (LegWheel(): Δx = 1.67 mm, 18 000 grains, C-leg wheel,
 # 2 s pause, 6 s with ``--until 0``)
-_COARSE_WHEEL = "spacing=0.005, thickness=0.015, settle_time=1.0, duration={until!r} or 3.0"
+_COARSE_WHEEL = "spacing=0.005, thickness=0.015, settle_time=1.0, t_end={until!r} or 3.0"
 assert _COARSE_WHEEL in CHILD["leg-wheel"]  # else the default scene would silently run coarse
-CHILD["leg-wheel-default"] = CHILD["leg-wheel"].replace(_COARSE_WHEEL, "duration={until!r} or 6.0")
+CHILD["leg-wheel-default"] = CHILD["leg-wheel"].replace(_COARSE_WHEEL, "t_end={until!r} or 6.0")
 
 
 def run_side(scene: str, python: str, threads: int, numerics: dict, until: float, env: dict[str, str]) -> dict:

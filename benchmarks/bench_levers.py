@@ -53,9 +53,9 @@ def run_variant(scene: str, overrides: dict, args: argparse.Namespace) -> dict:
     if scene == "leg-wheel":
         start = time.perf_counter()
         wheel = LegWheel(wheel=args.wheel, spacing=args.spacing, thickness=3 * args.spacing, settle_time=args.settle,
-                         duration=args.t_end, numerics=numerics)
+                         t_end=args.t_end, numerics=numerics)
         summary = run_leg_wheel(wheel, plot=False).summary()
-        return {**summary, "time": wheel.duration, "wall_time": time.perf_counter() - start, "status": "completed"}
+        return {**summary, "time": wheel.t_end, "wall_time": time.perf_counter() - start, "status": "completed"}
     extra = {"material_preset": overrides["material_preset"]} if "material_preset" in overrides else {}
     config = ColumnCollapse(resolution=args.resolution, numerics=numerics, **extra)
     return run_column_collapse(config, output=None, progress=False, plot=False).summary()

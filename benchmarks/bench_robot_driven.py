@@ -63,7 +63,7 @@ def rig(ratio: float, dx: float, t_end: float, load: float) -> LegWheel:
     wheel weigh `load` N together (the chassis nothing if `load` is 0)."""
     density = ratio * glass_beads().reference_density
     config = LegWheel(wheel="c-leg", legs=3, omega=1.5, load=0.0, leg_length=0.05, thickness=0.015, width=0.1,
-                    spacing=dx, bed_width=0.3, bed_depth=0.05, start_x=0.08, settle_time=SETTLE, duration=t_end,
+                    spacing=dx, bed_width=0.3, bed_depth=0.05, start_x=0.08, settle_time=SETTLE, t_end=t_end,
                     wheel_density=density, motor_gain=20.0, motor_torque=1000.0)
     if load == 0:
         return config
@@ -76,7 +76,7 @@ def rig(ratio: float, dx: float, t_end: float, load: float) -> LegWheel:
 
 def build(config: LegWheel, torque: float | None) -> CoupledSimulation:
     """terrasph.robots.leg_wheel.build_leg_wheel, with a constant-torque motor if `torque` is given."""
-    scene, numerics, surface, shape = bed_and_wheel(config, "leg-wheel")
+    scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     xml = leg_wheel_mjcf(config, shape, axle, scene.gravity)
     if torque is not None:

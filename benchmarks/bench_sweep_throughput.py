@@ -19,7 +19,7 @@ from terrasph.sweeps.runner import run_sweep
 from terrasph.sweeps.spec import parse_spec
 
 FIXED = {"spacing": 0.01, "thickness": 0.03, "leg_length": 0.06, "bed_width": 0.35, "bed_depth": 0.05,
-         "start_x": 0.1, "settle_time": 0.2, "duration": 1.0, "frame_interval": 0.5}
+         "start_x": 0.1, "settle_time": 0.2, "t_end": 1.0, "frame_interval": 0.5}
 
 if __name__ == "__main__":
     runs = int(sys.argv[1]) if len(sys.argv) > 1 else 6

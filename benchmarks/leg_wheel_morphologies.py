@@ -35,7 +35,7 @@ if __name__ == "__main__":
         start = time.perf_counter()
         config = LegWheel(wheel=wheel, spacing=args.spacing, thickness=args.thickness, leg_length=args.leg_length,
                           bed_width=args.bed_width, bed_depth=args.bed_depth, start_x=args.start_x,
-                          settle_time=args.settle, duration=args.t_end, numerics=numerics_overrides(args.numerics))
+                          settle_time=args.settle, t_end=args.t_end, numerics=numerics_overrides(args.numerics))
         s = run_leg_wheel(config).summary()
         print(f"{wheel:<16} {s['mean_forward_speed']:14.4f}  {s['mean_slip']:9.3f}  {100 * s['final_sinkage']:18.2f}"
               f"  {100 * s['max_sinkage']:16.2f}  {s['cost_of_transport']:5.2f}  {s['leaked_particles']:5d}"

@@ -25,7 +25,7 @@ if __name__ == "__main__":
     for dx in args.spacings:
         start = time.perf_counter()
         config = LegWheel(wheel=args.wheel, spacing=dx, thickness=0.015, leg_length=0.05, bed_width=0.3,
-                          bed_depth=0.05, start_x=0.1, settle_time=0.2, duration=args.t_end)
+                          bed_depth=0.05, start_x=0.1, settle_time=0.2, t_end=args.t_end)
         summary = run_leg_wheel(config).summary()
         rows.append((dx, summary, time.perf_counter() - start))
         print(f"# dx {dx}: " + ", ".join(f"{k} {summary[k]:.5g}" for k in KEYS)

@@ -51,10 +51,10 @@ def main() -> None:
     parser.add_argument("--out-prefix", default=None, help="write PREFIX_stand.h5 and PREFIX_hop.h5 (and PNGs)")
     args = parser.parse_args()
     hold = tuple(f"{j}=hold:{KP},{KD}" for j in ("thigh_joint", "leg_joint", "foot_joint"))
-    stand = MjcfScene(model=MODEL, bed_width=1.0, bed_depth=0.1, spacing=args.spacing, settle_time=0.0, duration=2.0,
+    stand = MjcfScene(model=MODEL, bed_width=1.0, bed_depth=0.1, spacing=args.spacing, settle_time=0.0, t_end=2.0,
                       ctrl=hold)
     jump = MjcfScene(model=MODEL, bed_width=2.0, bed_depth=0.15, spacing=args.spacing, start_x=1.2, settle_time=0.0,
-                     duration=HOP_END)
+                     t_end=HOP_END)
     out = {name: f"{args.out_prefix}_{name}.h5" if args.out_prefix else None for name in ("stand", "hop")}
     start = time.perf_counter()
     standing = run_mjcf(stand, out["stand"]).summary()

@@ -42,7 +42,7 @@ def main() -> None:
     args = parser.parse_args()
     model = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets", args.model)
     config = MjcfScene(model=model, bed_width=args.bed_width, bed_depth=args.bed_depth, spacing=args.spacing,
-                       start_x=args.start_x, settle_time=args.settle_time, duration=args.t_end, ctrl=GAIT,
+                       start_x=args.start_x, settle_time=args.settle_time, t_end=args.t_end, ctrl=GAIT,
                        couple_below=args.couple_below)
     start = time.perf_counter()
     sand = run_mjcf(config, args.out, plot=False)

@@ -7,7 +7,7 @@ import copy
 from typing import Any
 
 TINY_FIXED = {"spacing": 0.01, "thickness": 0.03, "leg_length": 0.04, "bed_width": 0.2, "bed_depth": 0.03,
-              "start_x": 0.08, "settle_time": 0.1, "duration": 0.6, "frame_interval": 0.3}
+              "start_x": 0.08, "settle_time": 0.1, "t_end": 0.6, "frame_interval": 0.3}
 
 
 def tiny_spec(**design: Any) -> dict[str, Any]:

@@ -118,7 +118,8 @@ def test_short_leg_rotation_writes_body_series_and_plot(tmp_path) -> None:
     At this speed (toe at 1.5 m/s) a couple of grains are pressed onto the leg's surface and are
     counted by the leak counter; the slow sweeps of test_leg_rotation.py must have none."""
     out = tmp_path / "leg.h5"
-    result = run_cli("run", "leg-rotation", "--leg", "flat", "--omega", "20", "--settle", "0", "--bed-depth", "0.07",
+    result = run_cli("run", "leg-rotation", "--leg", "flat-leg", "--omega", "20", "--settle-time", "0",
+                     "--bed-depth", "0.07",
                      "--out", str(out), "--no-progress", "--threads", "1")
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)

@@ -10,6 +10,7 @@ without a traceback, and leave no output behind.
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -75,15 +76,17 @@ BAD_INPUT = [
     ("train-missing-dir", ["train", "{root}/nowhere", "--out", "{root}/m.tslstm", "--no-progress"], "nowhere"),
     ("train-epochs-0", ["train", "{dataset}", "--out", "{root}/m.tslstm", "--epochs", "0"], "--epochs"),
     ("train-hidden-0", ["train", "{dataset}", "--out", "{root}/m.tslstm", "--hidden", "0"], "--hidden"),
-    ("train-threads-0", ["train", "{dataset}", "--out", "{root}/m.tslstm", "--threads", "0"], "--threads"),
+    ("train-threads-0", ["train", "{dataset}", "--out", "{root}/m.tslstm", "--torch-threads", "0"], "--torch-threads"),
     ("train-out-in-missing-dir", ["train", "{dataset}", "--out", "{root}/no/dir/m.tslstm"], "does not exist"),
     ("train-out-exists", ["train", "{dataset}", "--out", "{good}"], "--force"),
     # make-synthetic-dataset
-    ("synthetic-runs-0", ["make-synthetic-dataset", "{root}/new0", "--runs", "0"], "--runs"),
-    ("synthetic-dt-0", ["make-synthetic-dataset", "{root}/new1", "--dt", "0"], "--dt"),
-    ("synthetic-dt-above-duration", ["make-synthetic-dataset", "{root}/new2", "--dt", "5", "--duration", "3"], "--dt"),
-    ("synthetic-negative-duration", ["make-synthetic-dataset", "{root}/new3", "--duration", "-1"], "--duration"),
-    ("synthetic-into-non-empty-dir", ["make-synthetic-dataset", "{dataset}", "--runs", "3"], "--force"),
+    ("synthetic-runs-0", ["make-synthetic-dataset", "--out", "{root}/new0", "--runs", "0"], "--runs"),
+    ("synthetic-dt-0", ["make-synthetic-dataset", "--out", "{root}/new1", "--dt", "0"], "--dt"),
+    ("synthetic-dt-above-duration",
+     ["make-synthetic-dataset", "--out", "{root}/new2", "--dt", "5", "--duration", "3"], "--dt"),
+    ("synthetic-negative-duration",
+     ["make-synthetic-dataset", "--out", "{root}/new3", "--duration", "-1"], "--duration"),
+    ("synthetic-into-non-empty-dir", ["make-synthetic-dataset", "--out", "{dataset}", "--runs", "3"], "--force"),
     # run: threads, output, geometry
     *[(f"run-{scene}-threads-{n}", ["run", scene, "--threads", n, "--out", "{root}/r.h5"], "--threads")
       for scene in ("column-collapse", "leg-rotation", "plate-intrusion") for n in ("0", "-1")],
@@ -146,8 +149,8 @@ def test_force_replaces_an_existing_output(files, tmp_path, capsys) -> None:
 def test_force_into_a_dataset_directory_leaves_exactly_the_new_runs(tmp_path) -> None:
     """--force removes the runs of an earlier, larger dataset instead of mixing the two."""
     out = tmp_path / "data"
-    assert main(["make-synthetic-dataset", str(out), "--runs", "4", "--duration", "0.2"]) == 0
-    assert main(["make-synthetic-dataset", str(out), "--runs", "2", "--duration", "0.2", "--force"]) == 0
+    assert main(["make-synthetic-dataset", "--out", str(out), "--runs", "4", "--duration", "0.2"]) == 0
+    assert main(["make-synthetic-dataset", "--out", str(out), "--runs", "2", "--duration", "0.2", "--force"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["wheel_0000.h5", "wheel_0001.h5"]
 
 
@@ -187,20 +190,21 @@ def test_every_option_has_help_that_states_its_default() -> None:
     for parser in _leaf_parsers():
         formatter = parser._get_formatter()
         for action in parser._actions:
-            if not action.option_strings or action.default in (None, False, "==SUPPRESS=="):
-                continue
+            if (not action.option_strings or action.default in (None, False)
+                    or isinstance(action, (argparse._HelpAction, argparse._VersionAction))):
+                continue  # a scene option's default is SUPPRESS: its configuration's default applies
             assert action.help, f"{parser.prog} {action.option_strings[0]} has no help"
             assert "default" in formatter._expand_help(action), f"{parser.prog} {action.option_strings[0]}"
             checked += 1
     assert checked >= 30  # the scenes' and the surrogate commands' options
 
 
-def test_unknown_option_prints_the_sub_command_usage(capsys) -> None:
+def test_unknown_option_names_the_sub_command_in_one_line(capsys) -> None:
     with pytest.raises(SystemExit) as exit_info:
         main(["run", "leg-rotation", "--omegaa", "1"])
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
-    assert err.startswith("usage: terrasph run leg-rotation")
+    assert err.startswith("terrasph run leg-rotation: error:") and len(err.splitlines()) == 1
     assert "--omegaa" in err
 
 
@@ -248,7 +252,7 @@ def test_numerics_reach_the_scene(monkeypatch, scene: str) -> None:
 
 
 def test_plate_model_reaches_the_scene(monkeypatch) -> None:
-    """run plate-intrusion --model drucker_prager builds the beads with that model (the run is replaced)."""
+    """run plate-intrusion --material-model drucker_prager builds the beads with that model (the run is replaced)."""
     from terrasph import scenes_cli
 
     seen = {}
@@ -259,5 +263,5 @@ def test_plate_model_reaches_the_scene(monkeypatch) -> None:
 
     monkeypatch.setattr(scenes_cli, "run_case", fake_run_case)
     with pytest.raises((SystemExit, KeyboardInterrupt)):
-        main(["run", "plate-intrusion", "--model", "drucker_prager", "--out", "unused.h5"])
+        main(["run", "plate-intrusion", "--material-model", "drucker_prager", "--out", "unused.h5"])
     assert seen["model"] == "drucker_prager"

@@ -57,7 +57,7 @@ def test_the_tier_is_kept_with_the_configuration() -> None:
 
 def _coarse_leg_wheel(fidelity: str) -> dict[str, float]:
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.05, bed_width=0.3,
-                      bed_depth=0.05, start_x=0.1, settle_time=0.5, duration=1.5, fidelity=fidelity)
+                      bed_depth=0.05, start_x=0.1, settle_time=0.5, t_end=1.5, fidelity=fidelity)
     return run_leg_wheel(config).summary()
 
 

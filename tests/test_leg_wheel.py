@@ -49,7 +49,7 @@ def tiny_wheel_summary(cfl: float) -> tuple[dict[str, float], np.ndarray]:
     spin ω over the last 0.5 s."""
     numerics = {"symplectic_density": True, "cfl": cfl}
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
-                      bed_depth=0.04, start_x=0.08, settle_time=0.3, duration=1.3, load=2.0, series_interval=0.002,
+                      bed_depth=0.04, start_x=0.08, settle_time=0.3, t_end=1.3, load=2.0, series_interval=0.002,
                       frame_interval=10.0, numerics=numerics)
     run = run_leg_wheel(config, plot=False)
     wheel = run.series["robot/wheel"]
@@ -90,7 +90,7 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
     diagnostics but wall time) and every frame equals that of a run never stopped, bit for bit,
     and the motor work summed across the stop is the same."""
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
-                      bed_depth=0.04, start_x=0.08, settle_time=0.03, duration=0.07, load=2.0,
+                      bed_depth=0.04, start_x=0.08, settle_time=0.03, t_end=0.07, load=2.0,
                       series_interval=0.005, frame_interval=0.02)
     whole = run_leg_wheel(config, tmp_path / "whole.h5")
     step, taken, stop_at = CoupledSimulation.step, [0], int(0.7 * whole.summary()["steps"])
@@ -131,7 +131,7 @@ def test_the_robot_progress_bar_ends_at_its_total(tmp_path, capsys) -> None:
     import warnings
 
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
-                      bed_depth=0.04, start_x=0.08, settle_time=0.005, duration=0.0123456781234, load=2.0,
+                      bed_depth=0.04, start_x=0.08, settle_time=0.005, t_end=0.0123456781234, load=2.0,
                       series_interval=0.005, frame_interval=0.01)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a TqdmWarning fails the test
@@ -147,7 +147,7 @@ def test_the_surrogate_dataset_reads_a_leg_wheel_run(tmp_path) -> None:
     from terrasph.surrogate.robot_dataset import robot_run
 
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
-                      bed_depth=0.04, start_x=0.08, settle_time=0.01, duration=0.05, load=2.0,
+                      bed_depth=0.04, start_x=0.08, settle_time=0.01, t_end=0.05, load=2.0,
                       omega_schedule=((0.0, 1.0), (0.02, 2.0)), series_interval=0.002, frame_interval=0.05)
     run_leg_wheel(config, tmp_path / "lw.h5", plot=False)
     run = robot_run(tmp_path / "lw.h5", dt=0.01, wheels=("c-leg", "flat-leg"))

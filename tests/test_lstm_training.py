@@ -216,7 +216,7 @@ def test_cli_make_train_predict(tmp_path, one_thread, capsys) -> None:
     from terrasph.cli import main
 
     ds, model_path = tmp_path / "ds", tmp_path / "m.tslstm"
-    assert main(["make-synthetic-dataset", str(ds), "--runs", "6", "--duration", "0.5"]) == 0
+    assert main(["make-synthetic-dataset", "--out", str(ds), "--runs", "6", "--duration", "0.5"]) == 0
     assert len(load_runs(ds)) == 6
     assert main(["train", str(ds), "--out", str(model_path), "--epochs", "3", "--hidden", "4",
                  "--cell", "peephole", "--no-progress"]) == 0

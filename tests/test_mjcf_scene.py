@@ -52,7 +52,7 @@ def test_a_hopper_left_standing_is_carried_by_the_bed() -> None:
     """gymnasium's hopper dropped 4 cm onto the bed, its joints held by its motors: once at rest
     (0.8–1.0 s) the grains carry its weight within 2 % (measured 0.9996 at this Δx, 0.9999 at 1 cm
     over 1.6–2 s: docs/mjcf.md), no grain leaks and the foot has sunk in."""
-    config = MjcfScene(model=HOPPER, bed_width=0.8, bed_depth=0.1, spacing=DX, settle_time=0.0, duration=1.0,
+    config = MjcfScene(model=HOPPER, bed_width=0.8, bed_depth=0.1, spacing=DX, settle_time=0.0, t_end=1.0,
                        ctrl=HOLD)
     run = run_mjcf(config)
     actuators = run.series["robot/actuators"]
@@ -126,7 +126,7 @@ def test_the_half_cheetah_is_slower_on_sand_than_on_the_rigid_floor() -> None:
     gait = tuple(f"{name}=sin:0.5,0.4,{phase}" for name, phase in
                  (("bthigh", 0), ("bshin", 0), ("bfoot", 0), ("fthigh", 180), ("fshin", 180), ("ffoot", 180)))
     config = MjcfScene(model=CHEETAH, bed_width=2.5, bed_depth=0.3, spacing=0.03, start_x=0.9, settle_time=0.5,
-                       duration=2.5, ctrl=gait, couple_below=1.0)
+                       t_end=2.5, ctrl=gait, couple_below=1.0)
     sand = run_mjcf(config).summary()
     rigid, _ = rigid_floor_run(CHEETAH, None, 2.5, 0.5, timestep=2.5 / sand["steps"], ctrl=gait)
     assert sand["leaked_particles"] == 0
@@ -165,7 +165,7 @@ def test_an_uncoupled_body_reaching_the_bed_is_warned_of_by_name(tmp_path) -> No
     ball = ('<body name="ball" pos="0.2 0 0.1"><joint type="slide" axis="0 0 1"/>'
             '<geom type="sphere" size="0.03"/></body>')
     config = MjcfScene(model=_model(tmp_path, FOOT.format(z=0.1, r=0.03, joint="", mass="") + ball),
-                       bed_width=0.8, bed_depth=0.06, spacing=DX, settle_time=0.0, duration=0.2, bodies=("foot",))
+                       bed_width=0.8, bed_depth=0.06, spacing=DX, settle_time=0.0, t_end=0.2, bodies=("foot",))
     with pytest.warns(RuntimeWarning, match="body 'ball' is not coupled and reached below the bed's surface") as caught:
         run = run_mjcf(config)
     assert len([w for w in caught if "ball" in str(w.message)]) == 1
@@ -181,7 +181,7 @@ def test_an_interrupted_mjcf_run_resumes_bitwise(tmp_path, monkeypatch, capsys) 
     from terrasph.robots.coupling import CoupledSimulation
     from terrasph.simulation import checkpoint_path
 
-    config = MjcfScene(model=HOPPER, bed_width=0.8, bed_depth=0.06, spacing=DX, settle_time=0.02, duration=0.08,
+    config = MjcfScene(model=HOPPER, bed_width=0.8, bed_depth=0.06, spacing=DX, settle_time=0.02, t_end=0.08,
                        ctrl=(*HOLD[:2], "foot_joint=sin:0.2,0.05"), series_interval=0.005)
     whole = run_mjcf(config, tmp_path / "whole.h5")
     step, taken, stop_at = CoupledSimulation.step, [0], int(0.6 * whole.summary()["steps"])

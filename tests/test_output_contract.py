@@ -43,15 +43,15 @@ CASES = {
     "plate-intrusion": (PlateIntrusion(bed_width=0.06, bed_depth=0.04, plate_length=0.02, max_depth=0.006,
                                        speed=0.1, settle_time=0.0, frame_interval=0.01), 0.02, 0.035),
     "leg-wheel": (LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
-                           bed_depth=0.04, start_x=0.08, settle_time=0.01, duration=0.03, load=2.0,
+                           bed_depth=0.04, start_x=0.08, settle_time=0.01, t_end=0.03, load=2.0,
                            series_interval=0.005, frame_interval=0.01), 0.03, 0.05),
     "rover": (Rover(spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.3, bed_depth=0.04, start_x=0.12,
-                    settle_time=0.01, duration=0.03, omega=2.0, frame_interval=0.01, series_interval=0.005),
+                    settle_time=0.01, t_end=0.03, omega=2.0, frame_interval=0.01, series_interval=0.005),
               0.03, 0.05),
     # gymnasium's hopper, unmodified, its joints held (the test extra installs gymnasium)
     "mjcf": (MjcfScene(model=os.path.join(os.path.dirname(__import__("gymnasium").__file__), "envs", "mujoco",
                                           "assets", "hopper.xml"),
-                       bed_width=0.8, bed_depth=0.06, spacing=0.02, settle_time=0.01, duration=0.03,
+                       bed_width=0.8, bed_depth=0.06, spacing=0.02, settle_time=0.01, t_end=0.03,
                        ctrl=tuple(f"{joint}=hold:2000,100" for joint in ("thigh_joint", "leg_joint", "foot_joint")),
                        series_interval=0.005, frame_interval=0.01), 0.03, 0.05),
 }

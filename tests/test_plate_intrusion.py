@@ -147,7 +147,7 @@ def test_cli_help_lists_the_options(capsys) -> None:
         main(["run", "plate-intrusion", "--help"])
     assert exit_info.value.code == 0
     out = capsys.readouterr().out
-    for option in ("--spacing", "--speed", "--depth", "--out", "--threads", "--no-progress"):
+    for option in ("--spacing", "--speed", "--max-depth", "--out", "--threads", "--no-progress"):
         assert option in out
 
 

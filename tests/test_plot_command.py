@@ -34,7 +34,7 @@ def sheared_run(tmp_path):
 
 
 def test_profiles_and_fields_are_written(sheared_run, capsys) -> None:
-    assert main(["plot", str(sheared_run), "--profiles", "3", "--fields"]) == 0
+    assert main(["plot", str(sheared_run), "--force", "--profiles", "3", "--fields"]) == 0
     for suffix in (".png", ".profiles.png", ".fields.png"):
         assert sheared_run.with_suffix(suffix).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", suffix
     assert "sheared.fields.png" in capsys.readouterr().out
@@ -47,7 +47,7 @@ def test_fields_show_the_strain_of_the_frame_nearest_the_time(sheared_run, monke
         drawn.update(position=position, fields=dict((label, values) for values, label in fields), **kwargs)
 
     monkeypatch.setattr(plotting, "plot_fields", capture)
-    assert main(["plot", str(sheared_run), "--fields", "--time", "0.19"]) == 0  # nearest frame: t = 0.2
+    assert main(["plot", str(sheared_run), "--force", "--fields", "--time", "0.19"]) == 0  # nearest frame: t = 0.2
     gamma = RATE * 0.2
     strain = drawn["fields"]["shear strain η since t = 0"]
     assert np.allclose(strain, np.sqrt(gamma**2 / 4 + gamma**4 / 12), rtol=1e-9)
@@ -103,3 +103,17 @@ def test_fields_leave_out_a_wall_removed_before_the_frame(sheared_run, monkeypat
     monkeypatch.setattr(plotting, "plot_fields", lambda position, fields, **kw: drawn.update(kw))
     assert main(["plot", str(sheared_run), "--fields"]) == 0
     assert drawn["walls"].tolist() == [[0.0, -0.001], [0.01, -0.001]]
+
+
+def test_plot_refuses_to_replace_the_runs_figure_without_force(sheared_run, capsys) -> None:
+    """The figure beside the run is kept unless --force, and the refusal writes nothing."""
+    png = sheared_run.with_suffix(".png")
+    if not png.exists():
+        assert main(["plot", str(sheared_run), "--force"]) == 0
+    before = png.read_bytes()
+    with pytest.raises(SystemExit) as exit_info:
+        main(["plot", str(sheared_run)])
+    assert exit_info.value.code == 2
+    assert "--force" in capsys.readouterr().err
+    assert png.read_bytes() == before
+    assert main(["plot", str(sheared_run), "--force"]) == 0

@@ -21,7 +21,7 @@ BED = ("mu1_deg", "mu2_deg", "water_content")
 
 def _bed_spec() -> dict:
     """Two tiny leg-wheel runs (0.1 s pause, 0.1 s driven) in a Latin hypercube over the bed."""
-    fixed = {**TINY_FIXED, "duration": 0.2, "series_interval": 0.01}
+    fixed = {**TINY_FIXED, "t_end": 0.2, "series_interval": 0.01}
     vary = {"mu1_deg": {"range": [18.0, 26.0]}, "mu2_deg": {"range": [30.0, 36.0]},
             "water_content": {"range": [0.0, 0.02]}}
     return {"scene": "leg-wheel", "seed": 3, "fixed": fixed,
@@ -96,3 +96,28 @@ def test_dataset_command_refuses_what_is_not_a_sweep_or_would_overwrite(bed_swee
     assert stop.value.code == 2 and "--out" in capsys.readouterr().err and (out / "old.h5").exists()
     assert main(["dataset", str(bed_sweep), "--out", str(out), "--force"]) == 0
     assert not (out / "old.h5").exists() and len(load_runs(out)) == 2  # exactly this dataset
+
+
+@pytest.mark.slow
+def test_sweep_dataset_train_predict_with_default_options(tmp_path: Path, capsys) -> None:
+    """`terrasph sweep`, `dataset`, then `train` with no --features/--targets: the model takes the
+    dataset's own inputs and targets (its dataset.json), and `terrasph predict` runs it on the runs."""
+    pytest.importorskip("distributed")
+    import yaml
+
+    spec, sweep, data, model = tmp_path / "spec.yaml", tmp_path / "sweep", tmp_path / "data", tmp_path / "m.tslstm"
+    bed = _bed_spec()
+    spec.write_text(yaml.safe_dump({**bed, "design": {**bed["design"], "runs": 3}}))
+    assert main(["sweep", str(spec), "--out", str(sweep), "--no-progress"]) == 0
+    assert main(["dataset", str(sweep), "--out", str(data)]) == 0
+    assert main(["train", str(data), "--out", str(model), "--epochs", "2", "--no-progress"]) == 0
+    described = json.loads((data / "dataset.json").read_text())
+    from terrasph.surrogate.inference import load_model
+
+    engine = load_model(model, "float64")
+    assert list(engine.feature_names) == described["features"]
+    assert list(engine.target_names) == described["targets"]
+    capsys.readouterr()
+    assert main(["predict", str(model), str(data)]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert header == ",".join(["sequence", "step", *described["targets"]])

@@ -114,3 +114,28 @@ def test_leg_wheel_commands_its_schedule_after_the_pause() -> None:
     assert config.commanded_omega(np.array([0.05, 0.15, 0.35])).tolist() == [0.0, 1.0, 2.5]
     with pytest.raises(ConfigError, match="omega_schedule"):
         LegWheel(omega_schedule=((0.0, -1.0),))
+
+
+def test_a_yaml_error_names_its_line_in_the_one_line_message(tmp_path, capsys) -> None:
+    from terrasph.cli import main
+
+    spec_file = tmp_path / "bad.yaml"
+    spec_file.write_text("scene: leg-wheel\nfixed:\n  spacing: 0.01\n   load: 2\n")  # line 4 indented too far
+    with pytest.raises(SystemExit) as exit_info:
+        main(["sweep", str(spec_file), "--out", str(tmp_path / "out"), "--dry-run"])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2 and len(err.splitlines()) == 1 and "line 4" in err, err
+
+
+def test_a_sweep_of_cases_too_big_is_refused_before_any_run(tmp_path, capsys) -> None:
+    """The size guard judges every case as one worker's run, before the cluster starts."""
+    from terrasph.cli import main
+
+    spec_file = tmp_path / "big.yaml"
+    spec_file.write_text("scene: leg-wheel\nfixed: {spacing: 0.0001}\ndesign:\n  method: grid\n"
+                         "  vary:\n    load: {values: [2.0, 3.0]}\n")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["sweep", str(spec_file), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2 and len(err.splitlines()) == 1 and "--yes" in err, err
+    assert not (tmp_path / "out").exists()

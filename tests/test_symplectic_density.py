@@ -82,7 +82,7 @@ def test_at_the_packing_density_the_symplectic_density_outlasts_the_kicked_one_u
 def coarse_leg_wheel_outcome(cfl: float) -> dict[str, float]:
     """Chapter 4's leg-wheel (50 × 10 cm bed, 8 cm C-leg wheel under 4.9 N at 1.5 rad/s) at Δx = 5 mm,
     1 s pause, 2.5 s in all, the step at the wave speed and the density advanced first."""
-    config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, settle_time=1.0, duration=2.5,
+    config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, settle_time=1.0, t_end=2.5,
                       series_interval=0.01, frame_interval=10.0,
                       numerics={"symplectic_density": True, "cfl": cfl})
     return run_leg_wheel(config, plot=False).summary()

@@ -2,7 +2,8 @@
 
 The speed itself is measured in benchmarks/bench_threads.py (figures in docs/benchmarks.md); here:
 terrasph bounds how long idle OpenMP threads spin, by the load, unless the user chose, picks a thread count
-within the cores it may use, and leaves an explicit OMP_NUM_THREADS alone.
+within the cores it may use when a run starts (not at import), and leaves an explicit OMP_NUM_THREADS or
+--threads alone.
 """
 
 from __future__ import annotations
@@ -28,16 +29,28 @@ def fresh_import(env_overrides: dict[str, str | None], code: str) -> str:
     return result.stdout.strip()
 
 
-def test_idle_threads_spin_as_the_load_allows_unless_the_user_chose() -> None:
-    from terrasph.threads import LONG_SPIN, SHORT_SPIN
+def test_import_leaves_the_environment_and_thread_count_alone() -> None:
+    """No work at import: the process's environment and OpenMP thread count are as before."""
+    code = "print(os.environ.get('OMP_WAIT_POLICY'), os.environ.get('GOMP_SPINCOUNT'), _core.get_max_threads())"
+    out = fresh_import({"OMP_WAIT_POLICY": None, "GOMP_SPINCOUNT": None, "OMP_NUM_THREADS": None}, code)
+    assert out == f"None None {os.cpu_count()}"  # libgomp's own default: every CPU
+    assert fresh_import({"OMP_WAIT_POLICY": None, "GOMP_SPINCOUNT": "5"}, code).startswith("None 5 ")
 
-    code = "print(os.environ.get('OMP_WAIT_POLICY'), os.environ.get('GOMP_SPINCOUNT'))"
-    chosen = fresh_import({"OMP_WAIT_POLICY": None, "GOMP_SPINCOUNT": None}, code)
-    assert chosen in (f"None {SHORT_SPIN}", f"None {LONG_SPIN}")
-    assert fresh_import({"OMP_WAIT_POLICY": "passive", "GOMP_SPINCOUNT": None}, code) == "passive None"
-    assert fresh_import({"OMP_WAIT_POLICY": None, "GOMP_SPINCOUNT": "5"}, code) == "None 5"
-    pinned = {"OMP_WAIT_POLICY": None, "GOMP_SPINCOUNT": None, "OMP_NUM_THREADS": "2"}
-    assert fresh_import(pinned, code) == f"None {SHORT_SPIN}"  # a count the load watch leaves alone
+
+def test_the_spin_is_set_only_while_the_runtime_loads_unless_the_user_chose(monkeypatch) -> None:
+    from terrasph.threads import LONG_SPIN, SHORT_SPIN, runtime_spin
+
+    for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "OMP_NUM_THREADS"):
+        monkeypatch.delenv(name, raising=False)
+    with runtime_spin():
+        assert os.environ["GOMP_SPINCOUNT"] in (str(SHORT_SPIN), str(LONG_SPIN))
+    assert "GOMP_SPINCOUNT" not in os.environ
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    with runtime_spin():  # a count the load watch leaves alone: never the long spin
+        assert os.environ["GOMP_SPINCOUNT"] == str(SHORT_SPIN)
+    monkeypatch.setenv("OMP_WAIT_POLICY", "passive")
+    with runtime_spin():
+        assert "GOMP_SPINCOUNT" not in os.environ
 
 
 def test_a_long_spin_only_when_every_core_is_idle() -> None:
@@ -53,10 +66,17 @@ def test_a_long_spin_only_when_every_core_is_idle() -> None:
 
 
 def test_default_thread_count_is_within_the_available_cores() -> None:
+    """At run start terrasph picks a count within the cores, unless the user chose one first."""
     from terrasph.threads import available_cores
 
-    picked = int(fresh_import({"OMP_NUM_THREADS": None}, "print(_core.get_max_threads())"))
-    assert 1 <= picked <= available_cores()
+    def count_at_run_start(before: str) -> str:
+        code = (f"from terrasph import threads\n{before}\n"
+                "threads.start_run(_core.set_num_threads, _core.get_max_threads)\nprint(_core.get_max_threads())")
+        return fresh_import({"OMP_NUM_THREADS": None}, code)
+
+    assert 1 <= int(count_at_run_start("")) <= available_cores()
+    assert count_at_run_start("threads.use_threads(1)") == "1"  # --threads
+    assert count_at_run_start("_core.set_num_threads(1)") == "1"  # the core's own call
 
 
 def test_omp_num_threads_is_respected() -> None:
@@ -118,3 +138,12 @@ def test_the_load_watch_gives_a_core_back_to_a_process_that_needs_it(monkeypatch
     machine.run(3.0, others=0.0, own=1.0)
     watch.follow()
     assert count["threads"] == 1
+
+
+def test_the_load_average_gives_idle_cores_within_the_machine() -> None:
+    from terrasph.threads import idle_cores_by_load_average
+
+    idle = idle_cores_by_load_average()
+    if idle is None:
+        pytest.skip("no /proc/loadavg on this system")
+    assert 0.0 <= idle <= (os.cpu_count() or 1)

@@ -2,33 +2,20 @@
 
 Units are SI throughout; 2D scenes are plane strain in the x–z plane with z up.
 
-Threads: unless ``OMP_NUM_THREADS`` is set, the SPH core uses the cores that are idle when
-terrasph is imported, and while a run goes on :class:`terrasph.threads.LoadWatch` lowers that
-count when other processes take cores and raises it back when they leave. Unless
-``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is set, an idle OpenMP thread spins for
-``threads.LONG_SPIN`` polls (about 1.5 ms) before it sleeps when every core is idle and the count is
-terrasph's, which keeps it awake from one loop of a step to the next, and for
-``threads.SHORT_SPIN`` (about 50 µs) otherwise, so as not to take another process's core
-(:mod:`terrasph.threads`; docs/benchmarks.md, "Threads on a shared machine"). Both must be
-decided before the OpenMP runtime starts.
+Importing terrasph does no work beyond loading its modules: the SPH core's thread count is chosen
+when a run starts, from the cores idle then, unless ``OMP_NUM_THREADS`` or ``--threads`` chose it,
+and while a run goes on :class:`terrasph.threads.LoadWatch` lowers that count when other processes
+take cores and raises it back when they leave. The one decision that must come before the OpenMP
+runtime starts, how long an idle OpenMP thread spins before it sleeps, is passed to it while the
+core loads (``GOMP_SPINCOUNT``, unless ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is set) and the
+environment is put back (:mod:`terrasph.threads`; docs/benchmarks.md, "Threads on a shared machine").
 """
-
-import os
 
 from terrasph import threads as _threads
 
-_choose_wait = "OMP_WAIT_POLICY" not in os.environ and "GOMP_SPINCOUNT" not in os.environ
-_choose_threads = "OMP_NUM_THREADS" not in os.environ
-_idle = _threads.idle_cores() if _choose_wait or _choose_threads else None
-if _choose_wait:
-    os.environ["GOMP_SPINCOUNT"] = str(_threads.spin_count(_idle, follows_load=_choose_threads))
-
-from terrasph import _core  # noqa: E402  (after the wait policy: the runtime reads it once)
-from terrasph._core import InstabilityError  # noqa: E402
-
-if _choose_threads:
-    _threads.chosen_threads = _threads.auto_threads = _threads.threads_for(_idle)
-    _core.set_num_threads(_threads.chosen_threads)
+with _threads.runtime_spin():
+    from terrasph import _core  # noqa: F401  (the OpenMP runtime reads its spin once, as it loads)
+from terrasph._core import InstabilityError
 
 __all__ = ["InstabilityError", "__version__"]
 __version__ = "0.1.0"

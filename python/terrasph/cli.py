@@ -20,7 +20,11 @@ EXPECTED_ERRORS = (ValueError, KeyError, OSError)
 
 
 class Parser(argparse.ArgumentParser):
-    """An ArgumentParser whose sub-commands report their own usage on an unknown option."""
+    """An ArgumentParser whose sub-commands report their own errors on an unknown option, in one
+    line that names the command and where its options are listed (not the whole usage)."""
+
+    def error(self, message: str) -> NoReturn:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (`{self.prog} --help` lists the options)\n")
 
     def parse_args(self, args=None, namespace=None):  # type: ignore[override]
         namespace, extras = self.parse_known_args(args, namespace)

@@ -48,11 +48,13 @@ def positive_float(text: str) -> float:
     return value
 
 
-def add_threads_option(parser: argparse.ArgumentParser, what: str = "OpenMP threads of the SPH core") -> None:
-    """Adds ``--threads N`` (N ≥ 1; default: terrasph.threads.default_threads())."""
+def add_threads_option(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--threads N``: OpenMP threads of the SPH core, in every command (N ≥ 1; default:
+    terrasph.threads.default_threads() when the run starts). Apply it with
+    :func:`terrasph.threads.use_threads`."""
     parser.add_argument("--threads", type=positive_int, default=None, metavar="N",
-                        help=f"{what}, >= 1 (default: the cores not busy with other work, "
-                             "see terrasph.threads.default_threads; results do not depend on it)")
+                        help="OpenMP threads of the SPH core, >= 1 (default: the cores not busy with other work "
+                             "when the run starts, see terrasph.threads.default_threads; results do not depend on it)")
 
 
 def add_force_option(parser: argparse.ArgumentParser) -> None:

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from terrasph.cli_common import positive_float, positive_int
+from terrasph.cli_common import add_force_option, check_output_file, positive_float, positive_int
 from terrasph.io import RunData, read_run, write_xdmf
 
 __all__ = ["describe_run", "plot_fields", "plot_profiles_over_time", "plot_run", "register"]
@@ -29,8 +29,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                                  description="Write RUN.png (the scene's figure: the surface profile of a collapse, "
                                              "body loads of a leg or plate, trajectory, slip and sinkage of a "
                                              "robot, else the last frame) and RUN.xdmf "
-                                             "beside RUN.h5, replacing them; works for interrupted and unstable "
-                                             "runs too.")
+                                             "beside RUN.h5 (replacing them only with --force); works for "
+                                             "interrupted and unstable runs too.")
     plot.add_argument("run", metavar="RUN.h5", type=Path)
     plot.add_argument("--profiles", type=positive_int, metavar="N",
                       help="also write RUN.profiles.png: the grains' free surface at N frames spread evenly over "
@@ -40,6 +40,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                            "first frame, at the frame nearest --time")
     plot.add_argument("--time", type=positive_float, metavar="T",
                       help="simulated time (s) of the --fields frame; default: the last frame")
+    add_force_option(plot)
     plot.set_defaults(handler=_cmd_plot)
 
 
@@ -128,7 +129,12 @@ def plot_run(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     if scene == "column-collapse":
         dx = float(run.config["spacing"])
         initial = run.frame(0)["position"]
-        plotting.plot_profiles([(*analysis.surface_profile(final, dx), f"t = {run.times[-1]:.2f} s")],
+        results = run.group_attrs.get("/results", {})
+        label = f"t = {run.times[-1]:.2f} s"
+        if "runout_normalised" in results:  # the legend the run itself drew
+            label += (f", L* = {float(results['runout_normalised']):.2f}, "
+                      f"H* = {float(results['final_height_normalised']):.2f}")
+        plotting.plot_profiles([(*analysis.surface_profile(final, dx), label)],
                                initial=analysis.surface_profile(initial, dx), path=png)
     elif scene == "leg-rotation" and "bodies/leg" in run.series:
         series = run.series["bodies/leg"]
@@ -222,6 +228,10 @@ def _status(run: RunData) -> str:
 def _cmd_plot(args: argparse.Namespace) -> int:
     if args.time is not None and not args.fields:
         raise ValueError("--time chooses the frame of --fields: give --fields too")
+    figures = [".png", ".xdmf", *([".profiles.png"] if args.profiles else []),
+               *([".fields.png"] if args.fields else [])]
+    for suffix in figures:  # all checked before any is written
+        check_output_file(args.run.with_suffix(suffix), args.force, option="plot")
     png, xdmf = plot_run(args.run)
     written = [png, xdmf]
     if args.profiles:

@@ -8,19 +8,27 @@ wait for long (each spin takes a core another process needs) and more threads th
 opposite costs: a thread that sleeps between two of a step's loops starts the next one 25–40 µs
 late on a virtual machine (benchmarks/omp_wake.cpp), as much as a small loop's work.
 :func:`idle_cores` counts the cores idle right now; :func:`threads_for` and :func:`spin_count`
-turn that into a thread count and libgomp's spin (``GOMP_SPINCOUNT``), which
-``terrasph/__init__.py`` sets before the OpenMP runtime starts unless the user chose;
-:class:`LoadWatch` follows the load while a run goes on.
+turn that into a thread count and libgomp's spin (``GOMP_SPINCOUNT``).
+
+When each is decided: libgomp reads its spin once, when it loads, so :func:`runtime_spin` sets
+``GOMP_SPINCOUNT`` only while ``terrasph/__init__.py`` loads the core (from the 1-minute load
+average, read at once, no sampling) and puts the environment back afterwards, unless the user set
+``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT``. The thread count is chosen when a run starts
+(:func:`start_run`, called by :class:`LoadWatch`), unless the user chose one (``OMP_NUM_THREADS``,
+``--threads``, :func:`use_threads`); :class:`LoadWatch` then follows the load while the run goes on.
+Importing terrasph changes neither the process's environment nor its thread count.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
-__all__ = ["LONG_SPIN", "SHORT_SPIN", "LoadWatch", "available_cores", "default_threads", "idle_cores", "spin_count",
-           "threads_for", "threads_left"]
+__all__ = ["LONG_SPIN", "SHORT_SPIN", "LoadWatch", "available_cores", "default_threads", "idle_cores",
+           "idle_cores_by_load_average", "runtime_spin", "spin_count", "start_run", "threads_for", "threads_left",
+           "use_threads"]
 
 SAMPLE_SECONDS = 0.05
 #: polls an idle thread spins before it sleeps beside other work: about 50 µs, too short to matter
@@ -64,6 +72,32 @@ def idle_cores(sample_seconds: float = SAMPLE_SECONDS) -> float | None:
     return _idle_cores_between(first, _cpu_ticks())
 
 
+def idle_cores_by_load_average() -> float | None:
+    """Idle cores of the whole machine by its 1-minute load average (/proc/loadavg: read at once,
+    no sampling; it lags the load by up to a minute), else None."""
+    try:
+        with open("/proc/loadavg", encoding="ascii") as loadavg:
+            load = float(loadavg.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
+    return max(0.0, (os.cpu_count() or 1) - load)
+
+
+@contextlib.contextmanager
+def runtime_spin() -> Iterator[None]:
+    """Sets libgomp's spin (:func:`spin_count`) while the OpenMP runtime loads inside the block,
+    unless ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is set; the environment is restored after."""
+    if "OMP_WAIT_POLICY" in os.environ or "GOMP_SPINCOUNT" in os.environ:
+        yield
+        return
+    follows_load = "OMP_NUM_THREADS" not in os.environ
+    os.environ["GOMP_SPINCOUNT"] = str(spin_count(idle_cores_by_load_average(), follows_load))
+    try:
+        yield
+    finally:
+        del os.environ["GOMP_SPINCOUNT"]
+
+
 def threads_for(idle: float | None) -> int:
     """Threads for the SPH core with `idle` cores idle (None: unknown, every available core)."""
     cores = available_cores()
@@ -92,11 +126,39 @@ def default_threads() -> int:
     return threads_for(idle_cores())
 
 
-#: The thread count terrasph chose at import (None: the user's OMP_NUM_THREADS) and the one it set
-#: last (LoadWatch). Process-wide, like the OpenMP thread count they stand beside: while that count
-#: is `auto_threads`, it is terrasph's to change.
+#: The thread count terrasph chose when the first run started (None: not chosen, or the user's) and
+#: the one it set last (LoadWatch). Process-wide, like the OpenMP thread count they stand beside:
+#: while that count is `auto_threads`, it is terrasph's to change.
 chosen_threads: int | None = None
 auto_threads: int | None = None
+#: whether the user chose the thread count (``--threads`` or :func:`use_threads`)
+user_chose: bool = False
+
+
+def use_threads(threads: int | None) -> None:
+    """The user's thread count for the SPH core (None: leave terrasph's choice at run start)."""
+    global user_chose, chosen_threads, auto_threads
+    if threads is None:
+        return
+    from terrasph import _core
+
+    _core.set_num_threads(threads)
+    user_chose, chosen_threads, auto_threads = True, None, None
+
+
+def start_run(set_threads: Callable[[int], None], get_threads: Callable[[], int]) -> None:
+    """At the start of a run: the thread count from the cores idle now (:func:`default_threads`,
+    a 50 ms look), once per process, unless the user chose one (``OMP_NUM_THREADS``,
+    :func:`use_threads`, or ``_core.set_num_threads`` with a count other than the OpenMP default of
+    every available core)."""
+    global chosen_threads
+    if user_chose or chosen_threads is not None or "OMP_NUM_THREADS" in os.environ:
+        return
+    if get_threads() != available_cores():  # set by the user through the core itself
+        return
+    chosen_threads = default_threads()
+    set_threads(chosen_threads)
+    _record_auto(chosen_threads)
 
 
 def threads_left(others_busy: float, chosen: int) -> int:
@@ -110,7 +172,8 @@ def threads_left(others_busy: float, chosen: int) -> int:
 class LoadWatch:
     """Keeps the thread count terrasph chose in step with the load while a run goes on.
 
-    The count and the spin are chosen at import from the cores idle then; a process that starts
+    The count is chosen when the first run starts (:func:`start_run`, which the watch calls) and the
+    spin when the core loads, from the cores idle then; a process that starts
     later would find a team of two spinning threads on its core (LONG_SPIN), and both would lose.
     Every `interval` seconds of wall time, :meth:`follow` counts the cores other processes kept
     busy since its last look (the machine's busy time from /proc/stat less this process's own CPU
@@ -124,6 +187,7 @@ class LoadWatch:
                  own_cpu: Callable[[], float] = time.process_time,
                  clock: Callable[[], float] = time.perf_counter) -> None:
         self._set, self._get = set_threads, get_threads
+        start_run(set_threads, get_threads)
         self._interval = interval
         self._read_ticks = read_ticks or _cpu_ticks
         self._own_cpu, self._clock = own_cpu, clock

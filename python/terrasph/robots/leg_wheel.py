@@ -23,16 +23,18 @@ import dataclasses
 import math
 import os
 import pathlib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, ClassVar
 
 import numpy as np
 
 from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics
-from terrasph.fidelity import check_tier, scene_numerics
+from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
+from terrasph.options import option, shared
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
@@ -41,6 +43,7 @@ from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.scene import Scene
 from terrasph.schedules import check_knots, evaluate
 from terrasph.simulation import Simulation
+from terrasph.size_guard import Footprint
 
 __all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
 
@@ -49,36 +52,48 @@ WHEELS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg", "whe
 
 
 @dataclass(frozen=True)
-class LegWheel:
-    """Configuration of a leg-wheel run. Lengths in m, times in s, angles in rad (clockwise)."""
+class WheelScene:
+    """What the leg-wheel and rover configurations share: the wheel, the bed, the times. Lengths in
+    m, times in s, angles in rad (clockwise)."""
 
-    wheel: str = "c-leg"  #: one of WHEELS
-    legs: int = 3  #: legs of a leg-wheel
-    omega: float = 1.5  #: commanded spin after the pause (rad/s, clockwise)
+    #: fields saved under another name by earlier versions (run files, sweep SPECs): old → new
+    RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
+    SCENE: ClassVar[str] = "leg-wheel"  #: the registered scene, whose fidelity tiers apply
+
+    wheel: str = option("c-leg", choices=WHEELS, help="morphology (Fig. 4.2) or plain wheel")
+    legs: int = option(3, help="legs of a leg-wheel, 1-12")
+    omega: float = option(1.5, help="commanded spin after the pause, clockwise", unit="rad/s")
+    leg_length: float = shared("leg_length", 0.08)  #: "2R = 8 cm", the tip radius
+    thickness: float = option(0.005, help="leg thickness, >= 3 dx", unit="m")
+    width: float = option(0.1, help="each wheel's out-of-plane width; loads are for it", unit="m")
+    foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
+    spacing: float = option(0.005 / 3, help="particle spacing dx; parts thinner than 3 dx are refused", unit="m")
+    bed_width: float = shared("bed_width", 0.5)
+    bed_depth: float = shared("bed_depth", 0.1)
+    start_x: float = option(0.12, help="axle x at start (the rover: the middle of its axles)", unit="m")
+    settle_time: float = shared("settle_time", 2.0)
+    t_end: float = shared("t_end", 6.0)
+    series_interval: float = option(0.01, help="time between series samples", unit="s")
+    frame_interval: float = shared("frame_interval", 0.05)
+    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help("leg-wheel"))
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
+
+
+@dataclass(frozen=True)
+class LegWheel(WheelScene):
+    """Configuration of a leg-wheel run: a WheelScene with its load, motor and bed material."""
+
     #: if given, the commanded spin after the pause instead of `omega`: knots (t − settle_time, ω) of a
     #: piecewise-linear schedule (terrasph.schedules; a repeated time is a step), ω ≥ 0
     omega_schedule: tuple[tuple[float, float], ...] = ()
-    load: float = 4.9  #: vertical load carried by the chassis (N)
-    leg_length: float = 0.08  #: hip-to-toe length ("2R = 8 cm"), the tip radius
-    thickness: float = 0.005
-    width: float = 0.1  #: out-of-plane width; loads are for it
-    foot_ratio: float = 0.33  #: foot/leg length of the L-legs
-    spacing: float = 0.005 / 3  #: Δx; parts thinner than 3Δx are refused
-    bed_width: float = 0.5
-    bed_depth: float = 0.1
-    start_x: float = 0.12  #: axle x at start
-    settle_time: float = 2.0  #: pause before the spin (s)
-    duration: float = 6.0  #: total simulated time (s)
-    wheel_density: float = 1200.0  #: the wheel's material (kg/m³; a printed polymer)
-    motor_gain: float = 20.0  #: velocity servo gain (N·m·s/rad)
-    motor_torque: float = 5.0  #: motor torque limit (N·m)
-    mu1_deg: float = 23.0  #: the bed's quasi-static friction angle atan μ1 (degrees; μ(I), Eq. 2.31)
-    mu2_deg: float = 33.0  #: the bed's dynamic friction angle atan μ2 (degrees), >= mu1_deg
-    water_content: float = 0.0  #: the bed's w (kg water per kg grains); > 0: wet beads with cohesion (Table 2.1)
-    series_interval: float = 0.01
-    frame_interval: float = 0.05
-    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
+    load: float = option(4.9, help="vertical load carried by the chassis", unit="N")
+    wheel_density: float = option(1200.0, help="the wheel's material (a printed polymer)", unit="kg/m^3")
+    motor_gain: float = option(20.0, help="velocity servo gain", unit="N m s/rad")
+    motor_torque: float = option(5.0, help="motor torque limit", unit="N m")
+    mu1_deg: float = option(23.0, help="the bed's quasi-static friction angle atan mu1 (Eq. 2.31)", unit="degrees")
+    mu2_deg: float = option(33.0, help="the bed's dynamic friction angle atan mu2, >= mu1-deg", unit="degrees")
+    water_content: float = option(0.0, help="the bed's water content w; > 0: wet beads with cohesion (Table 2.1)",
+                                  unit="kg/kg")
 
     def __post_init__(self) -> None:
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
@@ -115,6 +130,10 @@ class LegWheel:
         """The wheel in its own frame (axle at the origin; leg 0 pointing down)."""
         return wheel_shape(self)
 
+    def footprint(self) -> Footprint:
+        """The bed, the wheel and the container (size guard)."""
+        return wheel_footprint(self, wheels=1, material=self.material())
+
     def commanded_omega(self, time: np.ndarray | float) -> np.ndarray:
         """The motor's commanded spin (rad/s) at `time` (s): 0 during the pause, then `omega` or the schedule."""
         after = np.asarray(time, dtype=float) - self.settle_time
@@ -136,7 +155,7 @@ def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative:
         raise ConfigError(f"parameter 'wheel' = {config.wheel!r} is invalid: allowed one of {', '.join(WHEELS)}")
     if isinstance(config.legs, bool) or not isinstance(config.legs, int) or not 1 <= config.legs <= 12:
         raise ConfigError(f"parameter 'legs' = {config.legs!r} is invalid: allowed an integer 1–12")
-    for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "duration",
+    for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "t_end",
                  "series_interval", "frame_interval", *positive):
         value = getattr(config, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -147,23 +166,7 @@ def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative:
             raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number >= 0")
 
 
-class WheelConfig(Protocol):
-    """What the leg-wheel and rover configurations share: the wheel and the bed."""
-
-    wheel: str
-    legs: int
-    leg_length: float
-    thickness: float
-    width: float
-    foot_ratio: float
-    spacing: float
-    bed_width: float
-    bed_depth: float
-    fidelity: str
-    numerics: dict[str, Any]
-
-
-def wheel_shape(config: WheelConfig) -> bodies.BodyShape:
+def wheel_shape(config: WheelScene) -> bodies.BodyShape:
     """A wheel or leg-wheel in its own frame (axle at the origin; leg 0 pointing down)."""
     args = (config.leg_length, config.thickness, config.width, config.spacing)
     if config.wheel == "wheel":
@@ -172,11 +175,24 @@ def wheel_shape(config: WheelConfig) -> bodies.BodyShape:
     return bodies.leg_wheel(config.wheel, config.legs, *args, **extra)
 
 
-def bed_and_wheel(config: WheelConfig, scene_name: str) -> tuple[Scene, Numerics, float, bodies.BodyShape]:
-    """The bed of chapter 4's glass beads in its container (scene, numerics at the fidelity of the
-    registered scene `scene_name`, surface height) and the wheel's shape; a shape the spacing cannot
-    build is refused naming the wheel."""
-    numerics = scene_numerics(scene_name, config.fidelity, config.spacing, BED_NUMERICS, config.numerics)
+def wheel_numerics(config: WheelScene) -> Numerics:
+    """The numerics of the robot scenes: BED_NUMERICS, then the scene's fidelity tier, then the
+    overrides, at the configured spacing."""
+    return scene_numerics(config.SCENE, config.fidelity, config.spacing, BED_NUMERICS, config.numerics)
+
+
+def wheel_footprint(config: WheelScene, wheels: int, material: Material) -> Footprint:
+    """The bed, `wheels` wheels and the container of bed_and_wheel (size guard)."""
+    wheel_area = wheels * config.legs * config.leg_length * config.thickness
+    return Footprint(config.spacing, config.bed_width * config.bed_depth + wheel_area,
+                     config.bed_width + 2.0 * (config.bed_depth + 2.5 * config.leg_length), config.t_end,
+                     material, wheel_numerics(config))
+
+
+def bed_and_wheel(config: WheelScene) -> tuple[Scene, Numerics, float, bodies.BodyShape]:
+    """The bed of chapter 4's glass beads in its container (scene, numerics, surface height) and the
+    wheel's shape; a shape the spacing cannot build is refused naming the wheel."""
+    numerics = wheel_numerics(config)
     scene = Scene(spacing=config.spacing)
     surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
                                             layers=wall_layers_needed(numerics.h_factor))
@@ -212,7 +228,7 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 
 def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
     """Bed, container, robot and coupling, ready to run."""
-    scene, numerics, surface, shape = bed_and_wheel(config, "leg-wheel")
+    scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, scene.gravity), {"wheel": Coupling(shape, config.width)},
                         gravity=scene.gravity)
@@ -239,7 +255,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
             # positive motor work, power at the step's start × dt (the motor cannot recover energy)
             work["motor"] += max(float(np.dot(data.actuator_force, data.actuator_velocity)), 0.0) * run.time_step()
 
-    series = run_coupled(coupled, config.duration if until is None else until, output=output,
+    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=motor, progress=progress, memory=work, resume=resume,
                          config={"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config),

@@ -9,23 +9,27 @@ MuJoCo's own floor, for comparison.
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
 import math
 import os
 import pathlib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
 from matplotlib.figure import Figure
 
+from terrasph.cli_common import positive_float
 from terrasph.config import ConfigError
-from terrasph.fidelity import check_tier, scene_numerics
+from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
-from terrasph.robots.control import Controller, parse_spec, spec_controller
+from terrasph.options import option, shared
+from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.leg_wheel import BED_NUMERICS
 from terrasph.robots.mjcf import load_model
@@ -41,39 +45,59 @@ __all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_r
 KICK_HEIGHT = 1.0
 
 
+def _body_width(text: str) -> tuple[str, float]:
+    """argparse type of ``--width``: ``NAME=METRES`` with a finite width > 0."""
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=METRES, got {text!r}")
+    try:
+        return name, positive_float(value)
+    except argparse.ArgumentTypeError as error:
+        raise argparse.ArgumentTypeError(f"width of {name}: {error}") from None
+
+
 @dataclass(frozen=True)
 class MjcfScene:
     """Configuration of an MJCF model on the bed. Lengths in m, times in s."""
 
-    model: str = ""  #: path of the MJCF file (unchanged; its floor is switched off in the loaded copy)
-    bed_width: float = 1.0
-    bed_depth: float = 0.1
-    spacing: float = 0.01  #: Δx; every coupled body must be >= 3Δx thick
-    start_x: float | None = None  #: the robot's centre of mass at start, bed frame (default: mid-bed)
-    settle_time: float = 0.5  #: the ctrl schedules start after it (``hold`` acts throughout)
-    duration: float = 2.0  #: total simulated time
-    ctrl: tuple[str, ...] = ()  #: ``ACTUATOR=FORM`` specs (terrasph.robots.control)
-    bodies: tuple[str, ...] = ()  #: coupled bodies by name; empty: those with a geom below couple_below
-    couple_below: float = COUPLE_BELOW  #: height above the floor that selects the coupled bodies
-    #: out-of-plane width (m) of coupled bodies by name; the others' from their geoms' extent across the plane
-    widths: dict[str, float] = field(default_factory=dict)
-    freeboard: float = 0.2  #: container wall height above the bed's surface
-    series_interval: float = 0.01
-    frame_interval: float = 0.05
-    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
+    #: fields saved under another name by earlier versions (run files, sweep SPECs): old → new
+    RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
+
+    model: str = option("", positional=True, cli="ROBOT.xml",
+                        help="the MJCF file (not changed; its floor is switched off in the loaded copy)")
+    bed_width: float = shared("bed_width", 1.0)
+    bed_depth: float = shared("bed_depth", 0.1)
+    spacing: float = option(0.01, help="particle spacing dx; every coupled body must be >= 3 dx thick", unit="m")
+    start_x: float | None = option(None, help="x of the robot's centre of mass at start, bed frame", unit="m",
+                                   default_text="mid-bed")
+    settle_time: float = shared("settle_time", 0.5, help="pause before the ctrl schedules start (hold acts throughout)")
+    t_end: float = shared("t_end", 2.0)
+    ctrl: tuple[str, ...] = option((), cli="ctrl", repeat=True, unit="ACTUATOR=FORM", default_text="0",
+                                   help="an actuator's input (by name, joint or #index); FORM: " + " | ".join(FORMS))
+    bodies: tuple[str, ...] = option((), cli="body", repeat=True, unit="NAME",
+                                     default_text="every body with a collision geom below --couple-below",
+                                     help="a body that meets the grains")
+    couple_below: float = option(COUPLE_BELOW, help="height above the floor that selects the coupled bodies", unit="m")
+    widths: dict[str, float] = option(cli="width", repeat=True, unit="NAME=METRES", parse=_body_width,
+                                      default_factory=dict, default_text="its geoms' extent across the plane",
+                                      help="a coupled body's out-of-plane width")
+    freeboard: float = option(0.2, help="container wall height above the bed's surface", unit="m")
+    series_interval: float = option(0.01, help="time between series samples", unit="s")
+    frame_interval: float = shared("frame_interval", 0.05)
+    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help("mjcf"))
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
         if not pathlib.Path(str(self.model)).is_file():
             raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: allowed the path of an MJCF file")
-        for name in ("bed_width", "bed_depth", "spacing", "duration", "couple_below", "freeboard",
+        for name in ("bed_width", "bed_depth", "spacing", "t_end", "couple_below", "freeboard",
                      "series_interval", "frame_interval"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
-        if not (isinstance(self.settle_time, (int, float)) and 0 <= self.settle_time < self.duration):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed in [0, duration)")
+        if not (isinstance(self.settle_time, (int, float)) and 0 <= self.settle_time < self.t_end):
+            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed in [0, t_end)")
         if self.start_x is not None and not 0 < self.start_x < self.bed_width:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed in (0, bed_width)")
         object.__setattr__(self, "ctrl", tuple(str(c) for c in self.ctrl))
@@ -123,7 +147,7 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
         crossings.check(run.time)
         data.ctrl[:] = drive(run.time, model, data)
 
-    series = run_coupled(coupled, config.duration if until is None else until, output=output,
+    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
                          config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **coupled.sim.describe()})

@@ -9,21 +9,24 @@ import dataclasses
 import math
 import os
 import pathlib
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
 from terrasph import bodies
 from terrasph.config import ConfigError
 from terrasph.io import write_results
+from terrasph.options import option, redefault
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import bed_and_wheel, check_wheel_config, wheel_shape
+from terrasph.robots.leg_wheel import (WheelScene, bed_and_wheel, check_wheel_config, wheel_footprint,
+                                       wheel_shape)
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
 from terrasph.robots.plots import plot_robot
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.simulation import Simulation
+from terrasph.size_guard import Footprint
 
 __all__ = ["WHEEL_BODIES", "Rover", "build_rover", "run_rover"]
 
@@ -34,29 +37,25 @@ AXLE_SPACING = 0.12
 
 
 @dataclass(frozen=True)
-class Rover:
-    """Configuration of a rover run. Lengths in m, times in s, angles in rad (clockwise)."""
+class Rover(WheelScene):
+    """Configuration of a rover run: a WheelScene (both wheels alike) with the rover's own defaults
+    (smaller wheels that clear each other, a shorter run) and the robot's MJCF."""
 
-    wheel: str = "c-leg"  #: one of terrasph.robots.leg_wheel.WHEELS, for both wheels
-    legs: int = 3
-    omega: float = 1.5  #: commanded spin of both motors after the pause (rad/s, clockwise)
-    leg_length: float = 0.04  #: hip-to-toe length = tip radius (the wheels must clear each other)
-    thickness: float = 0.005
-    width: float = 0.05  #: each wheel's out-of-plane width
-    foot_ratio: float = 0.33
-    spacing: float = 0.005 / 3
-    bed_width: float = 0.5
-    bed_depth: float = 0.1
-    start_x: float = 0.12  #: chassis (axle-line middle) x at start
-    settle_time: float = 1.0
-    duration: float = 4.0
-    series_interval: float = 0.01
-    frame_interval: float = 0.05
-    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
+    SCENE: ClassVar[str] = "rover"  #: the registered scene, whose fidelity tiers apply
+    leg_length: float = redefault(WheelScene, "leg_length", 0.04)  #: the wheels, 12 cm apart, must clear each other
+    width: float = redefault(WheelScene, "width", 0.05)
+    settle_time: float = redefault(WheelScene, "settle_time", 1.0)
+    t_end: float = redefault(WheelScene, "t_end", 4.0)
+    #: a planar MJCF robot instead of the example rover; its wheels are the bodies named in WHEEL_BODIES
+    mjcf: str | None = option(None, cli="model", unit="MJCF file",
+                              help="your planar robot: an MJCF whose wheel bodies are named rear_wheel and "
+                                   "front_wheel, each driven by a velocity motor (docs/robots.md)",
+                              default_text="the example rover, terrasph/robots/models/rover.xml")
 
     def __post_init__(self) -> None:
         check_wheel_config(self)
+        if self.mjcf is not None and not pathlib.Path(self.mjcf).is_file():
+            raise ConfigError(f"parameter 'mjcf' = {self.mjcf!r} is invalid: allowed an existing MJCF file")
         if not 2 * self.leg_length < AXLE_SPACING:
             raise ConfigError(f"parameter 'leg_length' = {self.leg_length!r} is invalid: allowed < "
                               f"{AXLE_SPACING / 2} m (the wheels, {AXLE_SPACING} m apart, must not touch)")
@@ -69,15 +68,21 @@ class Rover:
         """One wheel in its own frame (axle at the origin)."""
         return wheel_shape(self)
 
+    def footprint(self) -> Footprint:
+        """The bed, both wheels and the container (size guard)."""
+        from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
+
+        return wheel_footprint(self, wheels=len(WHEEL_BODIES), material=glass_beads())
+
 
 def build_rover(config: Rover) -> CoupledSimulation:
     """Bed, container and the rover standing on it (wheels Δx/2 above the surface)."""
     # imported here, as the scene registry imports this module
     from terrasph.scenes.leg_rotation import glass_beads
 
-    scene, numerics, surface, shape = bed_and_wheel(config, "rover")
+    scene, numerics, surface, shape = bed_and_wheel(config)
     axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
-    robot = PlanarRobot(ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
+    robot = PlanarRobot(config.mjcf or ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
                         gravity=scene.gravity, initial={"x": config.start_x, "z": axle_z})
     robot.add_to_scene(scene)
     return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
@@ -93,7 +98,7 @@ def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, pr
     def motors(run: CoupledSimulation) -> None:
         run.robot.data.ctrl[:] = config.omega if run.time >= config.settle_time else 0.0
 
-    series = run_coupled(coupled, config.duration if until is None else until, output=output,
+    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=motors, progress=progress, resume=resume,
                          config={"scene": "rover", "rover": dataclasses.asdict(config), **coupled.sim.describe()})

@@ -26,6 +26,7 @@ import numpy as np
 from terrasph.io import defined_values
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import free_surface, sinkage, slip
+from terrasph.threads import start_run
 
 __all__ = ["SURFACE_MARGIN", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
 

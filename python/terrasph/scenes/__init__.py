@@ -51,6 +51,8 @@ class SceneEntry:
     module: str
     config_class: str
     run_function: str
+    help: str = ""  #: one line for ``terrasph run --help``
+    description: str = ""  #: the paragraph of ``terrasph run NAME --help``
 
     @property
     def config_type(self) -> type:
@@ -62,8 +64,16 @@ class SceneEntry:
         """The scene's run function."""
         return getattr(importlib.import_module(self.module), self.run_function)
 
+    def current_names(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        """`values` with the fields earlier versions saved under other names renamed (the
+        configuration's ``RENAMED_FIELDS``, old → new), so old run files and SPECs still read."""
+        renamed: Mapping[str, str] = getattr(self.config_type, "RENAMED_FIELDS", {})
+        return {renamed.get(key, key): value for key, value in values.items()}
+
     def config_from(self, values: Mapping[str, Any]) -> Any:
-        """The scene's configuration from its saved form (JSON lists back to the tuples it holds)."""
+        """The scene's configuration from its saved form (JSON lists back to the tuples it holds;
+        old field names renamed, :meth:`current_names`)."""
+        values = self.current_names(values)
         fields = {f.name: f for f in dataclasses.fields(self.config_type)}
         unknown = sorted(set(values) - set(fields))
         if unknown:
@@ -74,12 +84,31 @@ class SceneEntry:
 
 
 SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
-    SceneEntry("column-collapse", "column_collapse", __name__, "ColumnCollapse", "run_column_collapse"),
-    SceneEntry("leg-rotation", "leg_rotation", __name__, "LegRotation", "run_leg_rotation"),
-    SceneEntry("plate-intrusion", "plate_intrusion", __name__, "PlateIntrusion", "run_plate_intrusion"),
-    SceneEntry("leg-wheel", "leg_wheel", "terrasph.robots.leg_wheel", "LegWheel", "run_leg_wheel"),
-    SceneEntry("rover", "rover", "terrasph.robots.rover", "Rover", "run_rover"),
-    SceneEntry("mjcf", "mjcf", "terrasph.robots.mjcf_scene", "MjcfScene", "run_mjcf"),
+    SceneEntry("column-collapse", "column_collapse", __name__, "ColumnCollapse", "run_column_collapse",
+               "granular column collapse (dissertation ch. 2)",
+               "Dry or wet granular column collapse on a rough floor."),
+    SceneEntry("leg-rotation", "leg_rotation", __name__, "LegRotation", "run_leg_rotation",
+               "robot leg rotated through glass beads (dissertation ch. 3)",
+               "A leg held for a settling pause in a 24 x 15 cm bed of 3 mm glass beads, then rotated clockwise "
+               "about its hip from -pi/4 to pi/4; lift and thrust against the leg angle."),
+    SceneEntry("plate-intrusion", "plate_intrusion", __name__, "PlateIntrusion", "run_plate_intrusion",
+               "horizontal plate pushed into a bed and pulled out",
+               "A horizontal plate pushed down into a settled bed of glass beads at constant speed, then pulled "
+               "up; vertical force against depth."),
+    SceneEntry("leg-wheel", "leg_wheel", "terrasph.robots.leg_wheel", "LegWheel", "run_leg_wheel",
+               "hybrid leg-wheel driven through glass beads (dissertation ch. 4)",
+               "One leg-wheel, free in x and z, carrying a load, paused and then driven clockwise by a motor "
+               "through a bed of 3 mm glass beads (MuJoCo coupled with the SPH terrain; docs/robots.md)."),
+    SceneEntry("rover", "rover", "terrasph.robots.rover", "Rover", "run_rover",
+               "planar rover with two driven leg-wheels crossing a bed",
+               "The example MJCF rover (terrasph.robots.ROVER), or your own planar MJCF (--model): a chassis and "
+               "two leg-wheels on driven hinges, paused and then driven clockwise across a bed of 3 mm glass "
+               "beads (docs/robots.md)."),
+    SceneEntry("mjcf", "mjcf", "terrasph.robots.mjcf_scene", "MjcfScene", "run_mjcf",
+               "any planar MJCF model on a bed of glass beads",
+               "A planar MuJoCo model (slides in x and z, hinges about y) on a bed of 3 mm glass beads: its floor "
+               "is replaced by the bed, the bodies near the floor meet the grains with the shapes of their "
+               "collision geoms, and its actuators follow --ctrl (docs/mjcf.md)."),
 )}
 
 

@@ -14,12 +14,14 @@ from typing import Any
 
 import numpy as np
 
-from terrasph.config import ConfigError, Material, Numerics
-from terrasph.fidelity import check_tier, scene_numerics
+from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
 from terrasph.geometry import aligned_wall_layers, elliptical_arc, trough_height, wall_layers_needed
 from terrasph.io import write_results
+from terrasph.options import option, shared
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
+from terrasph.size_guard import Footprint
 
 __all__ = ["BEDS", "MATERIAL_PRESETS", "RESOLUTIONS", "ColumnCollapse", "ColumnResult", "build_column_collapse",
            "run_column_collapse"]
@@ -54,27 +56,37 @@ TABLE_2_1_REFERENCE_DENSITY = 2507.0  #: ρ0 of Table 2.1 (kg/m³), the "table_2
 class ColumnCollapse:
     """Configuration of a column collapse. Lengths in m, times in s, friction angles in degrees."""
 
-    column_width: float = 0.07  #: L0
-    column_height: float = 0.08  #: H0
-    resolution: str = "coarse"  #: a key of RESOLUTIONS, ignored when `spacing` is set
-    spacing: float | None = None  #: Δx (m); overrides `resolution`
-    friction_angles_deg: tuple[float, float] = (21.0, 33.0)  #: (atan μ1, atan μ2) in degrees
-    water_content: float = 0.0  #: w; > 0 gives the wet material of Table 2.1 with cohesion
-    floor_length: float = 0.35  #: length of the rough flat floor to the right of the left wall
-    bed: str = "flat"  #: a key of BEDS
-    bed_radius: float = 0.35  #: radius of the circular trough (m)
-    bed_axes: tuple[float, float] = (0.35, 0.15)  #: semi-axes (a along x, b along z) of the elliptical trough (m)
-    release_time: float = 0.0  #: the gate is removed at this time
-    t_end: float = 1.0  #: simulated time limit
+    column_width: float = option(0.07, help="column width L0", unit="m")
+    column_height: float = option(0.08, help="column height H0", unit="m")
+    resolution: str = option("coarse", choices=tuple(RESOLUTIONS), help="about " + "/".join(
+        str(n) for n in RESOLUTIONS.values()) + " particles in the column (ignored when --spacing is given)")
+    spacing: float | None = option(None, help="particle spacing dx, overrides --resolution", unit="m",
+                                   default_text="from --resolution")
+    friction_angles_deg: tuple[float, float] = option(
+        (21.0, 33.0), cli=("mu1-deg", "mu2-deg"), unit="degrees",
+        help="friction angle of the mu(I) rheology: --mu1-deg atan(mu1), --mu2-deg atan(mu2) >= it")
+    water_content: float = option(0.0, help="water content w; > 0 gives the wet material of Table 2.1 with "
+                                            "cohesion", unit="kg/kg")
+    floor_length: float = option(0.35, help="length of the rough flat floor right of the left wall", unit="m")
+    bed: str = option("flat", choices=BEDS, help="bed under the column: flat floor, or a circular or elliptical "
+                                                 "trough whose lowest point is at the left wall (Fig. 2.7-2.8)")
+    bed_radius: float = option(0.35, help="radius of the circular trough", unit="m")
+    bed_axes: tuple[float, float] = option((0.35, 0.15), help="semi-axes of the elliptical trough, along x then z",
+                                           unit="m")
+    release_time: float = option(0.0, help="the gate is removed at this time", unit="s")
+    t_end: float = shared("t_end", 1.0, help="simulated time; the run stops earlier once at rest")
     rest_threshold: float = 1e-4  #: stop once mean ½|v|² < rest_threshold·g·Δx (after 0.3 s)
-    frame_interval: float = 0.02
-    width: float = 0.1  #: out-of-plane width of the quasi-2D sample (m), scales reported energies
-    material_preset: str = "packed"  #: a key of MATERIAL_PRESETS: the bulk density of the beads
-    model: str = "mu_i_hypoelastic"  #: the constitutive model, a choice of ``material.model``
-    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
+    frame_interval: float = shared("frame_interval", 0.02)
+    width: float = option(0.1, help="out-of-plane width of the quasi-2D sample, scales reported energies", unit="m")
+    material_preset: str = option("packed", choices=MATERIAL_PRESETS,
+                                  help="bulk density of the beads: a random packing's, or Table 2.1's")
+    model: str = option("mu_i_hypoelastic", choices=parameter("material.model").choices, cli="material-model",
+                        help="constitutive model (material.model)")
+    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help('column-collapse'))
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:
+        check_tier(self.fidelity)
         check_tier(self.fidelity)
         for name in ("column_width", "column_height", "floor_length", "t_end", "frame_interval", "width"):
             value = getattr(self, name)
@@ -135,6 +147,17 @@ class ColumnCollapse:
             return np.zeros_like(np.asarray(x, float))
         return trough_height(x, semi_axes)
 
+    def build_numerics(self) -> Numerics:
+        """terrasph.Numerics at this spacing and fidelity with the overrides applied."""
+        return scene_numerics("column-collapse", self.fidelity, self.grid_spacing, overrides=self.numerics)
+
+    def footprint(self) -> Footprint:
+        """The column's area and the floor, left wall and gate (size guard)."""
+        semi_axes = self.bed_semi_axes
+        floor = self.floor_length if semi_axes is None else 0.25 * math.pi * (semi_axes[0] + semi_axes[1])
+        return Footprint(self.grid_spacing, self.column_width * self.column_height,
+                         floor + 2.0 * self.column_height, self.t_end, self.material(), self.build_numerics())
+
     def material(self) -> Material:
         """Glass beads of Table 2.1 with this configuration's friction, water content, bulk density
         (material_preset) and constitutive model."""
@@ -150,7 +173,7 @@ class ColumnCollapse:
 def build_column_collapse(config: ColumnCollapse) -> tuple[Scene, Material, Numerics]:
     """The scene (column, rough floor + left wall, gate), material and numerics of a collapse."""
     dx = config.grid_spacing
-    numerics = scene_numerics("column-collapse", config.fidelity, dx, overrides=config.numerics)
+    numerics = config.build_numerics()
     layers = wall_layers_needed(numerics.h_factor)
     scene = Scene(spacing=dx)
     column = scene.add_block(0.0, 0.0, config.column_width, config.column_height)

@@ -20,18 +20,23 @@ import numpy as np
 
 from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics
-from terrasph.fidelity import check_tier, scene_numerics
+from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import hold_then_rotate
+from terrasph.options import option, shared
 from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
+from terrasph.size_guard import Footprint
 
 __all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "LegResult", "LegRotation", "build_leg_rotation", "glass_beads",
            "run_leg_rotation"]
 
 #: Leg shapes by name (bodies.py documents each reading of the dissertation's figures).
-LEGS = ("flat", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
+LEGS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
+#: leg names of earlier versions (run files, SPECs), read as their current names: the shape names of
+#: leg-rotation and leg-wheel are one set
+OLD_LEG_NAMES = {"flat": "flat-leg"}
 
 #: Rows across the leg's thickness per resolution: Δx = thickness / rows. Three rows is the least
 #: that fills the kernel support 2h = 2.6Δx (bodies.minimum_thickness), so "coarse" is the coarsest
@@ -57,27 +62,33 @@ def glass_beads() -> Material:
 class LegRotation:
     """Configuration of a leg-rotation run. Lengths in m, times in s, angles in rad (clockwise)."""
 
-    leg: str = "c-leg"  #: one of LEGS
-    omega: float = 0.2  #: angular velocity of the sweep (rad/s), clockwise
-    foot_ratio: float = 0.33  #: fl = foot length / leg length, for the L-legs
-    resolution: str = "coarse"  #: a key of RESOLUTIONS, ignored when `spacing` is set
-    spacing: float | None = None  #: Δx (m); overrides `resolution`
-    leg_length: float = 0.0762  #: 2R of the dissertation: hip-to-toe length
-    thickness: float = 0.0064
-    width: float = 0.0254  #: out-of-plane width; forces are reported for it
-    bed_width: float = 0.24
-    bed_depth: float = 0.15
-    hip_height: float = 0.02  #: axle height above the undisturbed free surface
-    start_angle: float = -math.pi / 4
-    end_angle: float = math.pi / 4
-    settle_time: float = 2.0  #: the leg is held still this long before it turns
-    samples_per_radian: float = 100.0  #: load samples (each a time average, see Simulation.run)
-    frame_interval: float = 0.1
-    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and the tier
+    leg: str = option("c-leg", choices=LEGS, help="leg shape")
+    omega: float = option(0.2, help="angular velocity of the sweep, clockwise", unit="rad/s")
+    foot_ratio: float = option(0.33, help="foot/leg length ratio fl of the L-legs")
+    resolution: str = option("coarse", choices=tuple(RESOLUTIONS), help="/".join(
+        str(n) for n in RESOLUTIONS.values()) + " particle rows across the leg's thickness (ignored when --spacing "
+                                                "is given)")
+    spacing: float | None = option(None, help="particle spacing dx, overrides --resolution", unit="m",
+                                   default_text="thickness / rows of --resolution")
+    leg_length: float = shared("leg_length", 0.0762)  #: 2R of the dissertation
+    thickness: float = option(0.0064, help="leg thickness", unit="m")
+    width: float = option(0.0254, help="out-of-plane leg width; forces are reported for it", unit="m")
+    bed_width: float = shared("bed_width", 0.24)
+    bed_depth: float = shared("bed_depth", 0.15)
+    hip_height: float = option(0.02, help="axle height above the undisturbed free surface", unit="m")
+    start_angle: float = option(-math.pi / 4, help="leg angle at the start, clockwise from down", unit="rad")
+    end_angle: float = option(math.pi / 4, help="leg angle at the end of the sweep", unit="rad")
+    settle_time: float = shared("settle_time", 2.0)  #: the leg is held still
+    #: load samples (each a time average, see Simulation.run)
+    samples_per_radian: float = option(100.0, help="load samples per radian of the sweep", unit="1/rad")
+    frame_interval: float = shared("frame_interval", 0.1)
+    t_end: float | None = shared("t_end", None, default_text="the end of the sweep, settle_time + sweep angle / omega")
+    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help('leg-rotation'))
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and terrasph.Numerics
 
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
+        object.__setattr__(self, "leg", OLD_LEG_NAMES.get(self.leg, self.leg))
         if self.leg not in LEGS:
             raise ConfigError(f"parameter 'leg' = {self.leg!r} is invalid: allowed one of {', '.join(LEGS)}")
         for name in ("omega", "leg_length", "thickness", "width", "bed_width", "bed_depth",
@@ -85,6 +96,9 @@ class LegRotation:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
+        if self.t_end is not None and not (isinstance(self.t_end, (int, float)) and math.isfinite(self.t_end)
+                                           and self.t_end > 0):
+            raise ConfigError(f"parameter 't_end' = {self.t_end!r} is invalid: allowed a finite number > 0 s or None")
         if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
             raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
         if not 0 < self.foot_ratio <= 2:
@@ -111,10 +125,25 @@ class LegRotation:
         """Settling pause plus the sweep (s)."""
         return self.settle_time + (self.end_angle - self.start_angle) / self.omega
 
+    @property
+    def end_time(self) -> float:
+        """When the run stops: `t_end`, or the end of the sweep (s)."""
+        return self.duration if self.t_end is None else self.t_end
+
+    def build_numerics(self) -> Numerics:
+        """terrasph.Numerics at this spacing and fidelity: SCENE_NUMERICS, the tier, then the overrides."""
+        return scene_numerics("leg-rotation", self.fidelity, self.grid_spacing, SCENE_NUMERICS, self.numerics)
+
+    def footprint(self) -> Footprint:
+        """The bed and the leg, the container's floor and sides (size guard)."""
+        return Footprint(self.grid_spacing, self.bed_width * self.bed_depth + self.leg_length * self.thickness,
+                         self.bed_width + 2.0 * (self.bed_depth + self.leg_length), self.end_time, glass_beads(),
+                         self.build_numerics())
+
     def shape(self) -> bodies.BodyShape:
         """The leg in its own frame (hip at the origin, pointing down at θ = 0)."""
         args = (self.leg_length, self.thickness, self.width, self.grid_spacing)
-        if self.leg == "flat":
+        if self.leg == "flat-leg":
             return bodies.flat_leg(*args)
         if self.leg == "c-leg":
             return bodies.c_leg(*args)
@@ -128,7 +157,7 @@ class LegRotation:
 def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
     """The bed in its container, the leg at its start angle, the material and the numerics."""
     dx = config.grid_spacing
-    numerics = scene_numerics("leg-rotation", config.fidelity, dx, SCENE_NUMERICS, config.numerics)
+    numerics = config.build_numerics()
     layers = wall_layers_needed(numerics.h_factor)
     scene = Scene(spacing=dx)
     freeboard = max(config.hip_height, 0.0) + config.leg_length  # sand heaped by the leg stays in
@@ -209,7 +238,7 @@ def run_leg_rotation(config: LegRotation = LegRotation(), *, output: str | os.Pa
     scene, material, numerics = build_leg_rotation(config)
     sim = Simulation(scene, material, numerics, width=config.width)
     interval = 1.0 / (config.samples_per_radian * config.omega)
-    run = sim.run(config.duration if until is None else until, output=output, resume=resume,
+    run = sim.run(config.end_time if until is None else until, output=output, resume=resume,
                   frame_interval=config.frame_interval, progress=progress,
                   body_interval=interval,
                   config={"scene": "leg-rotation", "leg_rotation": dataclasses.asdict(config), **sim.describe()})

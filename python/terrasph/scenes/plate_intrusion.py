@@ -37,14 +37,16 @@ import numpy as np
 
 from terrasph import bodies
 from terrasph.analysis import fit_line
-from terrasph.config import ConfigError, Material, Numerics
-from terrasph.fidelity import scene_numerics
+from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
+from terrasph.options import option, shared
 from terrasph.scene import GRAVITY, Scene
 from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import RunResult, Simulation
+from terrasph.size_guard import Footprint
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -69,33 +71,43 @@ RESOLUTIONS: dict[str, float] = {"coarse": 0.0025, "fine": 0.002, "finer": 0.001
 class PlateIntrusion:
     """Configuration of a plate intrusion. Lengths in m, times in s, speeds in m/s."""
 
-    speed: float = 0.02  #: plate speed, down then up (m/s)
-    max_depth: float = 0.04  #: depth of the plate's underside below the free surface at the turn
-    spacing: float = 0.0025  #: Δx (m)
-    plate_length: float = 0.04  #: L, along x
-    thickness: float | None = None  #: plate thickness; None → bodies.minimum_thickness (3Δx at h = 1.3Δx)
-    width: float = 0.0254  #: out-of-plane width W; forces are reported for it
-    bed_width: float = 0.20
-    bed_depth: float = 0.10
-    gap: float | None = None  #: start height of the underside above the surface; None → Δx (the least)
-    settle_time: float = 0.2  #: the plate is held still this long before it moves
-    sample_travel: float = 0.001  #: plate travel per load sample (each a time average over it)
-    frame_interval: float = 0.1
-    model: str = "mu_i_hypoelastic"  #: the constitutive model, a choice of ``material.model``
-    fidelity: str = "standard"  #: a tier of terrasph.fidelity.TIERS: the scene's numerics, measured
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
-    #: None: start above the surface, push in to max_depth, pull out (default). H (m): start buried,
-    #: the plate's top face H below the surface, grains placed above it; held, then pulled up
-    buried_depth: float | None = None
-    pull_distance: float = 0.015  #: buried start: the upward travel of the plate (m)
-    geostatic: bool | None = None  #: Simulation's ``geostatic``: None = K0 start for models with stress state
+    speed: float = option(0.02, help="plate speed, down then up", unit="m/s")
+    max_depth: float = option(0.04, help="depth of the plate's underside below the free surface at the turn",
+                              unit="m")
+    spacing: float = option(0.0025, help="particle spacing dx", unit="m", presets=RESOLUTIONS)
+    plate_length: float = option(0.04, help="plate length L, along x", unit="m")
+    thickness: float | None = option(None, help="plate thickness", unit="m",
+                                     default_text="the least, 3 dx at h = 1.3 dx")
+    width: float = option(0.0254, help="out-of-plane plate width W; forces are reported for it", unit="m")
+    bed_width: float = shared("bed_width", 0.20)
+    bed_depth: float = shared("bed_depth", 0.10)
+    gap: float | None = option(None, help="start height of the underside above the surface", unit="m",
+                               default_text="dx, the least")
+    settle_time: float = shared("settle_time", 0.2)  #: the plate is held still
+    sample_travel: float = option(0.001, help="plate travel per load sample (each a time average over it)", unit="m")
+    frame_interval: float = shared("frame_interval", 0.1)
+    model: str = option("mu_i_hypoelastic", choices=parameter("material.model").choices, cli="material-model",
+                        help="constitutive model of the beads (material.model)")
+    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help('plate-intrusion'))
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    buried_depth: float | None = option(
+        None, unit="m", default_text="start above the surface, push in to --max-depth and pull out",
+        help="start buried instead, the plate's top face this far below the surface, and only pull it up "
+             "(a strip anchor)")
+    pull_distance: float = option(0.015, help="with --buried-depth: upward travel of the plate", unit="m")
+    geostatic: bool | None = option(None, help="start geostatic, K0 = 1 - sin(phi) (Simulation's geostatic)",
+                                    default_text="yes for every model with a stress state")
+    t_end: float | None = shared("t_end", None, default_text="the end of the strokes")
 
     def __post_init__(self) -> None:
+        check_tier(self.fidelity)
         for name in ("speed", "max_depth", "spacing", "plate_length", "width", "bed_width", "bed_depth",
                      "sample_travel", "frame_interval"):
             value = getattr(self, name)
             if not (_is_number(value) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
+        if self.t_end is not None and not (_is_number(self.t_end) and math.isfinite(self.t_end) and self.t_end > 0):
+            raise ConfigError(f"parameter 't_end' = {self.t_end!r} is invalid: allowed a finite number > 0 s or None")
         if not (_is_number(self.settle_time) and math.isfinite(self.settle_time) and self.settle_time >= 0):
             raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
         numerics = self.build_numerics()  # raises ConfigError for bad overrides
@@ -143,6 +155,12 @@ class PlateIntrusion:
     def build_numerics(self) -> Numerics:
         """terrasph.Numerics at this spacing and fidelity with the overrides applied."""
         return scene_numerics("plate-intrusion", self.fidelity, self.spacing, overrides=self.numerics)
+
+    def footprint(self) -> Footprint:
+        """The bed and the plate, the container's floor and sides (size guard)."""
+        return Footprint(self.spacing, self.bed_width * self.bed_depth + self.plate_length * self.plate_thickness,
+                         self.bed_width + 2.0 * (self.bed_depth + WALL_FREEBOARD), self.end_time, self.material(),
+                         self.build_numerics())
 
     @property
     def plate_thickness(self) -> float:
@@ -192,6 +210,11 @@ class PlateIntrusion:
     def duration(self) -> float:
         """Settling pause plus the strokes (s)."""
         return self.settle_time + self.strokes * self.stroke_time
+
+    @property
+    def end_time(self) -> float:
+        """When the run stops: `t_end`, or the end of the strokes (s)."""
+        return self.duration if self.t_end is None else self.t_end
 
     def motion(self) -> Motion:
         """Hold, down at `speed` through the stroke, up at `speed` back to the start, then hold; from
@@ -361,7 +384,7 @@ def run_plate_intrusion(config: PlateIntrusion = PlateIntrusion(), *, output: st
     """
     scene, material, numerics = build_plate_intrusion(config)
     sim = Simulation(scene, material, numerics, width=config.width, geostatic=config.geostatic)
-    run = sim.run(config.duration if until is None else until, output=output, resume=resume,
+    run = sim.run(config.end_time if until is None else until, output=output, resume=resume,
                   frame_interval=config.frame_interval, progress=progress,
                   body_interval=config.sample_interval,
                   config={"scene": "plate-intrusion", "plate_intrusion": dataclasses.asdict(config), **sim.describe()})

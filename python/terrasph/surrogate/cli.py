@@ -21,8 +21,6 @@ from terrasph.cli_common import (
 
 def register(subparsers: Any) -> None:
     """Add the surrogate sub-commands to the ``terrasph`` parser."""
-    from terrasph.surrogate.synthetic import DEFAULT_FEATURES, DEFAULT_TARGETS
-
     p = subparsers.add_parser(
         "train", help="train an LSTM surrogate on a directory of HDF5 runs and export it",
         description="Train a stacked LSTM (standard or peephole cell) on the runs in "
@@ -31,10 +29,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("dataset_dir", metavar="DATASET_DIR", type=Path)
     p.add_argument("--out", required=True, type=Path,
                    help="model file to write (.tslstm), with a JSON report beside it")
-    p.add_argument("--features", nargs="+", default=list(DEFAULT_FEATURES),
-                   help="input series or run parameters (default: %(default)s)")
-    p.add_argument("--targets", nargs="+", default=list(DEFAULT_TARGETS),
-                   help="target series (default: %(default)s)")
+    p.add_argument("--features", nargs="+", default=None,
+                   help="input series or run parameters (default: those of DATASET_DIR/dataset.json, written by "
+                        "`terrasph dataset`; else the synthetic wheel's omega_cmd load soil_k mu)")
+    p.add_argument("--targets", nargs="+", default=None,
+                   help="target series (default: those of DATASET_DIR/dataset.json; else slip sinkage)")
     p.add_argument("--body", default=None,
                    help="body group in /series/bodies (default: the only one)")
     p.add_argument("--cell", choices=("standard", "peephole"), default="standard",
@@ -51,8 +50,8 @@ def register(subparsers: Any) -> None:
                    help="runs per optimisation step (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the split, initial weights and batches (default: %(default)s)")
-    p.add_argument("--threads", type=positive_int, default=1,
-                   help="torch CPU threads, >= 1 (default: %(default)s; results are reproducible "
+    p.add_argument("--torch-threads", type=positive_int, default=1, metavar="N",
+                   help="PyTorch CPU threads, >= 1 (default: %(default)s; results are reproducible "
                         "per thread count)")
     add_force_option(p)
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
@@ -77,8 +76,8 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "make-synthetic-dataset", help="write driven-wheel runs with a known slip-sinkage law",
         description="Simulate the synthetic driven wheel (terrasph.surrogate.synthetic) and "
-                    "write one HDF5 run file per run into OUT_DIR.")
-    p.add_argument("out_dir", metavar="OUT_DIR", type=Path)
+                    "write one HDF5 run file per run into the directory --out.")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="dataset directory to write")
     p.add_argument("--runs", type=positive_int, default=120,
                    help="number of runs (files wheel_0000.h5, …) (default: %(default)s)")
     p.add_argument("--duration", type=positive_float, default=3.0,
@@ -112,9 +111,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     check_output_file(args.out, args.force)
     check_output_file(str(args.out) + ".json", args.force)
-    torch.set_num_threads(args.threads)
+    torch.set_num_threads(args.torch_threads)
+    features, targets = dataset_columns(args.dataset_dir)
     config = TrainConfig(
-        features=tuple(args.features), targets=tuple(args.targets), cell=args.cell,
+        features=tuple(args.features or features), targets=tuple(args.targets or targets), cell=args.cell,
         hidden_size=args.hidden, num_layers=args.layers, epochs=args.epochs,
         patience=args.patience, lr=args.lr, batch_size=args.batch_size, seed=args.seed)
     result = train_directory(args.dataset_dir, args.out, config, body=args.body,
@@ -123,6 +123,23 @@ def _cmd_train(args: argparse.Namespace) -> int:
     print(f"best epoch {result.best_epoch} of {len(result.history)}; wrote {args.out} "
           f"and {args.out}.json")
     return 0
+
+
+def dataset_columns(dataset_dir: Path) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The features and targets a dataset directory was written with: its dataset.json's (``terrasph
+    dataset``), else the synthetic wheel's (``terrasph make-synthetic-dataset``)."""
+    import json
+
+    from terrasph.surrogate.synthetic import DEFAULT_FEATURES, DEFAULT_TARGETS
+
+    description = dataset_dir / "dataset.json"
+    if not description.is_file():
+        return DEFAULT_FEATURES, DEFAULT_TARGETS
+    try:
+        saved = json.loads(description.read_text())
+        return tuple(saved["features"]), tuple(saved["targets"])
+    except (ValueError, KeyError, TypeError) as error:
+        raise ValueError(f"{description}: not a dataset description with features and targets ({error})") from None
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
@@ -164,12 +181,12 @@ def _cmd_synthetic(args: argparse.Namespace) -> int:
     if args.dt > args.duration / 2:
         raise ValueError(f"--dt {args.dt:g} is invalid: allowed at most --duration/2 = "
                          f"{args.duration / 2:g} s (a run needs at least 3 samples)")
-    check_output_dir(args.out_dir, args.force)
-    for stale in sorted(args.out_dir.glob("wheel_*.h5")) if args.force else ():
+    check_output_dir(args.out, args.force, "--out")
+    for stale in sorted(args.out.glob("wheel_*.h5")) if args.force else ():
         stale.unlink()  # --force: the directory then holds exactly this dataset, no runs of an earlier one
-    paths = make_dataset(args.out_dir, n_runs=args.runs, seed=args.seed,
+    paths = make_dataset(args.out, n_runs=args.runs, seed=args.seed,
                          duration=args.duration, dt=args.dt)
-    print(f"wrote {len(paths)} runs to {args.out_dir}")
+    print(f"wrote {len(paths)} runs to {args.out}")
     return 0
 
 

@@ -50,7 +50,15 @@ def _bed_value(config: dict[str, Any], name: str) -> float:
 
 
 def _driven_phase(config: dict[str, Any]) -> float:
-    return float(config["duration"]) - float(config["settle_time"])
+    config = _leg_wheel_config(config)
+    return float(config["t_end"]) - float(config["settle_time"])
+
+
+def _leg_wheel_config(saved: dict[str, Any]) -> dict[str, Any]:
+    """A saved leg-wheel configuration (run file, manifest) under the current field names."""
+    from terrasph.scenes import SCENES
+
+    return SCENES["leg-wheel"].current_names(saved)
 
 
 def _check_dt(dt: float, driven: float, where: str | Path) -> None:
@@ -68,12 +76,12 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str], bed: Sequence[
         saved = json.loads(f.attrs["config_json"])
         if saved.get("scene") != "leg-wheel":
             raise ValueError(f"{path} is not a leg-wheel run (its scene is {saved.get('scene')!r})")
-        config = saved["leg_wheel"]  # the scene's own configuration (terrasph.scenes.SCENES' config_key)
+        config = _leg_wheel_config(saved["leg_wheel"])  # the scene's own (terrasph.scenes.SCENES' config_key)
         group = f["series/robot/wheel"]
         time = group["time"][()]
         sampled = {"slip": group["slip"][()], "sinkage": group["sinkage"][()],
                    "forward_speed": group["velocity"][()][:, 0]}
-    settle, duration = float(config["settle_time"]), float(config["duration"])
+    settle, duration = float(config["settle_time"]), float(config["t_end"])
     _check_dt(dt, duration - settle, path)
     grid = np.arange(0.0, duration - settle + 1e-9 * dt, dt)
     schedule = tuple(tuple(k) for k in config.get("omega_schedule") or ()) or ((0.0, float(config["omega"])),)

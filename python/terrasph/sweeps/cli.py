@@ -28,15 +28,27 @@ def register(subparsers: Any) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="address of an existing Dask scheduler (e.g. tcp://host:8786) instead of a LocalCluster")
     p.add_argument("--dry-run", action="store_true", help="validate SPEC and list its cases without running")
+    p.add_argument("--yes", action="store_true",
+                   help="run even cases the size guard estimates at more than terrasph.size_guard.CONFIRM_HOURS "
+                        "hours (default: refuse the sweep)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(handler=_cmd_sweep)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
+    from terrasph.config import ConfigError
+    from terrasph.scenes import scene_entry
+    from terrasph.size_guard import check_size
     from terrasph.sweeps.runner import run_sweep
     from terrasph.sweeps.spec import load_spec
 
     spec = load_spec(args.spec)
+    entry = scene_entry(spec.scene)
+    for case in spec.cases:  # the size guard, before any run: every case, as one run of a worker
+        try:
+            check_size(entry.config_from(case.config), confirmed=args.yes, threads=args.threads_per_worker)
+        except ConfigError as error:
+            raise ConfigError(f"sweep case {case.case_id}: {error}") from None
     if args.dry_run:
         for case in spec.cases:
             print(case.case_id, json.dumps(case.varied, sort_keys=True))

@@ -73,11 +73,11 @@ def is_finished(path: Path) -> bool:
 def run_one(scene: str, case: Case, out_dir: str, omp_threads: int, session: str) -> dict[str, Any]:
     """Runs one case on this process (a Dask worker) with `omp_threads` OpenMP threads; returns its
     record. Any exception of the run is recorded with its message, never raised."""
-    from terrasph import _core
     from terrasph.scenes import run_case
     from terrasph.simulation import versions
+    from terrasph.threads import use_threads
 
-    _core.set_num_threads(omp_threads)
+    use_threads(omp_threads)
     final = run_file(Path(out_dir), case)
     staging = final.with_name(f"{case.case_id}.partial")  # the run and the files beside it, until finished
     partial = staging / final.name

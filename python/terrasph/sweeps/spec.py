@@ -6,7 +6,7 @@ YAML (or the same tables in TOML)::
     seed: 7                     # seeds the design and each case's drawn input schedule
     fixed:                      # fields of the scene's configuration
       spacing: 0.01
-      duration: 2.0
+      t_end: 2.0                # old field names (duration) are read too
     design:
       method: latin-hypercube   # grid | random | latin-hypercube
       runs: 12                  # random and latin-hypercube: number of cases
@@ -17,7 +17,7 @@ YAML (or the same tables in TOML)::
         parameter: omega_schedule          # a knot-list field of the scene (terrasph.schedules)
         kinds: [constant, step, ramp, random]
         range: [0.5, 3.0]       # the input's values
-        duration: 1.5           # schedule length (s; default duration − settle_time of the scene)
+        duration: 1.5           # schedule length (s; default t_end − settle_time of the scene)
         segments: 4             # segments of a "random" schedule
 
 Every range end and every case is checked by building the scene's own configuration (so a range
@@ -87,8 +87,11 @@ def load_spec(path: str | Path) -> SweepSpec:
 
         try:
             raw = yaml.safe_load(text)
-        except yaml.YAMLError as error:
-            raise ConfigError(f"sweep spec {path}: not valid YAML ({error})") from None
+        except yaml.YAMLError as error:  # its text spans lines: the one line names where and what
+            mark = getattr(error, "problem_mark", None)
+            where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+            what = getattr(error, "problem", None) or str(error).splitlines()[0]
+            raise ConfigError(f"sweep spec {path}: not valid YAML{where}: {what}") from None
     elif path.suffix == ".toml":
         try:
             raw = tomllib.loads(text)
@@ -122,7 +125,7 @@ def parse_spec(raw: Any) -> SweepSpec:
     seed = top.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError(f"sweep spec: 'seed' = {seed!r} is invalid: allowed an integer >= 0")
-    fixed = _require_mapping(top.get("fixed", {}), "fixed")
+    fixed = entry.current_names(_require_mapping(top.get("fixed", {}), "fixed"))  # old field names read too
     for name in fixed:
         _check_name(name, fields, "fixed")
     design = _require_mapping(top["design"], "design")
@@ -130,7 +133,7 @@ def parse_spec(raw: Any) -> SweepSpec:
     method = design.get("method")
     if method not in METHODS:
         raise ConfigError(f"sweep spec: 'design.method' = {method!r} is invalid: allowed one of {', '.join(METHODS)}")
-    vary = _require_mapping(design.get("vary", {}), "design.vary")
+    vary = entry.current_names(_require_mapping(design.get("vary", {}), "design.vary"))
     if not vary and "input" not in design:
         raise ConfigError("sweep spec: empty design: 'design.vary' names no parameter and there is no 'design.input'")
     build = _config_builder(entry, fields, fixed)
@@ -250,7 +253,7 @@ def _input(spec: Any, fields: Mapping[str, Any], build: Any) -> dict[str, Any]:
     for end in (low, high):
         _checked(build, name, [[0.0, end]], f"design.input.range [{low}, {high}]")
     defaults = build({})
-    duration = spec.get("duration", defaults.get("duration", 0.0) - defaults.get("settle_time", 0.0))
+    duration = spec.get("duration", defaults.get("t_end", 0.0) - defaults.get("settle_time", 0.0))
     if not (isinstance(duration, (int, float)) and duration > 0):
         raise ConfigError(f"sweep spec: 'design.input.duration' = {duration!r} is invalid: allowed > 0 s")
     segments = spec.get("segments", 4)

@@ -1,0 +1,121 @@
+"""The size guard: before a scene is built, estimate its particles, memory and run time, refuse
+what does not fit in memory and ask for ``--yes`` above :data:`CONFIRM_HOURS` hours.
+
+The estimate comes from the scene's geometry (its :meth:`footprint`: granular area, wall length,
+spacing, end time, material, numerics), not from building it: a spacing a hundred times too fine
+is refused within a second, where the build alone would take minutes and the memory of a machine.
+
+* Particles: N = A/Δx² + L·layers/Δx (the lattice of the grains, the wall rows).
+* Memory: N · :data:`BYTES_PER_PARTICLE` + the interpreter's own.
+* Steps: t_end / Δt with Δt = cfl · h · √f / c0 (the core's stable step without the flow's own
+  speed, Eq. 2.46's artificial sound speed c0, mass scaling f), so a lower bound on the steps
+  except with ``step_at_wave_speed`` (whose larger step the estimate does not see).
+* Time: N · steps · :data:`SECONDS_PER_PARTICLE_STEP` / threads (perfect scaling: a lower bound).
+
+The constants are measured (docs/cli.md, "The size guard", gives the command and figures).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+from terrasph.config import ConfigError, Material, Numerics
+from terrasph.geometry import wall_layers_needed
+
+__all__ = ["BYTES_PER_PARTICLE", "CONFIRM_HOURS", "SECONDS_PER_PARTICLE_STEP", "Footprint", "SizeEstimate",
+           "available_memory", "check_size", "estimate"]
+
+#: peak resident memory per particle (grains and walls), measured: 626–646 B at 80 k–320 k grains
+#: (plate-intrusion bed, one thread; docs/cli.md)
+BYTES_PER_PARTICLE = 650.0
+#: the interpreter with terrasph, numpy, h5py and MuJoCo loaded, before any particle (measured 46 MiB)
+BASE_BYTES = 200e6
+#: wall time of one particle-step on one thread, measured 0.87–1.4 µs (the same beds, shared machine)
+SECONDS_PER_PARTICLE_STEP = 1.0e-6
+#: above this estimated run time the command line asks for ``--yes``
+CONFIRM_HOURS = 24.0
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """What a scene's size depends on, from its configuration alone."""
+
+    spacing: float  #: Δx (m)
+    granular_area: float  #: area the grains fill (m²)
+    wall_length: float  #: length of the walls, each `layers` rows of particles (m)
+    end_time: float  #: simulated time (s)
+    material: Material
+    numerics: Numerics
+
+
+class Sized(Protocol):
+    """A scene configuration the guard can judge."""
+
+    def footprint(self) -> Footprint: ...
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """A run's estimated size."""
+
+    particles: int
+    memory_bytes: float
+    steps: float
+    hours: float  #: at the thread count the estimate was made for
+
+    def describe(self) -> str:
+        """One phrase: particles, memory, steps and time."""
+        return (f"about {self.particles:,} particles, {self.memory_bytes / 2**30:.2g} GiB, {self.steps:.3g} steps, "
+                f"{self.hours:.3g} h")
+
+
+def estimate(footprint: Footprint, threads: int = 1) -> SizeEstimate:
+    """The particles, memory, steps and wall time of a run of `footprint` on `threads` threads."""
+    from terrasph import _core
+
+    dx = footprint.spacing
+    layers = wall_layers_needed(footprint.numerics.h_factor)
+    particles = footprint.granular_area / dx**2 + footprint.wall_length * layers / dx
+    params = _core.ModelParams2D()
+    params.material = footprint.material.to_core()
+    params.numerics = footprint.numerics.to_core()
+    sound_speed = params.artificial_sound_speed  # c0, Eq. 2.46
+    numerics = footprint.numerics
+    step = numerics.cfl * numerics.h_factor * dx * math.sqrt(numerics.mass_scaling) / sound_speed
+    steps = footprint.end_time / step
+    seconds = particles * steps * SECONDS_PER_PARTICLE_STEP / max(1, threads)
+    return SizeEstimate(int(particles), BASE_BYTES + particles * BYTES_PER_PARTICLE, steps, seconds / 3600.0)
+
+
+def available_memory() -> float | None:
+    """Bytes of memory available now (/proc/meminfo's MemAvailable), else None."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def check_size(config: Sized | Any, *, confirmed: bool, threads: int | None = None) -> SizeEstimate | None:
+    """Refuses (ConfigError, one line) a run of `config` that would not fit in the memory available
+    now, or that would take more than CONFIRM_HOURS hours unless `confirmed`; returns the estimate
+    (None for a configuration without a footprint)."""
+    if not hasattr(config, "footprint"):
+        return None
+    footprint = config.footprint()
+    size = estimate(footprint, threads or os.cpu_count() or 1)
+    memory = available_memory()
+    spacing = f"spacing {footprint.spacing:g} m"
+    if memory is not None and size.memory_bytes > memory:
+        raise ConfigError(f"{spacing} is too fine for this machine: {size.describe()}, but only "
+                          f"{memory / 2**30:.2g} GiB of memory is available; use a coarser spacing or a smaller bed")
+    if size.hours > CONFIRM_HOURS and not confirmed:
+        raise ConfigError(f"{spacing}: {size.describe()} (over {CONFIRM_HOURS:g} h at the measured "
+                          f"{SECONDS_PER_PARTICLE_STEP * 1e6:g} us per particle-step); add --yes to run it anyway")
+    return size
