@@ -107,7 +107,7 @@ def test_cohesive_vertical_cut_holds_below_the_rankine_height_and_fails_well_abo
     The tension-free EOS (P = 0 at the surface) makes the real critical height lower than Rankine's,
     which assumes tension down to the crack depth; the test does not probe between 0.46 and 1.84 H_c.
     """
-    wet = Material.wet(0.005, surface_tension=4 * 0.0725)
+    wet = Material.wet(0.005, surface_tension=4 * 0.0725, reference_density=2507.0)  # Table 2.1
     rankine = 4 * wet.cohesion / (wet.reference_density * G) * math.tan(math.pi / 4 + math.atan(wet.mu1) / 2)
     assert rankine == pytest.approx(0.1086, rel=1e-3)
     dx = SMALL_COLUMN_DX
@@ -116,5 +116,5 @@ def test_cohesive_vertical_cut_holds_below_the_rankine_height_and_fails_well_abo
     assert top == pytest.approx(low, abs=0.5 * dx) and front == pytest.approx(0.06, abs=0.5 * dx)
     top, _ = _cut(high, wet, dx, 0.3)
     assert top < 0.8 * high
-    top, _ = _cut(low, Material(), dx, 0.15)
+    top, _ = _cut(low, Material(reference_density=2507.0), dx, 0.15)
     assert top < 0.8 * low
