@@ -109,8 +109,9 @@ template <> struct ChoiceNames<PlasticFlow> {
     "f: each grain's inertial mass is f times its mass, gravity and every force unchanged (explicit "    \
     "dynamics' mass scaling): every wave is sqrt(f) slower and the step sqrt(f) longer, for scenes "     \
     "slow against the bed's waves; 1 = off")                                                             \
-  X(double, artificial_viscosity, 0.1, "1", inclusive(0.0), exclusive(inf),                              \
-    "alpha_Pi (Eq. 2.46) between grains, beta_Pi = 0 (docs/design_decisions.md)")                        \
+  X(double, artificial_viscosity, 0.02, "1", inclusive(0.0), exclusive(inf),                             \
+    "alpha_Pi (Eq. 2.46) between grains, beta_Pi = 0: it carries shear the rheology should "             \
+    "(docs/fidelity.md: the column's runout and the inclined plane)")                                    \
   X(double, wall_artificial_viscosity, 1.0, "1", inclusive(0.0), exclusive(inf),                         \
     "alpha_Pi for granular-wall pairs, which keeps grains out of walls")                                 \
   X(double, wall_barrier, 1.0, "1", inclusive(0.0), exclusive(inf),                                      \
