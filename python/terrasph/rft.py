@@ -56,8 +56,11 @@ import numpy as np
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 
-__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "TABLE_FORMAT", "RFTCoefficients", "SurfaceElements",
+__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "TABLE_FORMAT", "TERRAINS", "RFTCoefficients", "SurfaceElements",
            "body_load", "coefficient_table", "fourier_basis", "load_coefficients", "save_coefficients"]
+
+#: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
+TERRAINS = ("sph", "rft")
 
 #: the nine Fourier coefficients of Li et al. 2013 (Eq. S2), in the order of :func:`fourier_basis`
 COEFFICIENT_NAMES = ("A00", "A10", "B11", "B01", "Bm11", "C11", "C01", "Cm11", "D10")

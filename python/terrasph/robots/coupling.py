@@ -50,7 +50,8 @@ from terrasph.config import ConfigError
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass"]
+__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass", "mujoco_state",
+           "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
 #: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/bench_robot_coupling.py):
@@ -64,7 +65,7 @@ MIN_MASS_RATIO = 1e-3
 ACCURATE_MASS_RATIO = 1e-2
 
 
-def _unwrapped(previous: float, wrapped: float) -> float:
+def unwrapped(previous: float, wrapped: float) -> float:
     """The angle equal to `wrapped` modulo 2π nearest to `previous` (a step turns far less than π)."""
     return previous + math.remainder(wrapped - previous, 2.0 * math.pi)
 
@@ -153,6 +154,50 @@ def _velocity_servos(model: mujoco.MjModel, data: mujoco.MjData) -> list[_Veloci
     return servos
 
 
+def mujoco_step(robot: PlanarRobot, servos: list[_VelocityServo], dt: float) -> None:
+    """MuJoCo's step of dt with the loads already applied (steps 2–3 of the module docstring): each
+    torque-limited velocity servo prepared for the step and put back after it, the caller's command
+    kept; poses and velocities brought to the step's end."""
+    model, data = robot.model, robot.data
+    model.opt.timestep = dt
+    command = data.ctrl.copy()
+    try:
+        for servo in servos:
+            servo.prepare(model, data, float(command[servo.actuator]), dt)
+        mujoco.mj_step(model, data)
+    finally:  # the model's servos and the caller's command stay the state (checkpoints, the next step)
+        for servo in servos:
+            servo.restore(model)
+        data.ctrl[:] = command
+    # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    mujoco.mj_comVel(model, data)
+
+
+def mujoco_state(robot: PlanarRobot) -> dict[str, Any]:
+    """MuJoCo's state (time, qpos, qvel, act, warm start, ctrl) as plain data (JSON floats round-trip
+    exactly), for a checkpoint's progress."""
+    data = robot.data
+    return {"time": data.time, "qpos": data.qpos.tolist(), "qvel": data.qvel.tolist(), "act": data.act.tolist(),
+            "qacc_warmstart": data.qacc_warmstart.tolist(), "ctrl": data.ctrl.tolist()}
+
+
+def restore_mujoco_state(robot: PlanarRobot, saved: dict[str, Any]) -> None:
+    """Puts back a :func:`mujoco_state`."""
+    data = robot.data
+    data.time = saved["time"]
+    for key in ("qpos", "qvel", "act", "ctrl"):
+        getattr(data, key)[:] = saved[key]
+    mujoco.mj_forward(robot.model, data)
+    data.qacc_warmstart[:] = saved["qacc_warmstart"]
+
+
+def velocity_servos(robot: PlanarRobot) -> list[_VelocityServo]:
+    """The robot's torque-limited velocity servos, for :func:`mujoco_step`."""
+    return _velocity_servos(robot.model, robot.data)
+
+
 class CoupledSimulation:
     """A :class:`PlanarRobot` two-way coupled with a :class:`Simulation` whose scene holds its coupled
     bodies as driven bodies (add them with :meth:`PlanarRobot.add_to_scene`)."""
@@ -190,24 +235,11 @@ class CoupledSimulation:
     def step(self) -> float:
         """One coupled step (module docstring); returns its dt."""
         dt = self.time_step()
-        robot, model, data = self.robot, self.robot.model, self.robot.data
+        robot = self.robot
         for body in robot.coupled:
             force, torque = self.granular_load(body)
             robot.apply_load(body, force, torque)
-        model.opt.timestep = dt
-        command = data.ctrl.copy()
-        try:
-            for servo in self._servos:
-                servo.prepare(model, data, float(command[servo.actuator]), dt)
-            mujoco.mj_step(model, data)
-        finally:  # the model's servos and the caller's command stay the state (checkpoints, the next step)
-            for servo in self._servos:
-                servo.restore(model)
-            data.ctrl[:] = command
-        # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        mujoco.mj_comVel(model, data)
+        mujoco_step(robot, self._servos, dt)
         for body in robot.coupled:
             self._drive(body, dt)
         t_end = self.sim.time + dt
@@ -227,7 +259,7 @@ class CoupledSimulation:
         """Hands MuJoCo's state of `body` at t_{n+1} to the SPH (step 4)."""
         velocity, omega = self.robot.velocity(body)
         old_velocity, old_omega = self._velocity[body.name]
-        angle = _unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
+        angle = unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
         self.sim.set_body_kinematics(body.name, self.robot.reference(body), angle, velocity, omega,
                                      (velocity - old_velocity) / dt, (omega - old_omega) / dt)
         self._angle[body.name] = angle
@@ -245,6 +277,47 @@ class CoupledSimulation:
         """Clockwise angle (rad) of a coupled body, continuous over turns."""
         return self._angle[name]
 
+    # -- what a run loop records (terrasph.robots.run.run_coupled) ----------------------------
+    def describe(self) -> dict[str, Any]:
+        """The run's configuration for its file: the SPH's and the coupled bodies'."""
+        return {**self.sim.describe(), "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width}
+                                                              for b in self.robot.coupled},
+                                                "mujoco": mujoco.__version__}}
+
+    def write_static(self, writer: Any) -> None:
+        """The run file's static arrays: the grains' masses and the walls' groups."""
+        writer.write_static("granular/mass", np.array(self.sim.mass))
+        writer.write_static("walls/group", np.array(self.sim.core.wall_group))
+
+    def body_sample(self, name: str) -> dict[str, Any]:
+        """Force (N) and clockwise torque (N·m) of the grains on coupled body `name`, averaged since
+        :meth:`reset_means`, and its lowest z (m)."""
+        state = self.sim.body_state(name)
+        return {"force": state["force"], "torque": state["torque"], "lowest_z": state["lowest_z"]}
+
+    def surface(self) -> float:
+        """The bed's undisturbed free surface now (m; :func:`terrasph.robots.run.undisturbed_surface`)."""
+        from terrasph.robots.run import undisturbed_surface
+
+        return undisturbed_surface(self)
+
+    def wall_loads(self) -> dict[str, dict[str, Any]]:
+        """Loads of the grains on each tracked fixed wall (:meth:`Simulation.wall_loads`)."""
+        return self.sim.wall_loads()
+
+    def reset_means(self) -> None:
+        """Starts new averaging intervals of the body and wall loads."""
+        self.sim.reset_body_means()
+        self.sim.reset_wall_load_means()
+
+    def counters(self) -> dict[str, Any]:
+        """Steps taken, the last step's dt (s) and the grains that left the domain."""
+        return {"step": self.sim.step_count, "dt": self.sim.core.last_dt, "leaked_particles": self.sim.leaked_particles}
+
+    def frame_fields(self) -> dict[str, np.ndarray] | None:
+        """The fields of a frame of the run file (grains and wall particles)."""
+        return {**self.sim.frame_fields(), "wall_position": np.array(self.sim.core.wall_position)}
+
     # -- checkpoints ----------------------------------------------------------------------
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
         """Writes the SPH State with MuJoCo's state (under ``progress["robot"]``) to `path`."""
@@ -261,19 +334,11 @@ class CoupledSimulation:
     def state(self) -> dict[str, Any]:
         """MuJoCo's state and the coupling's own memory as plain data (JSON floats round-trip
         exactly), for the ``progress`` of :meth:`Simulation.checkpoint`."""
-        data = self.robot.data
-        return {"time": data.time, "qpos": data.qpos.tolist(), "qvel": data.qvel.tolist(), "act": data.act.tolist(),
-                "qacc_warmstart": data.qacc_warmstart.tolist(), "ctrl": data.ctrl.tolist(),
-                "angle": dict(self._angle),
+        return {**mujoco_state(self.robot), "angle": dict(self._angle),
                 "velocity": {k: [v.tolist(), w] for k, (v, w) in self._velocity.items()}}
 
     def restore_state(self, saved: dict[str, Any]) -> None:
         """Puts back a :meth:`state` (after :meth:`Simulation.restore` of the same checkpoint)."""
-        data = self.robot.data
-        data.time = saved["time"]
-        for key in ("qpos", "qvel", "act", "ctrl"):
-            getattr(data, key)[:] = saved[key]
-        mujoco.mj_forward(self.robot.model, data)
-        data.qacc_warmstart[:] = saved["qacc_warmstart"]
+        restore_mujoco_state(self.robot, saved)
         self._angle = {k: float(v) for k, v in saved["angle"].items()}
         self._velocity = {k: (np.array(v), float(w)) for k, (v, w) in saved["velocity"].items()}

@@ -16,7 +16,7 @@ import os
 import time as wallclock
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -25,11 +25,35 @@ from terrasph.config import ConfigError
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import free_surface, sinkage, slip
 
-__all__ = ["SURFACE_MARGIN", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
+__all__ = ["SURFACE_MARGIN", "RobotRun", "Stepper", "body_row", "run_coupled", "undisturbed_surface"]
 
 #: columns of the bed closer than this (m) to a coupled body's x extent are disturbed by it (its
 #: rut and the grains it pushes up) and left out of the free-surface level
 SURFACE_MARGIN = 0.02
+
+
+class Stepper(Protocol):
+    """What :func:`run_coupled` drives: a robot on a terrain advanced step by step. The SPH coupling
+    (:class:`CoupledSimulation`) and the RFT terrain (:class:`terrasph.robots.rft_terrain.RFTCoupling`)
+    implement it; see CoupledSimulation for each method's meaning."""
+
+    robot: Any
+
+    @property
+    def time(self) -> float: ...
+    def time_step(self) -> float: ...
+    def step(self) -> float: ...
+    def angle(self, name: str) -> float: ...
+    def describe(self) -> dict[str, Any]: ...
+    def write_static(self, writer: Any) -> None: ...
+    def body_sample(self, name: str) -> dict[str, Any]: ...
+    def surface(self) -> float: ...
+    def wall_loads(self) -> dict[str, dict[str, Any]]: ...
+    def reset_means(self) -> None: ...
+    def counters(self) -> dict[str, Any]: ...
+    def frame_fields(self) -> dict[str, np.ndarray] | None: ...
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> Any: ...
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]: ...
 
 
 def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARGIN) -> float:
@@ -47,11 +71,11 @@ def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARG
     return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)
 
 
-def body_row(coupled: CoupledSimulation, name: str, surface: float) -> dict[str, Any]:
+def body_row(coupled: Stepper, name: str, surface: float) -> dict[str, Any]:
     """One sample of a coupled body's series (granular loads averaged since the last reset;
     sinkage below the free surface at `surface`, m)."""
     body = next(b for b in coupled.robot.coupled if b.name == name)
-    state = coupled.sim.body_state(name)
+    state = coupled.body_sample(name)
     velocity, omega = coupled.robot.velocity(body)
     return {"time": coupled.time, "reference": coupled.robot.reference(body), "angle": coupled.angle(name),
             "velocity": velocity, "omega": omega, "force": state["force"], "torque": state["torque"],
@@ -59,7 +83,7 @@ def body_row(coupled: CoupledSimulation, name: str, surface: float) -> dict[str,
             "slip": float(slip(velocity[0], omega, body.shape.radius))}
 
 
-def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
+def _actuator_row(coupled: Stepper) -> dict[str, Any]:
     data = coupled.robot.data
     return {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(),
             "actuator_force": data.actuator_force.copy(),
@@ -80,12 +104,13 @@ class RobotRun:
         return self.values
 
 
-def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.PathLike[str] | None = None,
+def run_coupled(coupled: Stepper, t_end: float, *, output: str | os.PathLike[str] | None = None,
                 frame_interval: float = 0.05, series_interval: float = 0.01,
-                config: dict[str, Any] | None = None, control: Callable[[CoupledSimulation], None] | None = None,
+                config: dict[str, Any] | None = None, control: Callable[[Any], None] | None = None,
                 progress: bool = False, memory: dict[str, Any] | None = None,
                 checkpoint_every: float | None = 600.0, resume: bool = False) -> dict[str, dict[str, np.ndarray]]:
-    """Runs `coupled` to `t_end` (s); writes frames every `frame_interval` and robot samples every
+    """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`Stepper`, e.g. the RFT terrain's
+    :class:`terrasph.robots.rft_terrain.RFTCoupling`) to `t_end` (s); writes frames every `frame_interval` and robot samples every
     `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
     `memory` (plain data), which is checkpointed with the run. Returns the robot series by group
@@ -117,17 +142,12 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     memory.update(saved.get("memory", {}))
     if not t_end > coupled.time:
         raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {coupled.time}")
-    sim = coupled.sim
     writer = None
     if resume:
         writer = RunWriter.reopen(output, frames=saved["frames"], series_rows=saved["series_rows"])
     elif output is not None:
-        describe = {**sim.describe(), "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width}
-                                                              for b in coupled.robot.coupled},
-                                                "mujoco": mujoco.__version__}}
-        writer = RunWriter(output, config or describe, versions={**versions(), "mujoco": mujoco.__version__})
-        writer.write_static("granular/mass", np.array(sim.mass))
-        writer.write_static("walls/group", np.array(sim.core.wall_group))
+        writer = RunWriter(output, config or coupled.describe(), versions={**versions(), "mujoco": mujoco.__version__})
+        coupled.write_static(writer)
     series: dict[str, dict[str, list[Any]]] = {}
     series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
     frames = saved.get("frames", 0)
@@ -141,24 +161,22 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
             series_rows[group] = series_rows.get(group, 0) + 1
 
     def sample() -> None:
-        surface = undisturbed_surface(coupled)
+        surface = coupled.surface()
         for body in coupled.robot.coupled:
             append(f"robot/{body.name}", body_row(coupled, body.name, surface))
         if coupled.robot.model.nu:  # a robot without actuators has no such series (HDF5 has no 0-wide columns)
             append("robot/actuators", _actuator_row(coupled))
-        append("diagnostics", {"time": coupled.time, "step": sim.step_count, "dt": sim.core.last_dt,
-                               "leaked_particles": sim.leaked_particles,
+        append("diagnostics", {"time": coupled.time, **coupled.counters(),
                                "wall_time": wallclock.perf_counter() - start})
-        sim.reset_body_means()
-        for name, load in sim.wall_loads().items():
+        for name, load in coupled.wall_loads().items():
             append(f"walls/{name}", {"time": coupled.time, **load})
-        sim.reset_wall_load_means()
+        coupled.reset_means()
 
     def frame() -> None:
         nonlocal frames
-        if writer:
-            writer.write_frame(sim.time, sim.step_count, {**sim.frame_fields(),
-                                                          "wall_position": np.array(sim.core.wall_position)})
+        fields = coupled.frame_fields() if writer else None
+        if fields is not None:
+            writer.write_frame(coupled.time, coupled.counters()["step"], fields)
             frames += 1
 
     def save_checkpoint() -> None:
@@ -170,8 +188,7 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     if resume:
         next_sample, next_frame = saved["next_sample"], saved["next_frame"]
     else:
-        sim.reset_body_means()
-        sim.reset_wall_load_means()
+        coupled.reset_means()
         sample()
         frame()
         next_sample, next_frame = coupled.time + series_interval, coupled.time + frame_interval
@@ -199,14 +216,15 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
                     save_checkpoint()
                     last_checkpoint = wallclock.perf_counter()
         if writer:
-            writer.set_attrs("/run", {"status": "completed", "time": sim.time, "steps": sim.step_count,
-                                      "leaked_particles": sim.leaked_particles,
+            counters = coupled.counters()
+            writer.set_attrs("/run", {"status": "completed", "time": coupled.time, "steps": counters["step"],
+                                      "leaked_particles": counters["leaked_particles"],
                                       "wall_time": wallclock.perf_counter() - start})
     except KeyboardInterrupt:
         if writer:
             save_checkpoint()
-            writer.set_attrs("/run", {"status": "interrupted", "time": sim.time, "steps": sim.step_count,
-                                      "checkpoint": checkpoint_path(output).name})
+            writer.set_attrs("/run", {"status": "interrupted", "time": coupled.time,
+                                      "steps": coupled.counters()["step"], "checkpoint": checkpoint_path(output).name})
         raise
     finally:
         bar.close()

@@ -1,0 +1,186 @@
+"""A MuJoCo robot on the resistive-force-theory terrain (terrasph.rft): the SPH coupling's interface
+without the SPH.
+
+:class:`RFTCoupling` is a stepper like :class:`terrasph.robots.coupling.CoupledSimulation` (the same
+methods, driven by :func:`terrasph.robots.run.run_coupled`): each step of dt
+
+1. takes the RFT load of each coupled body at t_n from its pose and velocity at t_n
+   (:func:`terrasph.rft.body_load`, a flat free surface at z = ``surface``; the terrain keeps no state),
+2. puts it in MuJoCo's ``xfrc_applied`` and lets MuJoCo advance by dt (:func:`coupling.mujoco_step`:
+   the same handling of torque-limited velocity servos as the SPH coupling).
+
+The load is explicit (held over the step), as in the SPH coupling. RFT is quasi-static and
+rate-independent: a body at rest on the surface feels no force until it moves into the grains, and a
+body resting under a load alternates between sinking (α of intrusion) and rising (α of extraction)
+step by step around its equilibrium depth; the series' loads are means over the sampling interval.
+:data:`RFT_TIME_STEP` is the measured step (docs/rft.md).
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from terrasph import rft
+from terrasph.config import ConfigError
+from terrasph.robots.coupling import mujoco_state, mujoco_step, restore_mujoco_state, unwrapped, velocity_servos
+from terrasph.robots.mjcf import CoupledBody, PlanarRobot
+
+__all__ = ["RFT_TIME_STEP", "RFTCoupling"]
+
+#: MuJoCo's step on the RFT terrain (s): the leg-wheel's slip and sinkage at 2e-3 s are within 1 % and
+#: 0.2 mm of those at 2.5e-4 s (docs/rft.md, benchmarks/bench_rft.py)
+RFT_TIME_STEP = 2e-3
+
+
+class RFTCoupling:
+    """A :class:`PlanarRobot` on the RFT terrain: a flat granular surface at z = `surface` (m) with the
+    coefficient map `table`; `time_step` (s) is MuJoCo's step, `element_length` (m) that of the RFT
+    surface elements (default: :class:`terrasph.rft.SurfaceElements`'s)."""
+
+    def __init__(self, robot: PlanarRobot, surface: float, table: rft.RFTCoefficients | str = "generic", *,
+                 time_step: float = RFT_TIME_STEP, element_length: float | None = None) -> None:
+        if not (isinstance(time_step, (int, float)) and np.isfinite(time_step) and time_step > 0):
+            raise ConfigError(f"parameter 'time_step' = {time_step!r} is invalid: allowed a finite number > 0 (s)")
+        if not (isinstance(surface, (int, float)) and np.isfinite(surface)):
+            raise ConfigError(f"parameter 'surface' = {surface!r} is invalid: allowed a finite number (m)")
+        self.robot = robot
+        self.surface_level = float(surface)
+        self.table = rft.coefficient_table(table)
+        self._dt = float(time_step)
+        self._elements = {b.name: rft.SurfaceElements.from_shape(b.shape, element_length, b.width)
+                          for b in robot.coupled}
+        self._servos = velocity_servos(robot)
+        self._steps = 0
+        self._angle = {b.name: robot.wrapped_angle(b) for b in robot.coupled}
+        self._sums = {b.name: (np.zeros(2), 0.0) for b in robot.coupled}
+        self._since = float(robot.data.time)
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s), MuJoCo's."""
+        return float(self.robot.data.time)
+
+    def time_step(self) -> float:
+        """The step's dt (s)."""
+        return self._dt
+
+    def granular_load(self, body: CoupledBody) -> tuple[np.ndarray, float]:
+        """RFT force (N) and clockwise torque (N·m, about the body origin) on `body` now."""
+        velocity, omega = self.robot.velocity(body)
+        return rft.body_load(self._elements[body.name], self._angle[body.name], self.robot.reference(body),
+                             velocity, omega, self.surface_level, self.table)
+
+    def step(self) -> float:
+        """One step (module docstring); returns its dt."""
+        dt = self._dt
+        for body in self.robot.coupled:
+            force, torque = self.granular_load(body)
+            self.robot.apply_load(body, force, torque)
+            total, moment = self._sums[body.name]
+            self._sums[body.name] = (total + force * dt, moment + torque * dt)
+        mujoco_step(self.robot, self._servos, dt)
+        for body in self.robot.coupled:
+            self._angle[body.name] = unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
+        self._steps += 1
+        return dt
+
+    def advance(self, t_end: float) -> int:
+        """Steps until `t_end` (s) is reached or passed; returns the number taken."""
+        taken = 0
+        while self.time < t_end * (1 - 1e-14):
+            self.step()
+            taken += 1
+        return taken
+
+    def angle(self, name: str) -> float:
+        """Clockwise angle (rad) of a coupled body, continuous over turns."""
+        return self._angle[name]
+
+    # -- what a run loop records ------------------------------------------------------------------
+    def describe(self) -> dict[str, Any]:
+        """The terrain and the coupled bodies, for the run file."""
+        return {"terrain": {"kind": "rft", "surface": self.surface_level, "zeta": self.table.zeta,
+                            "coefficients": dict(zip(rft.COEFFICIENT_NAMES, self.table.vector.tolist())),
+                            "source": self.table.source, "time_step": self._dt,
+                            "elements": {name: len(e) for name, e in self._elements.items()}},
+                "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width} for b in self.robot.coupled},
+                          "mujoco": mujoco.__version__}}
+
+    def write_static(self, writer: Any) -> None:
+        """Each coupled body's RFT surface elements in its own frame (``/static/rft/<body>/...``)."""
+        for name, elements in self._elements.items():
+            writer.write_static(f"rft/{name}/centre", elements.centre)
+            writer.write_static(f"rft/{name}/normal", elements.normal)
+            writer.write_static(f"rft/{name}/length", elements.length)
+
+    def body_sample(self, name: str) -> dict[str, Any]:
+        """RFT force (N) and torque (N·m) on body `name` averaged since :meth:`reset_means` (the load of
+        each step weighted by its dt), and its lowest z (m, :meth:`BodyShape.lowest_point`)."""
+        body = next(b for b in self.robot.coupled if b.name == name)
+        total, moment = self._sums[name]
+        span = self.time - self._since
+        if span > 0:
+            force, torque = total / span, moment / span
+        else:
+            force, torque = self.granular_load(body)
+        lowest = body.shape.lowest_point(self._angle[name], tuple(self.robot.reference(body)))
+        return {"force": force, "torque": float(torque), "lowest_z": lowest}
+
+    def surface(self) -> float:
+        """The free surface (m): flat and fixed, the terrain has no state."""
+        return self.surface_level
+
+    def wall_loads(self) -> dict[str, dict[str, Any]]:
+        """No walls on the RFT terrain."""
+        return {}
+
+    def reset_means(self) -> None:
+        """Starts a new averaging interval of the body loads."""
+        self._sums = {name: (np.zeros(2), 0.0) for name in self._sums}
+        self._since = self.time
+
+    def counters(self) -> dict[str, Any]:
+        """Steps taken, the step's dt (s); no grains to leak."""
+        return {"step": self._steps, "dt": self._dt, "leaked_particles": 0}
+
+    def frame_fields(self) -> dict[str, np.ndarray] | None:
+        """No frames: the terrain has no particles (the robot's path is in its series)."""
+        return None
+
+    # -- checkpoints ---------------------------------------------------------------------------
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
+        """Writes MuJoCo's state and the stepper's memory (under ``progress["robot"]``) to `path`."""
+        from terrasph.checkpoint import write_checkpoint
+
+        state = {"granular": {}, "walls": {}, "counters": {"steps": self._steps}, "bodies": [], "removals": [],
+                 "wall_loads": {"tracked": False}}
+        return write_checkpoint(path, state, self.describe(), {**(progress or {}), "robot": self.state()})
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        """Continues from a :meth:`checkpoint`; returns the rest of its progress."""
+        from terrasph.checkpoint import CheckpointError, configuration_differences, read_checkpoint
+
+        state, config, progress = read_checkpoint(path)
+        differences = configuration_differences(config, self.describe())
+        if differences or "robot" not in progress:
+            raise CheckpointError(f"checkpoint {path} belongs to another RFT run: {', '.join(differences) or 'no robot'}")
+        self._steps = int(state["counters"]["steps"])
+        self.restore_state(progress.pop("robot"))
+        return progress
+
+    def state(self) -> dict[str, Any]:
+        """MuJoCo's state and the stepper's memory as plain data."""
+        return {**mujoco_state(self.robot), "angle": dict(self._angle),
+                "sums": {k: [f.tolist(), m] for k, (f, m) in self._sums.items()}, "since": self._since}
+
+    def restore_state(self, saved: dict[str, Any]) -> None:
+        """Puts back a :meth:`state`."""
+        restore_mujoco_state(self.robot, saved)
+        self._angle = {k: float(v) for k, v in saved["angle"].items()}
+        self._sums = {k: (np.array(f), float(m)) for k, (f, m) in saved["sums"].items()}
+        self._since = float(saved["since"])
