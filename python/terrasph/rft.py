@@ -56,8 +56,8 @@ import numpy as np
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 
-__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "TABLE_FORMAT", "TERRAINS", "RFTCoefficients", "SurfaceElements",
-           "body_load", "coefficient_table", "fourier_basis", "load_coefficients", "save_coefficients"]
+__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "REGULARISATION_SPEED", "TABLE_FORMAT", "TERRAINS",
+           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "coefficient_table", "fourier_basis", "load_coefficients", "save_coefficients"]
 
 #: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
 TERRAINS = ("sph", "rft")
@@ -112,22 +112,23 @@ class RFTCoefficients:
 
     def alpha(self, beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """(α_x, α_z) in N/m³ at the angles of the module docstring (β, γ in [−π/2, π/2])."""
-        basis_x, basis_z = fourier_basis(beta, gamma)
-        c = self.vector
-        return self.zeta * (basis_x @ c), self.zeta * (basis_z @ c)
+        ax, az, _, _ = _alpha_hat(self.vector, *_trig(beta, gamma))
+        return self.zeta * ax, self.zeta * az
+
+
+def _trig(beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, ...]:
+    """cos 2β, sin 2β, cos γ, sin γ."""
+    b, g = np.asarray(beta, dtype=float), np.asarray(gamma, dtype=float)
+    return np.cos(2 * b), np.sin(2 * b), np.cos(g), np.sin(g)
 
 
 def fourier_basis(beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-    """The terms multiplying each coefficient of :data:`COEFFICIENT_NAMES` in α̂_x and α̂_z (Li et al.
-    2013, Eq. S2): two (..., 9) arrays, so α̂ = basis @ coefficients (and a least-squares fit is linear)."""
-    b = np.asarray(beta, dtype=float)
-    g = np.asarray(gamma, dtype=float)
-    zero, one = np.zeros(np.broadcast(b, g).shape), np.ones(np.broadcast(b, g).shape)
-    z_terms = [one, np.cos(2 * b) + zero, np.sin(2 * b + g), np.sin(g) + zero, np.sin(-2 * b + g)]
-    x_terms = [np.cos(2 * b + g), np.cos(g) + zero, np.cos(-2 * b + g), np.sin(2 * b) + zero]
-    basis_z = np.stack(z_terms + [zero] * 4, axis=-1)
-    basis_x = np.stack([zero] * 5 + x_terms, axis=-1)
-    return basis_x, basis_z
+    """The terms multiplying each coefficient of :data:`COEFFICIENT_NAMES` in α̂_x and α̂_z: two
+    (..., 9) arrays, so α̂ = basis @ coefficients (the series is linear in them, so a least-squares
+    fit is linear)."""
+    trig = np.broadcast_arrays(*_trig(beta, gamma))
+    columns = [_alpha_hat(unit, *trig)[:2] for unit in np.eye(len(COEFFICIENT_NAMES))]
+    return np.stack([x for x, _ in columns], axis=-1), np.stack([z for _, z in columns], axis=-1)
 
 
 #: Li, Zhang & Goldman 2013 (Science 339:1408), supplementary Table S2: the generic coefficients,
@@ -286,49 +287,88 @@ class SurfaceElements:
         return len(self.length)
 
 
-def _li_angles(normal: np.ndarray, velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(β, γ, s) of leading faces (module docstring): the face mirrored x → −x where v_x < 0 (s = −1)."""
-    s = np.where(velocity[:, 0] < 0, -1.0, 1.0)
-    nx, nz = s * normal[:, 0], normal[:, 1]
-    beta = np.arctan2(-nx, nz)  # the tangent (n_z, −n_x) of the leading face, as an angle in (−π, π]
-    beta = np.where(beta > 0.5 * math.pi, beta - math.pi, np.where(beta < -0.5 * math.pi, beta + math.pi, beta))
-    gamma = np.arctan2(-velocity[:, 1], s * velocity[:, 0])
-    return beta, gamma, s
+#: Speed (m/s) below which a leading face's load fades linearly to zero with its normal speed n·v: the
+#: one regularisation of the rate-independent map, so that the load is continuous in the velocity
+#: (a face turning from leading to trailing, a body coming to rest) and a robot's step can treat it
+#: implicitly (terrasph.robots.rft_terrain). 1 mm/s is far below the speeds of the scenes (cm/s).
+REGULARISATION_SPEED = 1e-3
 
 
-def element_forces(elements: SurfaceElements, angle: float, origin: tuple[float, float] | np.ndarray,
-                   velocity: np.ndarray, omega: float, surface: float,
-                   table: RFTCoefficients) -> tuple[np.ndarray, np.ndarray]:
-    """World positions (E, 2) of the elements and the RFT force (E, 2) on each (N, zero for an element
-    above the surface or trailing), for the body at pose (`angle` clockwise, `origin`) moving with
-    `velocity` (v_x, v_z) m/s at its origin and spinning at `omega` rad/s clockwise."""
-    c, s_ = math.cos(angle), math.sin(angle)
-    rot = np.array([[c, s_], [-s_, c]])  # terrasph.bodies.rotation_matrix (clockwise)
-    arm = elements.centre @ rot.T
-    position = arm + np.asarray(origin, dtype=float)
-    normal = elements.normal @ rot.T
-    # velocity of a point at arm r of a body turning clockwise at ω: v + ω (r_z, −r_x)
-    point_velocity = np.asarray(velocity, dtype=float) + omega * np.column_stack([arm[:, 1], -arm[:, 0]])
-    depth = surface - position[:, 1]
-    active = (depth > 0) & (np.einsum("ij,ij->i", normal, point_velocity) > 0)
-    force = np.zeros_like(position)
-    if active.any():
-        beta, gamma, sign = _li_angles(normal[active], point_velocity[active])
-        alpha_x, alpha_z = table.alpha(beta, gamma)
-        area = depth[active] * elements.length[active] * elements.width
-        force[active, 0] = -sign * alpha_x * area
-        force[active, 1] = alpha_z * area
-    return position, force
+def _alpha_hat(c: np.ndarray, cos2b: np.ndarray, sin2b: np.ndarray, cosg: np.ndarray,
+               sing: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """α̂_x, α̂_z and their derivatives in γ from the coefficients `c` (COEFFICIENT_NAMES order) and the
+    trigonometric values of 2β and γ: the series of the module docstring with its sums of angles
+    expanded (sin(2β ± γ) = sin 2β cos γ ± cos 2β sin γ, ...)."""
+    a00, a10, b11, b01, bm11, c11, c01, cm11, d10 = c
+    az = a00 + a10 * cos2b + (b11 - bm11) * sin2b * cosg + (b11 + bm11) * cos2b * sing + b01 * sing
+    daz = -(b11 - bm11) * sin2b * sing + (b11 + bm11) * cos2b * cosg + b01 * cosg
+    ax = (c11 + cm11) * cos2b * cosg + (cm11 - c11) * sin2b * sing + c01 * cosg + d10 * sin2b
+    dax = -(c11 + cm11) * cos2b * sing + (cm11 - c11) * sin2b * cosg - c01 * sing
+    return ax, az, dax, daz
+
+
+@dataclass(frozen=True)
+class BodyLoad:
+    """The RFT load on a body: `force` (F_x, F_z) N, clockwise `torque` N·m about its origin and, if
+    asked for, `jacobian` ∂(F_x, F_z, τ)/∂(v_x, v_z, ω) (3 × 3, SI units) at fixed pose."""
+
+    force: np.ndarray
+    torque: float
+    jacobian: np.ndarray | None = None
 
 
 def body_load(elements: SurfaceElements, angle: float, origin: tuple[float, float] | np.ndarray,
-              velocity: np.ndarray, omega: float, surface: float, table: RFTCoefficients) -> tuple[np.ndarray, float]:
-    """RFT force (F_x, F_z) in N and clockwise torque in N·m about the body origin (as
-    :meth:`terrasph.robots.coupling.CoupledSimulation.granular_load`) for a flat free surface at z =
-    `surface` (:func:`element_forces` for the arguments)."""
-    position, force = element_forces(elements, angle, origin, velocity, omega, surface, table)
-    arm = position - np.asarray(origin, dtype=float)
-    # clockwise torque = (r × F)_y = r_z F_x − r_x F_z (terrasph.robots.mjcf)
-    torque = float(np.sum(arm[:, 1] * force[:, 0] - arm[:, 0] * force[:, 1]))
-    return force.sum(axis=0), torque
+              velocity: np.ndarray, omega: float, surface: float, table: RFTCoefficients, *,
+              regularisation: float = REGULARISATION_SPEED, jacobian: bool = False) -> BodyLoad:
+    """RFT load on a body at pose (`angle` clockwise, `origin`) moving with `velocity` (v_x, v_z) m/s at
+    its origin and spinning at `omega` rad/s clockwise, for a flat free surface at z = `surface`.
 
+    Each element below the surface with outward normal n and velocity v (v + ω (r_z, −r_x) at arm r)
+    takes σ ℓ w with σ of the module docstring, times min(1, n·v / `regularisation`) for n·v > 0 (0
+    for a trailing face; `regularisation` = 0: the bare map). The torque is Σ (r × F)_y = r_z F_x −
+    r_x F_z (terrasph.robots.mjcf's convention). With `jacobian`, also the load's derivative in the
+    body's velocity: through γ (∂γ/∂v = s (v_z, −v_x)/|v|², γ = atan2(−v_z, s v_x)) and through the
+    regularisation (∂/∂v (n·v/v_ε) = n/v_ε).
+    """
+    c, s_ = math.cos(angle), math.sin(angle)
+    rot = np.array([[c, s_], [-s_, c]])  # terrasph.bodies.rotation_matrix (clockwise)
+    arm = elements.centre @ rot.T
+    depth = surface - arm[:, 1] - float(origin[1])
+    below = depth > 0
+    arm, depth = arm[below], depth[below]
+    normal = elements.normal[below] @ rot.T
+    vx = float(velocity[0]) + omega * arm[:, 1]  # v + ω (r_z, −r_x)
+    vz = float(velocity[1]) - omega * arm[:, 0]
+    normal_speed = normal[:, 0] * vx + normal[:, 1] * vz
+    lead = normal_speed > 0
+    if not lead.any():
+        return BodyLoad(np.zeros(2), 0.0, np.zeros((3, 3)) if jacobian else None)
+    arm, depth, normal, vx, vz, normal_speed = (arm[lead], depth[lead], normal[lead], vx[lead], vz[lead],
+                                                normal_speed[lead])
+    sign = np.where(vx < 0, -1.0, 1.0)  # faces moving backward are mirrored x → −x
+    speed = np.hypot(vx, vz)
+    cosg, sing = sign * vx / speed, -vz / speed
+    # the leading face's tangent (n_z, −s n_x) = (cos β, sin β) up to sign; 2β is blind to the sign
+    tx, tz = normal[:, 1], -sign * normal[:, 0]
+    cos2b, sin2b = tx * tx - tz * tz, 2.0 * tx * tz
+    ax, az, dax, daz = _alpha_hat(table.vector, cos2b, sin2b, cosg, sing)
+    weight = table.zeta * depth * elements.length[below][lead] * elements.width
+    raw = np.stack([-sign * ax, az], axis=1) * weight[:, None]  # the bare map's force per element
+    fade = np.minimum(1.0, normal_speed / regularisation) if regularisation > 0 else np.ones_like(depth)
+    element_force = raw * fade[:, None]
+    force = element_force.sum(axis=0)
+    torque = float(np.sum(arm[:, 1] * element_force[:, 0] - arm[:, 0] * element_force[:, 1]))
+    if not jacobian:
+        return BodyLoad(force, torque)
+    # per element ∂F/∂v (2 × 2): the map's change with γ, then the regularisation's ramp
+    dgamma = np.column_stack([sign * vz, -sign * vx]) / (speed * speed)[:, None]
+    draw = np.stack([-sign * dax, daz], axis=1) * weight[:, None]
+    ramp = normal_speed < regularisation
+    dfade = np.where(ramp[:, None], normal / regularisation, 0.0) if regularisation > 0 else np.zeros_like(normal)
+    element_jacobian = (draw[:, :, None] * dgamma[:, None, :] * fade[:, None, None]
+                        + raw[:, :, None] * dfade[:, None, :])
+    # the element's velocity is T ξ with ξ = (v_x, v_z, ω), T = [[1, 0, r_z], [0, 1, −r_x]]
+    to_element = np.zeros((len(arm), 2, 3))
+    to_element[:, 0, 0] = to_element[:, 1, 1] = 1.0
+    to_element[:, 0, 2], to_element[:, 1, 2] = arm[:, 1], -arm[:, 0]
+    return BodyLoad(force, torque, np.einsum("eia,eij,ejb->ab", to_element, element_jacobian, to_element))

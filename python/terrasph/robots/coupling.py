@@ -50,8 +50,8 @@ from terrasph.config import ConfigError
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass", "mujoco_state",
-           "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
+__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass", "mujoco_derived",
+           "mujoco_state", "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
 #: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/bench_robot_coupling.py):
@@ -107,15 +107,17 @@ class _VelocityServo:
     upper: float
     inertia: float
 
-    def prepare(self, model: mujoco.MjModel, data: mujoco.MjData, command: float, dt: float) -> None:
+    def prepare(self, model: mujoco.MjModel, data: mujoco.MjData, command: float, dt: float) -> bool:
         """Sets the actuator for a step of dt toward `command`: MuJoCo's servo while its force at the
-        step's start is within the limits (its damping then implicit); else a plain force, the limit
-        or the smaller force that brings the speed to the command by the step's end."""
+        step's start is within the limits (its damping then implicit; returns True); else a plain
+        force, the limit or the smaller force that brings the speed to the command by the step's end
+        (returns False)."""
         error = command - self.gear * float(data.qvel[self.dof])
         if self.lower <= self.kv * error <= self.upper:
-            return  # the model's servo and the command, as restore() and the caller left them
+            return True  # the model's servo and the command, as restore() and the caller left them
         self._set(model, gain=1.0, damping=0.0)
         data.ctrl[self.actuator] = min(max(error * self.inertia / dt, self.lower), self.upper)
+        return False
 
     def restore(self, model: mujoco.MjModel) -> None:
         """The servo as the model defines it."""
@@ -154,25 +156,33 @@ def _velocity_servos(model: mujoco.MjModel, data: mujoco.MjData) -> list[_Veloci
     return servos
 
 
-def mujoco_step(robot: PlanarRobot, servos: list[_VelocityServo], dt: float) -> None:
+def mujoco_step(robot: PlanarRobot, servos: list[_VelocityServo], dt: float, *,
+                derived: bool = True) -> list[_VelocityServo]:
     """MuJoCo's step of dt with the loads already applied (steps 2–3 of the module docstring): each
     torque-limited velocity servo prepared for the step and put back after it, the caller's command
-    kept; poses and velocities brought to the step's end."""
+    kept; with `derived`, poses and velocities brought to the step's end (else the caller does it with
+    :func:`mujoco_derived` after changing the state). Returns the servos that stayed MuJoCo's servos
+    this step (their damping implicit)."""
     model, data = robot.model, robot.data
     model.opt.timestep = dt
     command = data.ctrl.copy()
     try:
-        for servo in servos:
-            servo.prepare(model, data, float(command[servo.actuator]), dt)
+        held = [servo for servo in servos if servo.prepare(model, data, float(command[servo.actuator]), dt)]
         mujoco.mj_step(model, data)
     finally:  # the model's servos and the caller's command stay the state (checkpoints, the next step)
         for servo in servos:
             servo.restore(model)
         data.ctrl[:] = command
-    # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
-    mujoco.mj_kinematics(model, data)
-    mujoco.mj_comPos(model, data)
-    mujoco.mj_comVel(model, data)
+    if derived:
+        mujoco_derived(robot)
+    return held
+
+
+def mujoco_derived(robot: PlanarRobot) -> None:
+    """Poses and velocities at the state's time: mj_step leaves the derived quantities at the step's start."""
+    mujoco.mj_kinematics(robot.model, robot.data)
+    mujoco.mj_comPos(robot.model, robot.data)
+    mujoco.mj_comVel(robot.model, robot.data)
 
 
 def mujoco_state(robot: PlanarRobot) -> dict[str, Any]:

@@ -27,7 +27,8 @@ import numpy as np
 
 from terrasph import rft
 from terrasph.config import ConfigError
-from terrasph.robots.coupling import mujoco_state, mujoco_step, restore_mujoco_state, unwrapped, velocity_servos
+from terrasph.robots.coupling import (mujoco_derived, mujoco_state, mujoco_step, restore_mujoco_state, unwrapped,
+                                      velocity_servos)
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
 __all__ = ["RFT_TIME_STEP", "RFTCoupling"]
@@ -71,23 +72,58 @@ class RFTCoupling:
 
     def granular_load(self, body: CoupledBody) -> tuple[np.ndarray, float]:
         """RFT force (N) and clockwise torque (N·m, about the body origin) on `body` now."""
+        load = self._load(body, jacobian=False)
+        return load.force, load.torque
+
+    def _load(self, body: CoupledBody, jacobian: bool) -> rft.BodyLoad:
         velocity, omega = self.robot.velocity(body)
         return rft.body_load(self._elements[body.name], self._angle[body.name], self.robot.reference(body),
-                             velocity, omega, self.surface_level, self.table)
+                             velocity, omega, self.surface_level, self.table, jacobian=jacobian)
+
+    def _twist_jacobian(self, body: CoupledBody) -> np.ndarray:
+        """∂(v_x, v_z, ω)/∂q̇ of the body's frame origin (3 × nv)."""
+        model, data = self.robot.model, self.robot.data
+        linear, angular = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+        mujoco.mj_jac(model, data, linear, angular, data.xpos[body.body_id], body.body_id)
+        return np.vstack([linear[0], linear[2], angular[1]])
 
     def step(self) -> float:
         """One step (module docstring); returns its dt."""
         dt = self._dt
-        for body in self.robot.coupled:
-            force, torque = self.granular_load(body)
-            self.robot.apply_load(body, force, torque)
+        robot, model, data = self.robot, self.robot.model, self.robot.data
+        stiffness = np.zeros((model.nv, model.nv))  # ∂(generalised RFT force)/∂q̇ = Σ Jᵀ D J
+        for body in robot.coupled:
+            load = self._load(body, jacobian=True)
+            robot.apply_load(body, load.force, load.torque)
             total, moment = self._sums[body.name]
-            self._sums[body.name] = (total + force * dt, moment + torque * dt)
-        mujoco_step(self.robot, self._servos, dt)
-        for body in self.robot.coupled:
+            self._sums[body.name] = (total + load.force * dt, moment + load.torque * dt)
+            twist = self._twist_jacobian(body)
+            stiffness += twist.T @ load.jacobian @ twist
+        start = data.qvel.copy()
+        held = mujoco_step(robot, self._servos, dt, derived=False)
+        if stiffness.any():
+            self._implicit_load(stiffness, start, held, dt)
+        mujoco_derived(robot)
+        for body in robot.coupled:
             self._angle[body.name] = unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
         self._steps += 1
         return dt
+
+    def _implicit_load(self, stiffness: np.ndarray, start: np.ndarray, held: list[Any], dt: float) -> None:
+        """Turns MuJoCo's step with the load held at q̇_n into one with the load linearised about it,
+        L(q̇_{n+1}) ≈ L_n + K (q̇_{n+1} − q̇_n) (K = `stiffness`): with M the matrix MuJoCo's step
+        solved with (the mass matrix plus dt × the implicit servo and joint damping) and q̇* its
+        result, (M − dt K) q̇_{n+1} = M q̇* − dt K q̇_n; the positions move by dt (q̇_{n+1} − q̇*)."""
+        model, data = self.robot.model, self.robot.data
+        matrix = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, data, matrix)  # qM is still that of the step's start
+        matrix[np.diag_indices(model.nv)] += dt * model.dof_damping
+        for servo in held:
+            matrix[servo.dof, servo.dof] += dt * servo.kv * servo.gear ** 2
+        explicit = data.qvel.copy()
+        implicit = np.linalg.solve(matrix - dt * stiffness, matrix @ explicit - dt * stiffness @ start)
+        mujoco.mj_integratePos(model, data.qpos, implicit - explicit, dt)
+        data.qvel[:] = implicit
 
     def advance(self, t_end: float) -> int:
         """Steps until `t_end` (s) is reached or passed; returns the number taken."""

@@ -256,8 +256,8 @@ def _run_rft_leg_rotation(config: LegRotation, output: str | os.PathLike | None,
         raise ConfigError(f"parameter 'hip_height' = {config.hip_height!r} is invalid for the RFT terrain: no element "
                           "of the leg's surface goes below the free surface during the sweep")
     loads = [rft.body_load(elements, a, hip, np.zeros(2), config.omega, 0.0, table) for a in theta]
-    force = np.array([f for f, _ in loads])
-    torque = np.array([tau for _, tau in loads])
+    force = np.array([load.force for load in loads])
+    torque = np.array([load.torque for load in loads])
     times = config.settle_time + (theta - config.start_angle) / config.omega
     wall = time.perf_counter() - start
     if output is not None:
