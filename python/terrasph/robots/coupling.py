@@ -107,17 +107,30 @@ class _VelocityServo:
     upper: float
     inertia: float
 
-    def prepare(self, model: mujoco.MjModel, data: mujoco.MjData, command: float, dt: float) -> bool:
+    def prepare(self, model: mujoco.MjModel, data: mujoco.MjData, command: float, dt: float) -> None:
         """Sets the actuator for a step of dt toward `command`: MuJoCo's servo while its force at the
-        step's start is within the limits (its damping then implicit; returns True); else a plain
-        force, the limit or the smaller force that brings the speed to the command by the step's end
-        (returns False)."""
+        step's start is within the limits (its damping then implicit); else a plain force, the limit
+        or the smaller force that brings the speed to the command by the step's end."""
         error = command - self.gear * float(data.qvel[self.dof])
         if self.lower <= self.kv * error <= self.upper:
-            return True  # the model's servo and the command, as restore() and the caller left them
+            return  # the model's servo and the command, as restore() and the caller left them
         self._set(model, gain=1.0, damping=0.0)
         data.ctrl[self.actuator] = min(max(error * self.inertia / dt, self.lower), self.upper)
-        return False
+
+    def force(self, command: float, qvel: np.ndarray) -> tuple[float, float]:
+        """The servo's force kv·(command − gear·q̇) held within its limits at joint velocities `qvel`,
+        and its derivative in the joint's velocity (−kv·gear within the limits, 0 at them)."""
+        raw = self.kv * (command - self.gear * float(qvel[self.dof]))
+        if raw <= self.lower:
+            return self.lower, 0.0
+        if raw >= self.upper:
+            return self.upper, 0.0
+        return raw, -self.kv * self.gear
+
+    def apply_force(self, model: mujoco.MjModel, data: mujoco.MjData, force: float) -> None:
+        """Sets the actuator to a plain force for the next step (:meth:`restore` puts the servo back)."""
+        self._set(model, gain=1.0, damping=0.0)
+        data.ctrl[self.actuator] = force
 
     def restore(self, model: mujoco.MjModel) -> None:
         """The servo as the model defines it."""
@@ -156,18 +169,21 @@ def _velocity_servos(model: mujoco.MjModel, data: mujoco.MjData) -> list[_Veloci
     return servos
 
 
-def mujoco_step(robot: PlanarRobot, servos: list[_VelocityServo], dt: float, *,
-                derived: bool = True) -> list[_VelocityServo]:
+def mujoco_step(robot: PlanarRobot, servos: list[_VelocityServo], dt: float, *, derived: bool = True,
+                forces: list[float] | None = None) -> None:
     """MuJoCo's step of dt with the loads already applied (steps 2–3 of the module docstring): each
-    torque-limited velocity servo prepared for the step and put back after it, the caller's command
-    kept; with `derived`, poses and velocities brought to the step's end (else the caller does it with
-    :func:`mujoco_derived` after changing the state). Returns the servos that stayed MuJoCo's servos
-    this step (their damping implicit)."""
+    torque-limited velocity servo prepared for the step (or, with `forces`, given that plain force)
+    and put back after it, the caller's command kept; with `derived`, poses and velocities brought to
+    the step's end (else the caller does it with :func:`mujoco_derived` after changing the state)."""
     model, data = robot.model, robot.data
     model.opt.timestep = dt
     command = data.ctrl.copy()
     try:
-        held = [servo for servo in servos if servo.prepare(model, data, float(command[servo.actuator]), dt)]
+        for k, servo in enumerate(servos):
+            if forces is None:
+                servo.prepare(model, data, float(command[servo.actuator]), dt)
+            else:
+                servo.apply_force(model, data, forces[k])
         mujoco.mj_step(model, data)
     finally:  # the model's servos and the caller's command stay the state (checkpoints, the next step)
         for servo in servos:
@@ -175,7 +191,6 @@ def mujoco_step(robot: PlanarRobot, servos: list[_VelocityServo], dt: float, *,
         data.ctrl[:] = command
     if derived:
         mujoco_derived(robot)
-    return held
 
 
 def mujoco_derived(robot: PlanarRobot) -> None:

@@ -38,6 +38,12 @@ __all__ = ["RFT_TIME_STEP", "RFTCoupling"]
 RFT_TIME_STEP = 2e-3
 
 
+#: Newton iterations of the implicit load per step at most, and the residual (relative to the step's
+#: momentum change) at which they stop
+NEWTON_ITERATIONS = 20
+NEWTON_TOLERANCE = 1e-8
+
+
 class RFTCoupling:
     """A :class:`PlanarRobot` on the RFT terrain: a flat granular surface at z = `surface` (m) with the
     coefficient map `table`; `time_step` (s) is MuJoCo's step, `element_length` (m) that of the RFT
@@ -90,40 +96,81 @@ class RFTCoupling:
     def step(self) -> float:
         """One step (module docstring); returns its dt."""
         dt = self._dt
-        robot, model, data = self.robot, self.robot.model, self.robot.data
-        stiffness = np.zeros((model.nv, model.nv))  # ∂(generalised RFT force)/∂q̇ = Σ Jᵀ D J
-        for body in robot.coupled:
-            load = self._load(body, jacobian=True)
+        robot, data = self.robot, self.robot.data
+        twists = [(body, self._twist_jacobian(body)) for body in robot.coupled]
+        start = data.qvel.copy()
+        commands = [float(data.ctrl[servo.actuator]) for servo in self._servos]
+        loads, applied, stiffness = self._loads(twists, commands, start)
+        for (body, _), load in zip(twists, loads):
             robot.apply_load(body, load.force, load.torque)
+        mujoco_step(robot, self._servos, dt, derived=False,
+                    forces=[servo.force(c, start)[0] for servo, c in zip(self._servos, commands)])
+        if stiffness.any():
+            loads = self._implicit_load(twists, commands, applied, dt)
+        for (body, _), load in zip(twists, loads):
             total, moment = self._sums[body.name]
             self._sums[body.name] = (total + load.force * dt, moment + load.torque * dt)
-            twist = self._twist_jacobian(body)
-            stiffness += twist.T @ load.jacobian @ twist
-        start = data.qvel.copy()
-        held = mujoco_step(robot, self._servos, dt, derived=False)
-        if stiffness.any():
-            self._implicit_load(stiffness, start, held, dt)
         mujoco_derived(robot)
         for body in robot.coupled:
             self._angle[body.name] = unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
         self._steps += 1
         return dt
 
-    def _implicit_load(self, stiffness: np.ndarray, start: np.ndarray, held: list[Any], dt: float) -> None:
-        """Turns MuJoCo's step with the load held at q̇_n into one with the load linearised about it,
-        L(q̇_{n+1}) ≈ L_n + K (q̇_{n+1} − q̇_n) (K = `stiffness`): with M the matrix MuJoCo's step
-        solved with (the mass matrix plus dt × the implicit servo and joint damping) and q̇* its
-        result, (M − dt K) q̇_{n+1} = M q̇* − dt K q̇_n; the positions move by dt (q̇_{n+1} − q̇*)."""
+    def _loads(self, twists: list[tuple[CoupledBody, np.ndarray]], commands: list[float],
+               qvel: np.ndarray) -> tuple[list[rft.BodyLoad], np.ndarray, np.ndarray]:
+        """The RFT load of each body at the poses of the step's start and joint velocities `qvel`; the
+        generalised force of the loads and the velocity servos (at `commands`), Σ Jᵀ(F, τ) + servo
+        forces, and its derivative in q̇, Σ Jᵀ D J + the servos' (J: each body's twist Jacobian)."""
+        nv = self.robot.model.nv
+        generalised, stiffness, loads = np.zeros(nv), np.zeros((nv, nv)), []
+        for body, jacobian in twists:
+            twist = jacobian @ qvel
+            load = rft.body_load(self._elements[body.name], self._angle[body.name], self.robot.reference(body),
+                                 twist[:2], float(twist[2]), self.surface_level, self.table, jacobian=True)
+            loads.append(load)
+            generalised += jacobian.T @ np.r_[load.force, load.torque]
+            stiffness += jacobian.T @ load.jacobian @ jacobian
+        for servo, command in zip(self._servos, commands):
+            force, slope = servo.force(command, qvel)
+            generalised[servo.dof] += servo.gear * force
+            stiffness[servo.dof, servo.dof] += servo.gear * slope
+        return loads, generalised, stiffness
+
+    def _implicit_load(self, twists: list[tuple[CoupledBody, np.ndarray]], commands: list[float],
+                       applied: np.ndarray, dt: float) -> list[rft.BodyLoad]:
+        """Turns MuJoCo's step with the loads and servo forces `applied` (generalised, at q̇_n) held into
+        a backward-Euler step in them, M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)) at the step's poses, solved by
+        Newton's method with their Jacobian (at most :data:`NEWTON_ITERATIONS`, each step halved while
+        the residual does not fall). M is the matrix MuJoCo's step solved with (the mass matrix plus
+        dt × the joints' damping), q̇* its result; the positions move by dt (q̇ − q̇*). Returns the
+        loads at the solution."""
         model, data = self.robot.model, self.robot.data
         matrix = np.zeros((model.nv, model.nv))
         mujoco.mj_fullM(model, data, matrix)  # qM is still that of the step's start
         matrix[np.diag_indices(model.nv)] += dt * model.dof_damping
-        for servo in held:
-            matrix[servo.dof, servo.dof] += dt * servo.kv * servo.gear ** 2
         explicit = data.qvel.copy()
-        implicit = np.linalg.solve(matrix - dt * stiffness, matrix @ explicit - dt * stiffness @ start)
-        mujoco.mj_integratePos(model, data.qpos, implicit - explicit, dt)
-        data.qvel[:] = implicit
+        scale = float(np.abs(matrix @ explicit).max() + dt * np.abs(applied).max()) + 1e-300
+
+        def residual(qvel: np.ndarray) -> tuple[np.ndarray, list[rft.BodyLoad], np.ndarray]:
+            loads, generalised, stiffness = self._loads(twists, commands, qvel)
+            return matrix @ (qvel - explicit) - dt * (generalised - applied), loads, stiffness
+
+        qvel = explicit
+        r, loads, stiffness = residual(qvel)
+        for _ in range(NEWTON_ITERATIONS):
+            if np.abs(r).max() <= NEWTON_TOLERANCE * scale:
+                break
+            step = np.linalg.solve(matrix - dt * stiffness, r)
+            for _ in range(30):  # halve the step while it does not reduce the residual
+                trial = qvel - step
+                r_trial, loads_trial, stiffness_trial = residual(trial)
+                if np.abs(r_trial).max() < np.abs(r).max():
+                    break
+                step = 0.5 * step
+            qvel, r, loads, stiffness = trial, r_trial, loads_trial, stiffness_trial
+        mujoco.mj_integratePos(model, data.qpos, qvel - explicit, dt)
+        data.qvel[:] = qvel
+        return loads
 
     def advance(self, t_end: float) -> int:
         """Steps until `t_end` (s) is reached or passed; returns the number taken."""
