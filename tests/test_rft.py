@@ -9,8 +9,13 @@ import math
 import numpy as np
 import pytest
 
+import robot_helpers
 from terrasph import bodies, rft
 from terrasph.config import ConfigError
+from terrasph.robots import rft_terrain
+from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.robots.mjcf import PlanarRobot
+from terrasph.scenes.leg_rotation import LegRotation, run_leg_rotation
 
 G = rft.GENERIC
 ZETA = G.zeta
@@ -182,3 +187,61 @@ def test_unknown_table_and_shape_without_outline_are_refused():
     bare = bodies.BodyShape("dots", np.zeros((1, 2)), np.array([[0.0, -1.0]]), 0.001, 0.003, 0.01, 0.01)
     with pytest.raises(ConfigError, match="no outline"):
         rft.SurfaceElements.from_shape(bare)
+
+
+# -- the RFT terrain for MuJoCo robots ---------------------------------------------------------------
+
+def _plate_on_sand(mass: float, time_step: float = rft_terrain.RFT_TIME_STEP) -> rft_terrain.RFTCoupling:
+    """A 4 cm plate of `mass` kg, free to slide vertically, its underside on the surface z = 0."""
+    xml = robot_helpers.mjcf('<body name="foot" pos="0 0 0.00375">{joints}'
+                             f'<inertial pos="0 0 0" mass="{mass}" diaginertia="1e-4 1e-4 1e-4"/></body>',
+                             joints='<joint name="z" type="slide" axis="0 0 1"/>')
+    robot = PlanarRobot(xml, {"foot": bodies.plate(0.04, 0.0075, WIDTH, 0.0025)})
+    return rft_terrain.RFTCoupling(robot, 0.0, G, time_step=time_step)
+
+
+def test_plate_dropped_on_the_sand_stops_at_twice_the_bearing_depth():
+    """A plate released at rest on the RFT sand: the resistance ζ d L W grows like a spring's but
+    is not given back (pulled up the plate meets a downward −0.25 of it), so it stops where the
+    work of its weight equals the work of sinking, m g d = ζ L W d²/2: d = 2 m g / (ζ L W)
+    (hand-computed), and stays. The load fades below 0.1 mm/s of sinking, so at rest it creeps:
+    after 0.2 s it lies within 0.5 % of that depth and the creep (≤ 0.1 mm/s) above it. The load
+    is taken at the step's start pose, a first-order error: 5 % at the robots' 2 ms step, whose
+    slip and sinkage converge far better (docs/rft.md), 0.15 % at the 0.5 ms used here."""
+    mass = 0.3
+    coupled = _plate_on_sand(mass, time_step=5e-4)
+    coupled.advance(0.2)
+    body = coupled.robot.coupled[0]
+    depth = -body.shape.lowest_point(0.0, tuple(coupled.robot.reference(body)))
+    expected = 2 * mass * 9.81 / (ZETA * 0.04 * WIDTH)
+    assert 0.995 * expected < depth < 1.005 * expected + rft.REGULARISATION_SPEED * 0.2
+    velocity, _ = coupled.robot.velocity(body)
+    assert abs(velocity[1]) <= rft.REGULARISATION_SPEED  # at rest but for the creep, no chatter
+
+
+@pytest.mark.slow
+def test_leg_wheel_on_rft_runs_and_is_deterministic(tmp_path):
+    """``terrain='rft'``: the leg-wheel scene's run loop and series on the RFT terrain; the C-leg wheel
+    drives forward with a slip in (0, 1), and a second run gives the same series bit for bit."""
+    config = LegWheel(terrain="rft", settle_time=0.1, duration=0.5)
+    first = run_leg_wheel(config, output=tmp_path / "a.h5")
+    second = run_leg_wheel(config, plot=False)
+    summary = first.summary()
+    assert 0 < summary["mean_slip"] < 1 and summary["mean_forward_speed"] > 0
+    assert 0 < summary["mean_sinkage"] < config.leg_length
+    assert np.array_equal(first.series["robot/wheel"]["reference"], second.series["robot/wheel"]["reference"])
+    assert (tmp_path / "a.png").exists()
+
+
+def test_leg_rotation_on_rft_and_its_bad_input():
+    """``terrain='rft'`` gives the leg-rotation scene's result at once; a leg that never reaches the
+    sand, an unknown terrain and an unknown table are refused before any work."""
+    result = run_leg_rotation(LegRotation(leg="flat", terrain="rft"), progress=False, plot=False)
+    assert result.peak_lift > 0 and result.peak_thrust > 0
+    with pytest.raises(ConfigError, match="terrain"):
+        LegRotation(terrain="dem")
+    with pytest.raises(ConfigError, match="rft_table"):
+        LegWheel(terrain="rft", rft_table="nowhere")
+    with pytest.raises(ConfigError, match="no element"):
+        run_leg_rotation(LegRotation(terrain="rft", hip_height=0.06, start_angle=-1.2, end_angle=-1.1),
+                         progress=False, plot=False)

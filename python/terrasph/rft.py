@@ -290,8 +290,9 @@ class SurfaceElements:
 #: Speed (m/s) below which a leading face's load fades linearly to zero with its normal speed n·v: the
 #: one regularisation of the rate-independent map, so that the load is continuous in the velocity
 #: (a face turning from leading to trailing, a body coming to rest) and a robot's step can treat it
-#: implicitly (terrasph.robots.rft_terrain). 1 mm/s is far below the speeds of the scenes (cm/s).
-REGULARISATION_SPEED = 1e-3
+#: implicitly (terrasph.robots.rft_terrain). 0.1 mm/s is far below the speeds of the scenes (cm/s); a body
+#: resting on the sand creeps at most this fast.
+REGULARISATION_SPEED = 1e-4
 
 
 def _alpha_hat(c: np.ndarray, cos2b: np.ndarray, sin2b: np.ndarray, cosg: np.ndarray,

@@ -2,17 +2,22 @@
 without the SPH.
 
 :class:`RFTCoupling` is a stepper like :class:`terrasph.robots.coupling.CoupledSimulation` (the same
-methods, driven by :func:`terrasph.robots.run.run_coupled`): each step of dt
+methods, driven by :func:`terrasph.robots.run.run_coupled`). The terrain is a flat free surface at
+z = ``surface`` and keeps no state. Each step of dt:
 
-1. takes the RFT load of each coupled body at t_n from its pose and velocity at t_n
-   (:func:`terrasph.rft.body_load`, a flat free surface at z = ``surface``; the terrain keeps no state),
-2. puts it in MuJoCo's ``xfrc_applied`` and lets MuJoCo advance by dt (:func:`coupling.mujoco_step`:
-   the same handling of torque-limited velocity servos as the SPH coupling).
+1. takes the RFT load of each coupled body (:func:`terrasph.rft.body_load`) and the force of each
+   torque-limited velocity servo at the state of t_n, puts them in MuJoCo's ``xfrc_applied`` and the
+   actuators, and lets MuJoCo advance by dt (:func:`coupling.mujoco_step`): velocities q̇*;
+2. makes the step backward Euler in those forces: M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)), G the
+   generalised RFT loads and servo forces at the step's poses, solved by Newton's method with their
+   Jacobian (:attr:`terrasph.rft.BodyLoad.jacobian`), and moves the positions by dt (q̇ − q̇*).
 
-The load is explicit (held over the step), as in the SPH coupling. RFT is quasi-static and
-rate-independent: a body at rest on the surface feels no force until it moves into the grains, and a
-body resting under a load alternates between sinking (α of intrusion) and rising (α of extraction)
-step by step around its equilibrium depth; the series' loads are means over the sampling interval.
+Why implicit: RFT's stress depends on the direction of motion only (a body at rest under load, a
+wheel's legs reversing), so held over a step it flips sign step by step — a wheel of 3·10⁻⁴ kg·m²
+chattered at ±14 rad/s with an explicit 2 ms step — and a servo given its limit as a plain force
+(the SPH coupling's rule) jumps past its command. Solved with the step's end velocities, a resting
+body rests (creeping below :data:`terrasph.rft.REGULARISATION_SPEED`) and a stalled wheel turns once
+its motor beats the sand. The loads are taken at the step's start pose (first order in dt).
 :data:`RFT_TIME_STEP` is the measured step (docs/rft.md).
 """
 
@@ -33,8 +38,8 @@ from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
 __all__ = ["RFT_TIME_STEP", "RFTCoupling"]
 
-#: MuJoCo's step on the RFT terrain (s): the leg-wheel's slip and sinkage at 2e-3 s are within 1 % and
-#: 0.2 mm of those at 2.5e-4 s (docs/rft.md, benchmarks/bench_rft.py)
+#: MuJoCo's step on the RFT terrain (s): the flat-leg wheel's slip and sinkage at 2e-3 s are within
+#: 0.002 and 0.5 mm of those at 5e-4 s, the C-leg wheel's within 0.005 and 0.3 mm (docs/rft.md)
 RFT_TIME_STEP = 2e-3
 
 
