@@ -14,7 +14,7 @@ from typing import Any
 from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
                                  numerics_overrides)
 from terrasph.config import parameter
-from terrasph.robots.cli import register_leg_wheel, register_rover
+from terrasph.robots.cli import add_terrain_options, register_leg_wheel, register_rover
 from terrasph.scenes import SCENES, leg_rotation, plate_intrusion, run_case, scene_entry
 from terrasph.scenes.column_collapse import BEDS, RESOLUTIONS, ColumnCollapse
 from terrasph.scenes.plate_intrusion import PlateIntrusion
@@ -170,6 +170,7 @@ def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
                      help="3/4/5 particle rows across the 6.4 mm leg: dx = 2.13/1.60/1.28 mm (default coarse)")
     leg.add_argument("--settle", type=float, default=default.settle_time, help="settling pause in s (default 2)")
     leg.add_argument("--bed-depth", type=float, default=default.bed_depth, help="bed depth in m (default 0.15)")
+    add_terrain_options(leg, default.terrain, default.rft_table)
     _add_run_options(leg, default_output="leg_rotation.h5")
     leg.set_defaults(scene_values=_leg_values)
     return leg
@@ -177,7 +178,8 @@ def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -
 
 def _leg_values(args: argparse.Namespace) -> dict[str, Any]:
     return {"leg": args.leg, "omega": args.omega, "foot_ratio": args.foot_ratio, "resolution": args.resolution,
-            "settle_time": args.settle, "bed_depth": args.bed_depth, "numerics": numerics_overrides(args.numerics)}
+            "settle_time": args.settle, "bed_depth": args.bed_depth, "numerics": numerics_overrides(args.numerics),
+            "terrain": args.terrain, "rft_table": args.rft_table}
 
 
 #: The options of every registered scene, by name, in the order ``terrasph run --help`` lists them.

@@ -14,7 +14,7 @@ from terrasph.cli_common import (add_force_option, add_numerics_option, add_thre
 from terrasph.robots.leg_wheel import WHEELS, LegWheel
 from terrasph.robots.rover import Rover
 
-__all__ = ["register_leg_wheel", "register_rover"]
+__all__ = ["add_terrain_options", "register_leg_wheel", "register_rover"]
 
 
 def _add_common(parser: argparse.ArgumentParser, defaults: LegWheel | Rover, output: str) -> None:
@@ -70,12 +70,24 @@ def register_leg_wheel(scenes: argparse._SubParsersAction[argparse.ArgumentParse
     defaults = LegWheel()
     _add_common(parser, defaults, "leg_wheel.h5")
     parser.add_argument("--load", type=positive_float, default=defaults.load, help="vertical load in N (default %(default)s)")
+    add_terrain_options(parser, defaults.terrain, defaults.rft_table)
     parser.set_defaults(scene_values=_leg_wheel_values)
     return parser
 
 
 def _leg_wheel_values(args: argparse.Namespace) -> dict[str, Any]:
-    return {**_common_values(args), "load": args.load}
+    return {**_common_values(args), "load": args.load, "terrain": args.terrain, "rft_table": args.rft_table}
+
+
+def add_terrain_options(parser: argparse.ArgumentParser, terrain: str, table: str) -> None:
+    """``--terrain`` and ``--rft-table``: the SPH bed or resistive force theory (terrasph.rft)."""
+    from terrasph.rft import TERRAINS
+
+    parser.add_argument("--terrain", choices=TERRAINS, default=terrain,
+                        help="the SPH bed or resistive force theory on a flat surface (default %(default)s)")
+    parser.add_argument("--rft-table", default=table,
+                        help="with --terrain rft: 'generic' (Li et al. 2013) or a JSON coefficient table "
+                             "(terrasph rft-calibrate) (default %(default)s)")
 
 
 def register_rover(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
