@@ -245,3 +245,58 @@ def test_leg_rotation_on_rft_and_its_bad_input():
     with pytest.raises(ConfigError, match="no element"):
         run_leg_rotation(LegRotation(terrain="rft", hip_height=0.06, start_angle=-1.2, end_angle=-1.1),
                          progress=False, plot=False)
+
+
+# -- calibration ------------------------------------------------------------------------------------
+
+def _sampled(table: rft.RFTCoefficients, rng: np.random.Generator, points: int = 49, noise: float = 0.0):
+    beta, gamma = rng.uniform(-math.pi / 2, math.pi / 2, (2, points))
+    ax, az = table.alpha(beta, gamma)
+    scale = noise * table.zeta
+    return beta, gamma, ax + scale * rng.standard_normal(points), az + scale * rng.standard_normal(points)
+
+
+def test_fit_recovers_a_known_map_from_noisy_samples(rng):
+    """49 samples of a map (the generic one with a different ζ and tilted coefficients), with noise of
+    2 % of ζ: the fit's ζ is within 2 % and its shape correlates with the true one at r > 0.99 (the
+    least-squares error of 9 unknowns from 98 values at that noise)."""
+    truth = rft.RFTCoefficients(*(G.vector + 0.03 * np.arange(9) / 9), zeta=1.0)
+    truth = rft.RFTCoefficients(*(truth.vector / float(rft.fourier_basis(0.0, math.pi / 2)[1] @ truth.vector)),
+                                zeta=3.1e5)
+    fitted, quality = rft.fit_coefficients(*_sampled(truth, rng, noise=0.02))
+    assert fitted.zeta == pytest.approx(truth.zeta, rel=0.02)
+    correlation = rft.map_correlation(fitted, truth)
+    assert correlation["r_x"] > 0.99 and correlation["r_z"] > 0.99
+    assert quality["rms_residual"] < 0.03 * truth.zeta
+
+
+def test_rft_calibrate_command_fits_a_sweep(tmp_path, rng):
+    """``terrasph rft-calibrate`` reads a sweep's finished plate-drag cases and writes a table that
+    loads and reproduces the map the cases were sampled from; bad input exits 2 in one line."""
+    from terrasph.cli import main
+
+    beta, gamma, ax, az = _sampled(G, rng)
+    cases = [{"status": "completed", "summary": {"attack_angle": b, "direction": g, "alpha_x": x, "alpha_z": z,
+                                                  "spacing": 0.005, "plate_thickness": 0.015}}
+             for b, g, x, z in zip(beta, gamma, ax, az)]
+    (tmp_path / "manifest.json").write_text(json.dumps({"cases": cases}))
+    assert main(["rft-calibrate", str(tmp_path), "--out", str(tmp_path / "map.json")]) == 0
+    table = rft.coefficient_table(str(tmp_path / "map.json"))
+    np.testing.assert_allclose(table.vector, G.vector, atol=1e-9)
+    assert table.zeta == pytest.approx(ZETA, rel=1e-9)
+    with pytest.raises(SystemExit) as stop:
+        main(["rft-calibrate", str(tmp_path / "none"), "--out", str(tmp_path / "x.json")])
+    assert stop.value.code == 2
+
+
+@pytest.mark.slow
+def test_plate_drag_pushed_down_matches_the_intrusion_scale():
+    """The plate-drag scene straight down (β = 0, γ = π/2) at Δx = 5 mm: no horizontal stress (the
+    mirror symmetry, to 1 % of α_z) and α_z within 25 % of ζ of the plate-intrusion scene at 2.5 mm
+    (GLASS_BEADS_ZETA; another depth, plate and resolution, so a loose band)."""
+    from terrasph.scenes.plate_drag import PlateDrag, run_plate_drag
+
+    result = run_plate_drag(PlateDrag(spacing=0.005, travel=0.01, samples=10), progress=False).summary()
+    assert abs(result["alpha_x"]) < 0.01 * result["alpha_z"]
+    assert result["alpha_z"] == pytest.approx(rft.GLASS_BEADS_ZETA, rel=0.25)
+    assert result["leaked_particles"] == 0

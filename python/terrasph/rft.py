@@ -57,7 +57,7 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 
 __all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "REGULARISATION_SPEED", "TABLE_FORMAT", "TERRAINS",
-           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "coefficient_table", "fourier_basis", "load_coefficients", "save_coefficients"]
+           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "fit_coefficients", "map_correlation", "coefficient_table", "fourier_basis", "load_coefficients", "save_coefficients"]
 
 #: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
 TERRAINS = ("sph", "rft")
@@ -373,3 +373,45 @@ def body_load(elements: SurfaceElements, angle: float, origin: tuple[float, floa
     to_element[:, 0, 0] = to_element[:, 1, 1] = 1.0
     to_element[:, 0, 2], to_element[:, 1, 2] = arm[:, 1], -arm[:, 0]
     return BodyLoad(force, torque, np.einsum("eia,eij,ejb->ab", to_element, element_jacobian, to_element))
+
+
+# ---------------------------------------------------------------------------------------------
+# calibration
+
+#: the (β, γ) grid on which two maps are compared (:func:`map_correlation`): 31 × 31 over [−π/2, π/2]²
+_COMPARISON_GRID = np.meshgrid(np.linspace(-math.pi / 2, math.pi / 2, 31), np.linspace(-math.pi / 2, math.pi / 2, 31))
+
+
+def fit_coefficients(beta: np.ndarray, gamma: np.ndarray, alpha_x: np.ndarray, alpha_z: np.ndarray,
+                     source: str = "") -> tuple[RFTCoefficients, dict[str, float]]:
+    """Least-squares fit of the nine Fourier coefficients to measured stresses per unit depth α_x,
+    α_z (N/m³) at attack angles β and directions γ (rad, the module docstring's convention), both
+    components in one linear system (:func:`fourier_basis`); returned normalised (α̂_z(0, π/2) = 1,
+    ζ the fitted map's value there) with the fit's quality: ``rms_residual`` over ``rms_measured``
+    (N/m³) and the ``points`` used. ConfigError with fewer than 9 points or an unusable fit."""
+    beta, gamma, alpha_x, alpha_z = (np.asarray(v, dtype=float).ravel() for v in (beta, gamma, alpha_x, alpha_z))
+    if not len(beta) == len(gamma) == len(alpha_x) == len(alpha_z) or len(beta) < len(COEFFICIENT_NAMES):
+        raise ConfigError(f"an RFT fit needs at least {len(COEFFICIENT_NAMES)} measured (β, γ, α_x, α_z) points of "
+                          f"equal count; got {len(beta)}")
+    basis_x, basis_z = fourier_basis(beta, gamma)
+    matrix = np.vstack([basis_x, basis_z])
+    measured = np.concatenate([alpha_x, alpha_z])
+    raw, *_ = np.linalg.lstsq(matrix, measured, rcond=None)
+    zeta = float(fourier_basis(0.0, math.pi / 2)[1] @ raw)
+    if not (math.isfinite(zeta) and zeta > 0):
+        raise ConfigError(f"the fitted map pushes a horizontal plate going down upward (ζ = {zeta:g} N/m³): "
+                          "the points do not determine it")
+    residual = matrix @ raw - measured
+    quality = {"rms_residual": float(np.sqrt(np.mean(residual ** 2))), "rms_measured": float(np.sqrt(np.mean(measured ** 2))),
+               "points": int(len(beta))}
+    return RFTCoefficients(*(raw / zeta), zeta=zeta, source=source), quality
+
+
+def map_correlation(first: RFTCoefficients, second: RFTCoefficients) -> dict[str, float]:
+    """Shape correlation of two maps: Pearson's r of α̂_x and of α̂_z (each map divided by its ζ) over a
+    31 × 31 grid of [−π/2, π/2]² in (β, γ), and the ratio of their scales ζ."""
+    beta, gamma = _COMPARISON_GRID
+    ax1, az1 = first.with_zeta(1.0).alpha(beta, gamma)
+    ax2, az2 = second.with_zeta(1.0).alpha(beta, gamma)
+    return {"r_x": float(np.corrcoef(ax1.ravel(), ax2.ravel())[0, 1]),
+            "r_z": float(np.corrcoef(az1.ravel(), az2.ravel())[0, 1]), "zeta_ratio": first.zeta / second.zeta}

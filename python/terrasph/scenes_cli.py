@@ -155,6 +155,30 @@ def _plate_values(args: argparse.Namespace) -> dict[str, Any]:
             "numerics": numerics_overrides(args.numerics)}
 
 
+def _register_plate_drag(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
+    """Adds ``run plate-drag``."""
+    from terrasph.scenes.plate_drag import PlateDrag
+
+    default = PlateDrag()
+    drag = scenes.add_parser("plate-drag", help="a buried plate at attack angle beta dragged in direction gamma (RFT)",
+                             description="Li et al.'s (2013) resistive-force experiment: a plate at attack angle "
+                                         "beta, buried in a bed of glass beads, moved in direction gamma; the "
+                                         "stress per unit depth alpha_x, alpha_z (docs/rft.md).")
+    drag.add_argument("--attack-angle", type=float, default=default.attack_angle,
+                      help="beta in rad, [-pi/2, pi/2], counter-clockwise (default %(default)s)")
+    drag.add_argument("--direction", type=float, default=default.direction,
+                      help="gamma in rad, [-pi/2, pi/2], pi/2 = straight down (default %(default)s)")
+    drag.add_argument("--spacing", type=float, default=default.spacing, help="particle spacing in m (default %(default)s)")
+    drag.add_argument("--travel", type=float, default=default.travel, help="stroke length in m (default %(default)s)")
+    drag.add_argument("--start-depth", type=float, default=default.start_depth,
+                      help="depth of the plate centre at the start in m (default %(default)s)")
+    _add_run_options(drag, default_output="plate_drag.h5")
+    drag.set_defaults(scene_values=lambda args: {
+        "attack_angle": args.attack_angle, "direction": args.direction, "spacing": args.spacing,
+        "travel": args.travel, "start_depth": args.start_depth, "numerics": numerics_overrides(args.numerics)})
+    return drag
+
+
 def _register_leg(scenes: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Adds ``run leg-rotation``."""
     default = leg_rotation.LegRotation()
@@ -186,6 +210,7 @@ def _leg_values(args: argparse.Namespace) -> dict[str, Any]:
 SCENE_OPTIONS: dict[str, SceneOptions] = {
     "column-collapse": _register_column,
     "plate-intrusion": _register_plate,
+    "plate-drag": _register_plate_drag,
     "leg-rotation": _register_leg,
     "leg-wheel": register_leg_wheel,
     "rover": register_rover,

@@ -76,6 +76,7 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
     SceneEntry("column-collapse", "column_collapse", __name__, "ColumnCollapse", "run_column_collapse"),
     SceneEntry("leg-rotation", "leg_rotation", __name__, "LegRotation", "run_leg_rotation"),
     SceneEntry("plate-intrusion", "plate_intrusion", __name__, "PlateIntrusion", "run_plate_intrusion"),
+    SceneEntry("plate-drag", "plate_drag", "terrasph.scenes.plate_drag", "PlateDrag", "run_plate_drag"),
     SceneEntry("leg-wheel", "leg_wheel", "terrasph.robots.leg_wheel", "LegWheel", "run_leg_wheel"),
     SceneEntry("rover", "rover", "terrasph.robots.rover", "Rover", "run_rover"),
 )}
