@@ -50,7 +50,7 @@ from terrasph.config import ConfigError
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass", "mujoco_derived",
+__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "RobotStepper", "displaced_grain_mass", "mujoco_derived",
            "mujoco_state", "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
@@ -223,7 +223,40 @@ def velocity_servos(robot: PlanarRobot) -> list[_VelocityServo]:
     return _velocity_servos(robot.model, robot.data)
 
 
-class CoupledSimulation:
+class RobotStepper:
+    """What every stepper of a robot on a terrain shares (:class:`CoupledSimulation`, the RFT terrain's
+    :class:`terrasph.robots.rft_terrain.RFTCoupling`): `robot`, `time`, `step()` and the continuous
+    angle of each coupled body in ``_angle``, set by the subclass."""
+
+    robot: PlanarRobot
+    _angle: dict[str, float]
+
+    @property
+    def time(self) -> float:
+        raise NotImplementedError
+
+    def step(self) -> float:
+        raise NotImplementedError
+
+    def advance(self, t_end: float) -> int:
+        """Steps until `t_end` (s) is reached or passed; returns the number taken."""
+        taken = 0
+        while self.time < t_end * (1 - 1e-14):
+            self.step()
+            taken += 1
+        return taken
+
+    def angle(self, name: str) -> float:
+        """Clockwise angle (rad) of a coupled body, continuous over turns."""
+        return self._angle[name]
+
+    def robot_description(self) -> dict[str, Any]:
+        """The coupled bodies (shape name, width) and MuJoCo's version, for the run file."""
+        return {"couplings": {b.name: {"shape": b.shape.name, "width": b.width} for b in self.robot.coupled},
+                "mujoco": mujoco.__version__}
+
+
+class CoupledSimulation(RobotStepper):
     """A :class:`PlanarRobot` two-way coupled with a :class:`Simulation` whose scene holds its coupled
     bodies as driven bodies (add them with :meth:`PlanarRobot.add_to_scene`)."""
 
@@ -290,24 +323,10 @@ class CoupledSimulation:
         self._angle[body.name] = angle
         self._velocity[body.name] = (velocity, omega)
 
-    def advance(self, t_end: float) -> int:
-        """Coupled steps until `t_end` (s) is reached or passed; returns the number taken."""
-        taken = 0
-        while self.sim.time < t_end * (1 - 1e-14):
-            self.step()
-            taken += 1
-        return taken
-
-    def angle(self, name: str) -> float:
-        """Clockwise angle (rad) of a coupled body, continuous over turns."""
-        return self._angle[name]
-
     # -- what a run loop records (terrasph.robots.run.run_coupled) ----------------------------
     def describe(self) -> dict[str, Any]:
         """The run's configuration for its file: the SPH's and the coupled bodies'."""
-        return {**self.sim.describe(), "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width}
-                                                              for b in self.robot.coupled},
-                                                "mujoco": mujoco.__version__}}
+        return {**self.sim.describe(), "robot": self.robot_description()}
 
     def write_static(self, writer: Any) -> None:
         """The run file's static arrays: the grains' masses and the walls' groups."""

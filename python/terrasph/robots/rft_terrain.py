@@ -32,7 +32,7 @@ import numpy as np
 
 from terrasph import rft
 from terrasph.config import ConfigError
-from terrasph.robots.coupling import (mujoco_derived, mujoco_state, mujoco_step, restore_mujoco_state, unwrapped,
+from terrasph.robots.coupling import (RobotStepper, mujoco_derived, mujoco_state, mujoco_step, restore_mujoco_state, unwrapped,
                                       velocity_servos)
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
@@ -49,7 +49,7 @@ NEWTON_ITERATIONS = 20
 NEWTON_TOLERANCE = 1e-8
 
 
-class RFTCoupling:
+class RFTCoupling(RobotStepper):
     """A :class:`PlanarRobot` on the RFT terrain: a flat granular surface at z = `surface` (m) with the
     coefficient map `table`; `time_step` (s) is MuJoCo's step, `element_length` (m) that of the RFT
     surface elements (default: :class:`terrasph.rft.SurfaceElements`'s)."""
@@ -177,18 +177,6 @@ class RFTCoupling:
         data.qvel[:] = qvel
         return loads
 
-    def advance(self, t_end: float) -> int:
-        """Steps until `t_end` (s) is reached or passed; returns the number taken."""
-        taken = 0
-        while self.time < t_end * (1 - 1e-14):
-            self.step()
-            taken += 1
-        return taken
-
-    def angle(self, name: str) -> float:
-        """Clockwise angle (rad) of a coupled body, continuous over turns."""
-        return self._angle[name]
-
     # -- what a run loop records ------------------------------------------------------------------
     def describe(self) -> dict[str, Any]:
         """The terrain and the coupled bodies, for the run file."""
@@ -196,8 +184,7 @@ class RFTCoupling:
                             "coefficients": dict(zip(rft.COEFFICIENT_NAMES, self.table.vector.tolist())),
                             "source": self.table.source, "time_step": self._dt,
                             "elements": {name: len(e) for name, e in self._elements.items()}},
-                "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width} for b in self.robot.coupled},
-                          "mujoco": mujoco.__version__}}
+                "robot": self.robot_description()}
 
     def write_static(self, writer: Any) -> None:
         """Each coupled body's RFT surface elements in its own frame (``/static/rft/<body>/...``)."""

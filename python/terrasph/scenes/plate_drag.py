@@ -28,19 +28,20 @@ from typing import Any
 import numpy as np
 
 from terrasph import bodies
-from terrasph.config import ConfigError, Material, Numerics, from_mapping
+from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
 from terrasph.scene import Scene
 from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.scenes.plate_intrusion import PlateConfig
 from terrasph.simulation import RunResult, Simulation
 
 __all__ = ["PlateDrag", "PlateDragResult", "build_plate_drag", "run_plate_drag"]
 
 
 @dataclass(frozen=True)
-class PlateDrag:
+class PlateDrag(PlateConfig):
     """Configuration of a plate drag. Lengths in m, times in s, angles in rad (terrasph.rft's β, γ)."""
 
     attack_angle: float = 0.0  #: β in [−π/2, π/2]
@@ -87,17 +88,6 @@ class PlateDrag:
             raise ConfigError(f"parameter 'bed_width' = {self.bed_width!r} is invalid: allowed more than "
                               f"{3 * self.plate_length + 2 * self.travel:g} m (a plate length between the plate "
                               "and each side wall over its travel)")
-
-    def build_numerics(self) -> Numerics:
-        """terrasph.Numerics at this spacing with the overrides applied."""
-        return from_mapping(Numerics, {"spacing": self.spacing, **self.numerics})
-
-    @property
-    def plate_thickness(self) -> float:
-        """As given, or the least allowed (bodies.minimum_thickness)."""
-        if self.thickness is not None:
-            return self.thickness
-        return bodies.minimum_thickness(self.spacing, self.build_numerics().h_factor)
 
     @property
     def duration(self) -> float:

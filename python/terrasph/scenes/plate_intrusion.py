@@ -64,8 +64,28 @@ FIT_FROM_DEPTH = 0.01
 RESOLUTIONS: dict[str, float] = {"coarse": 0.0025, "fine": 0.002, "finer": 0.0016}
 
 
+class PlateConfig:
+    """What the plate scenes' configurations share (plate-intrusion, plate-drag): the numerics at
+    their `spacing` with their `numerics` overrides, and the plate's thickness."""
+
+    spacing: float
+    thickness: float | None
+    numerics: dict[str, Any]
+
+    def build_numerics(self) -> Numerics:
+        """terrasph.Numerics at this spacing with the overrides applied."""
+        return from_mapping(Numerics, {"spacing": self.spacing, **self.numerics})
+
+    @property
+    def plate_thickness(self) -> float:
+        """Thickness as given, or the least allowed: ceil(2·h_factor) rows of Δx."""
+        if self.thickness is not None:
+            return self.thickness
+        return bodies.minimum_thickness(self.spacing, self.build_numerics().h_factor)
+
+
 @dataclass(frozen=True)
-class PlateIntrusion:
+class PlateIntrusion(PlateConfig):
     """Configuration of a plate intrusion. Lengths in m, times in s, speeds in m/s."""
 
     speed: float = 0.02  #: plate speed, down then up (m/s)
@@ -138,16 +158,6 @@ class PlateIntrusion:
         """The chapter 3 glass beads (``glass_beads()``) under the configured constitutive model."""
         return dataclasses.replace(glass_beads(), model=self.model)
 
-    def build_numerics(self) -> Numerics:
-        """terrasph.Numerics at this spacing with the overrides applied."""
-        return from_mapping(Numerics, {"spacing": self.spacing, **self.numerics})
-
-    @property
-    def plate_thickness(self) -> float:
-        """Thickness as given, or the least allowed: ceil(2·h_factor) rows of Δx."""
-        if self.thickness is not None:
-            return self.thickness
-        return bodies.minimum_thickness(self.spacing, self.build_numerics().h_factor)
 
     @property
     def buried(self) -> bool:
