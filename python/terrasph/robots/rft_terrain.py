@@ -43,9 +43,11 @@ __all__ = ["RFT_TIME_STEP", "RFTCoupling"]
 RFT_TIME_STEP = 2e-3
 
 
-#: Newton iterations of the implicit load per step at most, and the residual (relative to the step's
-#: momentum change) at which they stop
+#: Newton iterations of the implicit load per step at most, the halvings of an iteration's step that
+#: may fail to reduce the residual before the iterations stop (the best velocities kept), and the
+#: residual (relative to the step's momentum change) at which they stop
 NEWTON_ITERATIONS = 20
+NEWTON_HALVINGS = 6
 NEWTON_TOLERANCE = 1e-8
 
 
@@ -146,7 +148,7 @@ class RFTCoupling(RobotStepper):
         """Turns MuJoCo's step with the loads and servo forces `applied` (generalised, at q̇_n) held into
         a backward-Euler step in them, M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)) at the step's poses, solved by
         Newton's method with their Jacobian (at most :data:`NEWTON_ITERATIONS`, each step halved while
-        the residual does not fall). M is the matrix MuJoCo's step solved with (the mass matrix plus
+        the residual does not fall, up to :data:`NEWTON_HALVINGS` times). M is the matrix MuJoCo's step solved with (the mass matrix plus
         dt × the joints' damping), q̇* its result; the positions move by dt (q̇ − q̇*). Returns the
         loads at the solution."""
         model, data = self.robot.model, self.robot.data
@@ -166,12 +168,14 @@ class RFTCoupling(RobotStepper):
             if np.abs(r).max() <= NEWTON_TOLERANCE * scale:
                 break
             step = np.linalg.solve(matrix - dt * stiffness, r)
-            for _ in range(30):  # halve the step while it does not reduce the residual
+            for _ in range(NEWTON_HALVINGS):  # halve the step while it does not reduce the residual
                 trial = qvel - step
                 r_trial, loads_trial, stiffness_trial = residual(trial)
                 if np.abs(r_trial).max() < np.abs(r).max():
                     break
                 step = 0.5 * step
+            else:  # at a kink of the regularisation no step reduces it: keep the best so far
+                break
             qvel, r, loads, stiffness = trial, r_trial, loads_trial, stiffness_trial
         mujoco.mj_integratePos(model, data.qpos, qvel - explicit, dt)
         data.qvel[:] = qvel
