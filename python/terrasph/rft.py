@@ -57,7 +57,8 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 
 __all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "REGULARISATION_SPEED", "TABLE_FORMAT", "TERRAINS",
-           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "fit_coefficients", "map_correlation", "coefficient_table", "fourier_basis", "load_coefficients", "save_coefficients"]
+           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "coefficient_table", "fit_coefficients",
+           "fourier_basis", "load_coefficients", "map_correlation", "save_coefficients"]
 
 #: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
 TERRAINS = ("sph", "rft")

@@ -32,8 +32,8 @@ import numpy as np
 
 from terrasph import rft
 from terrasph.config import ConfigError
-from terrasph.robots.coupling import (RobotStepper, mujoco_derived, mujoco_state, mujoco_step, restore_mujoco_state, unwrapped,
-                                      velocity_servos)
+from terrasph.robots.coupling import (RobotStepper, mujoco_derived, mujoco_state, mujoco_step,
+                                      restore_mujoco_state, unwrapped, velocity_servos)
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
 __all__ = ["RFT_TIME_STEP", "RFTCoupling"]
@@ -148,9 +148,9 @@ class RFTCoupling(RobotStepper):
         """Turns MuJoCo's step with the loads and servo forces `applied` (generalised, at q̇_n) held into
         a backward-Euler step in them, M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)) at the step's poses, solved by
         Newton's method with their Jacobian (at most :data:`NEWTON_ITERATIONS`, each step halved while
-        the residual does not fall, up to :data:`NEWTON_HALVINGS` times). M is the matrix MuJoCo's step solved with (the mass matrix plus
-        dt × the joints' damping), q̇* its result; the positions move by dt (q̇ − q̇*). Returns the
-        loads at the solution."""
+        the residual does not fall, up to :data:`NEWTON_HALVINGS` times). M is the matrix MuJoCo's step
+        solved with (the mass matrix plus dt × the joints' damping), q̇* its result; the positions move
+        by dt (q̇ − q̇*). Returns the loads at the solution."""
         model, data = self.robot.model, self.robot.data
         matrix = np.zeros((model.nv, model.nv))
         mujoco.mj_fullM(model, data, matrix)  # qM is still that of the step's start
