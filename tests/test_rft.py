@@ -300,3 +300,17 @@ def test_plate_drag_pushed_down_matches_the_intrusion_scale():
     assert abs(result["alpha_x"]) < 0.01 * result["alpha_z"]
     assert result["alpha_z"] == pytest.approx(rft.GLASS_BEADS_ZETA, rel=0.25)
     assert result["leaked_particles"] == 0
+
+
+def test_rft_terrain_checkpoint_continues_bit_for_bit(tmp_path):
+    """A plate on the RFT sand checkpointed mid-fall and continued by a fresh stepper restored from
+    the file ends where the uninterrupted one does, bit for bit (MuJoCo's state and the load means)."""
+    whole = _plate_on_sand(0.3)
+    whole.advance(0.05)
+    whole.checkpoint(tmp_path / "c.h5")
+    whole.advance(0.1)
+    resumed = _plate_on_sand(0.3)
+    resumed.restore(tmp_path / "c.h5")
+    resumed.advance(0.1)
+    assert np.array_equal(whole.robot.data.qpos, resumed.robot.data.qpos)
+    assert np.array_equal(whole.body_sample("foot")["force"], resumed.body_sample("foot")["force"])
