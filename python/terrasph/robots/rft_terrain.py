@@ -38,8 +38,8 @@ from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
 __all__ = ["RFT_TIME_STEP", "RFTCoupling"]
 
-#: MuJoCo's step on the RFT terrain (s): the flat-leg wheel's slip and sinkage at 2e-3 s are within
-#: 0.002 and 0.5 mm of those at 5e-4 s, the C-leg wheel's within 0.005 and 0.3 mm (docs/rft.md)
+#: MuJoCo's step on the RFT terrain (s): the flat-leg and C-leg wheels' slip and sinkage at 2e-3 s are
+#: within 0.004 and 0.3 mm of those at 5e-4 s; at 5e-3 s the flat-leg wheel's spin runs away (docs/rft.md)
 RFT_TIME_STEP = 2e-3
 
 
