@@ -110,8 +110,9 @@ def run_coupled(coupled: Stepper, t_end: float, *, output: str | os.PathLike[str
                 progress: bool = False, memory: dict[str, Any] | None = None,
                 checkpoint_every: float | None = 600.0, resume: bool = False) -> dict[str, dict[str, np.ndarray]]:
     """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`Stepper`, e.g. the RFT terrain's
-    :class:`terrasph.robots.rft_terrain.RFTCoupling`) to `t_end` (s); writes frames every `frame_interval` and robot samples every
-    `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
+    :class:`terrasph.robots.rft_terrain.RFTCoupling`) to `t_end` (s); writes frames (if the stepper
+    has any) every `frame_interval` and robot samples every `series_interval` (s) to `output` (HDF5)
+    if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
     `memory` (plain data), which is checkpointed with the run. Returns the robot series by group
     name (the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
