@@ -267,6 +267,8 @@ def _run_rft_leg_rotation(config: LegRotation, output: str | os.PathLike | None,
             for k in range(count):
                 writer.append_series("bodies/leg", {"time": times[k], "angle": theta[k], "force": force[k],
                                                     "torque": torque[k]})
+            writer.set_attrs("/run", {"status": "completed", "time": config.duration, "steps": count,
+                                      "wall_time": time.perf_counter() - start})
     run = RunResult(time=config.duration, steps=count, wall_time=wall, frames=0,
                     output=None if output is None else os.fspath(output), status="completed",
                     bodies={"leg": {"time": times, "angle": theta, "force": force, "torque": torque}})
