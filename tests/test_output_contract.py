@@ -30,6 +30,7 @@ from terrasph.cli import main
 from terrasph.io import read_run
 from terrasph.robots.leg_wheel import LegWheel
 from terrasph.robots.mjcf_scene import MjcfScene
+from terrasph.scenes.plate_drag import PlateDrag
 from terrasph.robots.rover import Rover
 from terrasph.run_loop import checkpoint_path, claimed_output
 from terrasph.scenes import SCENES, ColumnCollapse, LegRotation, PlateIntrusion
@@ -42,6 +43,8 @@ CASES = {
                                  frame_interval=0.01), 0.02, 0.035),
     "plate-intrusion": (PlateIntrusion(bed_width=0.06, bed_depth=0.04, plate_length=0.02, max_depth=0.006,
                                        speed=0.1, settle_time=0.0, frame_interval=0.01), 0.02, 0.035),
+    "plate-drag": (PlateDrag(bed_width=0.14, bed_depth=0.08, spacing=0.005, plate_length=0.04, start_depth=0.03,
+                             travel=0.004, speed=0.1, settle_time=0.0, samples=4), 0.02, 0.035),
     "leg-wheel": (LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
                            bed_depth=0.04, start_x=0.08, settle_time=0.01, t_end=0.03, load=2.0,
                            series_interval=0.005, frame_interval=0.01), 0.03, 0.05),

@@ -110,8 +110,8 @@ def read_checkpoint(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[
             if "wall_loads" in file.attrs:  # absent from checkpoints written before wall loads were kept
                 texts["wall_loads"] = str(file.attrs["wall_loads"])
             arrays: dict[str, np.ndarray] = {}
-            for part in _PARTICLE_SETS:
-                for name, dataset in file[part].items():
+            for part in _PARTICLE_SETS:  # a state without particles (the RFT terrain's) has no groups
+                for name, dataset in file.get(part, {}).items():
                     arrays[f"{part}/{name}"] = dataset[()]
             stored = str(file.attrs["sha256"])
     except CheckpointError:

@@ -42,7 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"terrasph {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    from terrasph import animate, run_files, scenes_cli
+    from terrasph import animate, rft_cli, run_files, scenes_cli
     from terrasph.surrogate import cli as surrogate_cli
     from terrasph.sweeps import cli as sweep_cli
 
@@ -51,6 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
     animate.register(sub)
     surrogate_cli.register(sub)
     sweep_cli.register(sub)
+    rft_cli.register(sub)
     _remember_leaf_parsers(parser)
     return parser
 

@@ -54,7 +54,8 @@ from terrasph.config import ConfigError
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "displaced_grain_mass"]
+__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "RobotStepper", "displaced_grain_mass", "mujoco_derived",
+           "mujoco_state", "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
 #: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/bench_robot_coupling.py):
@@ -79,7 +80,7 @@ def _divergences(data: mujoco.MjData) -> int:
     return sum(int(data.warning[warning].number) for warning in _DIVERGENCE_WARNINGS)
 
 
-def _unwrapped(previous: float, wrapped: float) -> float:
+def unwrapped(previous: float, wrapped: float) -> float:
     """The angle equal to `wrapped` modulo 2π nearest to `previous` (a step turns far less than π)."""
     return previous + math.remainder(wrapped - previous, 2.0 * math.pi)
 
@@ -131,6 +132,21 @@ class _VelocityServo:
         self._set(model, gain=1.0, damping=0.0)
         data.ctrl[self.actuator] = min(max(error * self.inertia / dt, self.lower), self.upper)
 
+    def force(self, command: float, qvel: np.ndarray) -> tuple[float, float]:
+        """The servo's force kv·(command − gear·q̇) held within its limits at joint velocities `qvel`,
+        and its derivative in the joint's velocity (−kv·gear within the limits, 0 at them)."""
+        raw = self.kv * (command - self.gear * float(qvel[self.dof]))
+        if raw <= self.lower:
+            return self.lower, 0.0
+        if raw >= self.upper:
+            return self.upper, 0.0
+        return raw, -self.kv * self.gear
+
+    def apply_force(self, model: mujoco.MjModel, data: mujoco.MjData, force: float) -> None:
+        """Sets the actuator to a plain force for the next step (:meth:`restore` puts the servo back)."""
+        self._set(model, gain=1.0, damping=0.0)
+        data.ctrl[self.actuator] = force
+
     def restore(self, model: mujoco.MjModel) -> None:
         """The servo as the model defines it."""
         self._set(model, gain=self.kv, damping=-self.kv)
@@ -168,7 +184,104 @@ def _velocity_servos(model: mujoco.MjModel, data: mujoco.MjData) -> list[_Veloci
     return servos
 
 
-class CoupledSimulation:
+def mujoco_step(robot: PlanarRobot, servos: list[_VelocityServo], dt: float, *, derived: bool = True,
+                forces: list[float] | None = None) -> None:
+    """MuJoCo's step of dt with the loads already applied (steps 2–3 of the module docstring): each
+    torque-limited velocity servo prepared for the step (or, with `forces`, given that plain force)
+    and put back after it, the caller's command kept; with `derived`, poses and velocities brought to
+    the step's end (else the caller does it with :func:`mujoco_derived` after changing the state)."""
+    model, data = robot.model, robot.data
+    model.opt.timestep = dt
+    command = data.ctrl.copy()
+    try:
+        for k, servo in enumerate(servos):
+            if forces is None:
+                servo.prepare(model, data, float(command[servo.actuator]), dt)
+            else:
+                servo.apply_force(model, data, forces[k])
+        mujoco.mj_step(model, data)
+    finally:  # the model's servos and the caller's command stay the state (checkpoints, the next step)
+        for servo in servos:
+            servo.restore(model)
+        data.ctrl[:] = command
+    if derived:
+        mujoco_derived(robot)
+
+
+def mujoco_derived(robot: PlanarRobot) -> None:
+    """Poses and velocities at the state's time: mj_step leaves the derived quantities at the step's start."""
+    mujoco.mj_kinematics(robot.model, robot.data)
+    mujoco.mj_comPos(robot.model, robot.data)
+    mujoco.mj_comVel(robot.model, robot.data)
+
+
+def mujoco_state(robot: PlanarRobot) -> dict[str, Any]:
+    """MuJoCo's state (time, qpos, qvel, act, warm start, ctrl) as plain data (JSON floats round-trip
+    exactly), for a checkpoint's progress."""
+    data = robot.data
+    return {"time": data.time, "qpos": data.qpos.tolist(), "qvel": data.qvel.tolist(), "act": data.act.tolist(),
+            "qacc_warmstart": data.qacc_warmstart.tolist(), "ctrl": data.ctrl.tolist()}
+
+
+def restore_mujoco_state(robot: PlanarRobot, saved: dict[str, Any]) -> None:
+    """Puts back a :func:`mujoco_state`."""
+    data = robot.data
+    data.time = saved["time"]
+    for key in ("qpos", "qvel", "act", "ctrl"):
+        getattr(data, key)[:] = saved[key]
+    mujoco.mj_forward(robot.model, data)
+    data.qacc_warmstart[:] = saved["qacc_warmstart"]
+
+
+def velocity_servos(robot: PlanarRobot) -> list[_VelocityServo]:
+    """The robot's torque-limited velocity servos, for :func:`mujoco_step`."""
+    return _velocity_servos(robot.model, robot.data)
+
+
+class RobotStepper:
+    """What every stepper of a robot on a terrain shares (:class:`CoupledSimulation`, the RFT terrain's
+    :class:`terrasph.robots.rft_terrain.RFTCoupling`): `robot`, `time`, `step_count`, `step()` and
+    the continuous angle of each coupled body in ``_angle``, set by the subclass. The run loop
+    (terrasph.robots.run.run_coupled) reads the rest: describe, body_sample, surface,
+    reset_body_means, frame_fields, static_arrays, diagnostics, run_attributes, checkpoint and restore."""
+
+    robot: PlanarRobot
+    _angle: dict[str, float]
+
+    @property
+    def time(self) -> float:
+        raise NotImplementedError
+
+    @property
+    def step_count(self) -> int:
+        raise NotImplementedError
+
+    def step(self) -> float:
+        raise NotImplementedError
+
+    def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
+        """Steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the number
+        taken (the last step may end past `t_end`). `control`, if given, is called with the stepper
+        before each step (to set MuJoCo's ``data.ctrl``, say)."""
+        taken = 0
+        while taken < max_steps and self.time < t_end * (1 - 1e-14):
+            if control:
+                control(self)
+            self.step()
+            taken += 1
+        return taken
+
+    def angle(self, name: str) -> float:
+        """Clockwise angle (rad) of a coupled body, continuous over turns."""
+        return self._angle[name]
+
+    def robot_description(self) -> dict[str, Any]:
+        """The coupled bodies (shape name, width) and MuJoCo's version, for the run file."""
+        return {"couplings": {b.name: {"shape": b.shape.name, "width": b.width} for b in self.robot.coupled},
+                "mujoco": mujoco.__version__}
+
+
+class CoupledSimulation(RobotStepper):
     """A :class:`PlanarRobot` two-way coupled with a :class:`Simulation` whose scene holds its coupled
     bodies as driven bodies (add them with :meth:`PlanarRobot.add_to_scene`)."""
 
@@ -206,26 +319,13 @@ class CoupledSimulation:
     def step(self) -> float:
         """One coupled step (module docstring); returns its dt."""
         dt = self.time_step()
-        robot, model, data = self.robot, self.robot.model, self.robot.data
+        robot = self.robot
         for body in robot.coupled:
             force, torque = self.granular_load(body)
             robot.apply_load(body, force, torque)
-        model.opt.timestep = dt
-        command = data.ctrl.copy()
-        try:
-            for servo in self._servos:
-                servo.prepare(model, data, float(command[servo.actuator]), dt)
-            mujoco.mj_step(model, data)
-        finally:  # the model's servos and the caller's command stay the state (checkpoints, the next step)
-            for servo in self._servos:
-                servo.restore(model)
-            data.ctrl[:] = command
-        if _divergences(data) > self._divergences:
+        mujoco_step(robot, self._servos, dt)
+        if _divergences(robot.data) > self._divergences:
             raise self._diverged()
-        # mj_step leaves the derived quantities at the step's start: bring poses and velocities to t_{n+1}
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        mujoco.mj_comVel(model, data)
         for body in robot.coupled:
             self._drive(body, dt)
         t_end = self.sim.time + dt
@@ -254,7 +354,7 @@ class CoupledSimulation:
         """Hands MuJoCo's state of `body` at t_{n+1} to the SPH (step 4)."""
         velocity, omega = self.robot.velocity(body)
         old_velocity, old_omega = self._velocity[body.name]
-        angle = _unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
+        angle = unwrapped(self._angle[body.name], self.robot.wrapped_angle(body))
         self.sim.set_body_kinematics(body.name, self.robot.reference(body), angle, velocity, omega,
                                      (velocity - old_velocity) / dt, (omega - old_omega) / dt)
         self._angle[body.name] = angle
@@ -265,27 +365,48 @@ class CoupledSimulation:
         """Coupled steps taken so far (the SPH's step count: one SPH step per coupled step)."""
         return self.sim.step_count
 
-    def advance(self, t_end: float, max_steps: int = 2**62,
-                control: Callable[[CoupledSimulation], None] | None = None) -> int:
-        """Coupled steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the
-        number taken. Each step is the SPH's full dt: the last one may end past `t_end`.
-        `control`, if given, is called before each step (to set MuJoCo's ``data.ctrl``, say)."""
-        taken = 0
-        while taken < max_steps and self.sim.time < t_end * (1 - 1e-14):
-            if control:
-                control(self)
-            self.step()
-            taken += 1
-        return taken
-
     def frame_fields(self) -> dict[str, np.ndarray]:
         """The SPH's frame fields and ``wall_position`` of every wall particle (id order), so the
         moving bodies can be drawn with the fixed walls (a run file's frames)."""
         return {**self.sim.frame_fields(), "wall_position": np.array(self.sim.core.wall_position)}
 
-    def angle(self, name: str) -> float:
-        """Clockwise angle (rad) of a coupled body, continuous over turns."""
-        return self._angle[name]
+    # -- what a run loop records (terrasph.robots.run.run_coupled) ----------------------------
+    def describe(self) -> dict[str, Any]:
+        """The run's configuration for its file: the SPH's and the coupled bodies'."""
+        return {**self.sim.describe(), "robot": self.robot_description()}
+
+    def body_sample(self, name: str) -> dict[str, Any]:
+        """Force (N) and clockwise torque (N·m) of the grains on coupled body `name`, averaged since
+        :meth:`reset_body_means`, and its lowest z (m)."""
+        state = self.sim.body_state(name)
+        return {"force": state["force"], "torque": state["torque"], "lowest_z": state["lowest_z"]}
+
+    def surface(self) -> float:
+        """The bed's undisturbed free surface now (m; :func:`terrasph.robots.run.undisturbed_surface`)."""
+        from terrasph.robots.run import undisturbed_surface
+
+        return undisturbed_surface(self)
+
+    def wall_loads(self) -> dict[str, dict[str, Any]]:
+        """Loads of the grains on each tracked fixed wall (:meth:`Simulation.wall_loads`)."""
+        return self.sim.wall_loads()
+
+
+    def reset_body_means(self) -> None:
+        """Starts a new averaging interval of the coupled bodies' loads."""
+        self.sim.reset_body_means()
+
+    def static_arrays(self) -> dict[str, np.ndarray]:
+        """The run file's static arrays (the SPH's)."""
+        return self.sim.static_arrays()
+
+    def diagnostics(self) -> dict[str, float]:
+        """A diagnostics row of the run file (the SPH's)."""
+        return self.sim.diagnostics()
+
+    def run_attributes(self) -> dict[str, int]:
+        """The counts of the run file's ``/run`` (the SPH's)."""
+        return self.sim.run_attributes()
 
     # -- checkpoints ----------------------------------------------------------------------
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
@@ -303,20 +424,12 @@ class CoupledSimulation:
     def state(self) -> dict[str, Any]:
         """MuJoCo's state and the coupling's own memory as plain data (JSON floats round-trip
         exactly), for the ``progress`` of :meth:`Simulation.checkpoint`."""
-        data = self.robot.data
-        return {"time": data.time, "qpos": data.qpos.tolist(), "qvel": data.qvel.tolist(), "act": data.act.tolist(),
-                "qacc_warmstart": data.qacc_warmstart.tolist(), "ctrl": data.ctrl.tolist(),
-                "angle": dict(self._angle),
+        return {**mujoco_state(self.robot), "angle": dict(self._angle),
                 "velocity": {k: [v.tolist(), w] for k, (v, w) in self._velocity.items()}}
 
     def restore_state(self, saved: dict[str, Any]) -> None:
         """Puts back a :meth:`state` (after :meth:`Simulation.restore` of the same checkpoint)."""
-        data = self.robot.data
-        data.time = saved["time"]
-        for key in ("qpos", "qvel", "act", "ctrl"):
-            getattr(data, key)[:] = saved[key]
-        mujoco.mj_forward(self.robot.model, data)
-        data.qacc_warmstart[:] = saved["qacc_warmstart"]
-        self._divergences = _divergences(data)
+        restore_mujoco_state(self.robot, saved)
+        self._divergences = _divergences(self.robot.data)
         self._angle = {k: float(v) for k, v in saved["angle"].items()}
         self._velocity = {k: (np.array(v), float(w)) for k, (v, w) in saved["velocity"].items()}

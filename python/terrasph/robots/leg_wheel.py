@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from terrasph import bodies
+from terrasph import bodies, rft
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
 from terrasph.geometry import wall_layers_needed
@@ -39,8 +39,9 @@ from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.plots import plot_robot
+from terrasph.robots.rft_terrain import RFTCoupling
 from terrasph.robots.run import RobotRun, run_coupled
-from terrasph.scene import Scene
+from terrasph.scene import GRAVITY, Scene
 from terrasph.schedules import check_knots, evaluate
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
@@ -94,9 +95,17 @@ class LegWheel(WheelScene):
     mu2_deg: float = option(33.0, help="the bed's dynamic friction angle atan mu2, >= mu1-deg", unit="degrees")
     water_content: float = option(0.0, help="the bed's water content w; > 0: wet beads with cohesion (Table 2.1)",
                                   unit="kg/kg")
+    terrain: str = option("sph", choices=rft.TERRAINS, help="the SPH bed, or resistive force theory on a flat "
+                                                           "surface (terrasph.rft, docs/rft.md)")
+    rft_table: str = option("generic", help='terrain rft: the coefficient map, "generic" or a JSON table '
+                                            "(terrasph rft-calibrate)")
 
     def __post_init__(self) -> None:
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
+        if self.terrain not in rft.TERRAINS:
+            raise ConfigError(f"parameter 'terrain' = {self.terrain!r} is invalid: allowed one of {', '.join(rft.TERRAINS)}")
+        if self.terrain == "rft":
+            rft.coefficient_table(self.rft_table)  # an unknown name or a malformed file, before any work
         object.__setattr__(self, "omega_schedule", check_knots("omega_schedule", self.omega_schedule, lower=0.0))
         if not self.leg_length < self.start_x < self.bed_width - self.leg_length:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between leg_length and "
@@ -226,8 +235,18 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 </mujoco>"""
 
 
-def build_leg_wheel(config: LegWheel) -> CoupledSimulation:
-    """Bed, container, robot and coupling, ready to run."""
+def build_leg_wheel(config: LegWheel) -> CoupledSimulation | RFTCoupling:
+    """Bed, container, robot and coupling, ready to run (on the RFT terrain: the robot on a flat
+    surface at z = 0, its wheel touching it)."""
+    if config.terrain == "rft":
+        try:
+            shape = wheel_shape(config)
+        except ValueError as error:
+            raise ConfigError(f"wheel '{config.wheel}': {error}") from None
+        axle = (config.start_x, -shape.lowest_point())
+        robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, GRAVITY), {"wheel": Coupling(shape, config.width)},
+                            gravity=GRAVITY)
+        return RFTCoupling(robot, 0.0, config.rft_table)
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, scene.gravity), {"wheel": Coupling(shape, config.width)},
@@ -258,15 +277,14 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=motor, progress=progress, memory=work, resume=resume,
-                         config={"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config),
-                                 **coupled.sim.describe()})
+                         config={"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config), **coupled.describe()})
     wheel = series["robot/wheel"]
     # the driven phase: after the pause, once the servo has brought ω to half the command
     driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.commanded_omega(wheel["time"]))
     speed = float(np.mean(wheel["velocity"][driving, 0])) if driving.any() else math.nan
     spin = float(np.mean(wheel["omega"][driving])) if driving.any() else math.nan
-    summary = {"wheel": config.wheel, "legs": config.legs, "steps": coupled.sim.step_count,
-               "leaked_particles": coupled.sim.leaked_particles,
+    summary = {"wheel": config.wheel, "legs": config.legs, "terrain": config.terrain, "steps": coupled.step_count,
+               "leaked_particles": coupled.run_attributes()["leaked_particles"],
                "final_sinkage": float(wheel["sinkage"][-1]), "max_sinkage": float(np.max(wheel["sinkage"])),
                # the driven phase's mean (its samples are series_interval apart): unlike the final
                # value, which may fall on a stroke's steep flank, it does not hinge on one instant
@@ -286,9 +304,10 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     return RobotRun(summary, series, figure)
 
 
-def _cost_of_transport(work: float, coupled: CoupledSimulation, distance: float) -> float:
+def _cost_of_transport(work: float, coupled: CoupledSimulation | RFTCoupling, distance: float) -> float:
     """Motor work / (robot weight × distance travelled after the pause); inf if it did not move."""
-    weight = float(coupled.robot.model.body_subtreemass[1]) * coupled.sim.scene.gravity
+    model = coupled.robot.model
+    weight = float(model.body_subtreemass[1]) * -float(model.opt.gravity[2])
     return work / (weight * abs(distance)) if distance != 0 else math.inf
 
 

@@ -24,9 +24,8 @@ import mujoco
 import numpy as np
 
 from terrasph.io import defined_values
-from terrasph.robots.coupling import CoupledSimulation
+from terrasph.robots.coupling import CoupledSimulation, RobotStepper
 from terrasph.robots.metrics import free_surface, sinkage, slip
-from terrasph.threads import start_run
 
 __all__ = ["SURFACE_MARGIN", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
 
@@ -50,11 +49,11 @@ def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARG
     return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)
 
 
-def body_row(coupled: CoupledSimulation, name: str, surface: float) -> dict[str, Any]:
+def body_row(coupled: RobotStepper, name: str, surface: float) -> dict[str, Any]:
     """One sample of a coupled body's series (granular loads averaged since the last reset;
     sinkage below the free surface at `surface`, m)."""
     body = next(b for b in coupled.robot.coupled if b.name == name)
-    state = coupled.sim.body_state(name)
+    state = coupled.body_sample(name)
     velocity, omega = coupled.robot.velocity(body)
     return {"time": coupled.time, "reference": coupled.robot.reference(body), "angle": coupled.angle(name),
             "velocity": velocity, "omega": omega, "force": state["force"], "torque": state["torque"],
@@ -62,7 +61,7 @@ def body_row(coupled: CoupledSimulation, name: str, surface: float) -> dict[str,
             "slip": float(slip(velocity[0], omega, body.shape.radius))}
 
 
-def _actuator_row(coupled: CoupledSimulation) -> dict[str, Any]:
+def _actuator_row(coupled: RobotStepper) -> dict[str, Any]:
     data = coupled.robot.data
     return {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(), "ctrl": data.ctrl.copy(),
             "com": data.subtree_com[0][[0, 2]].copy(), "actuator_force": data.actuator_force.copy(),
@@ -73,16 +72,16 @@ class RobotLoads:
     """Recorder of the run loop: each coupled body's row (:func:`body_row`) as ``robot/<body>`` and,
     for a robot with actuators, ``robot/actuators``; the bodies' load means restarted after each sample."""
 
-    def __init__(self, coupled: CoupledSimulation) -> None:
+    def __init__(self, coupled: RobotStepper) -> None:
         self.coupled = coupled
 
     def rows(self) -> dict[str, dict[str, Any]]:
         coupled = self.coupled
-        surface = undisturbed_surface(coupled)
+        surface = coupled.surface()
         rows = {f"robot/{body.name}": body_row(coupled, body.name, surface) for body in coupled.robot.coupled}
         if coupled.robot.model.nu:  # a robot without actuators has no such series (HDF5 has no 0-wide columns)
             rows["robot/actuators"] = _actuator_row(coupled)
-        coupled.sim.reset_body_means()
+        coupled.reset_body_means()
         return rows
 
 
@@ -91,7 +90,7 @@ class ControlledRun:
     `control`, called before each step, and its running values `memory` (plain data), kept in the
     checkpoints with MuJoCo's state."""
 
-    def __init__(self, coupled: CoupledSimulation, control: Callable[[CoupledSimulation], None] | None,
+    def __init__(self, coupled: RobotStepper, control: Callable[[Any], None] | None,
                  memory: dict[str, Any]) -> None:
         self.coupled = coupled
         self.control = control
@@ -116,17 +115,17 @@ class ControlledRun:
         self.memory.update(progress.pop("memory", {}))
         return progress
 
-    def frame_fields(self) -> dict[str, np.ndarray]:
+    def frame_fields(self) -> dict[str, np.ndarray] | None:
         return self.coupled.frame_fields()
 
     def static_arrays(self) -> dict[str, np.ndarray]:
-        return self.coupled.sim.static_arrays()
+        return self.coupled.static_arrays()
 
     def diagnostics(self) -> dict[str, float]:
-        return self.coupled.sim.diagnostics()
+        return self.coupled.diagnostics()
 
     def run_attributes(self) -> dict[str, int]:
-        return self.coupled.sim.run_attributes()
+        return self.coupled.run_attributes()
 
 
 @dataclass
@@ -143,13 +142,15 @@ class RobotRun:
         return defined_values(self.values)
 
 
-def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.PathLike[str] | None = None,
+def run_coupled(coupled: RobotStepper, t_end: float, *, output: str | os.PathLike[str] | None = None,
                 frame_interval: float = 0.05, series_interval: float = 0.01,
-                config: dict[str, Any] | None = None, control: Callable[[CoupledSimulation], None] | None = None,
+                config: dict[str, Any] | None = None, control: Callable[[Any], None] | None = None,
                 progress: bool = False, memory: dict[str, Any] | None = None,
                 checkpoint_every: float | None = 600.0, resume: bool = False) -> dict[str, dict[str, np.ndarray]]:
-    """Runs `coupled` to `t_end` (s); writes frames every `frame_interval` and robot samples every
-    `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
+    """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`RobotStepper`, e.g. the RFT terrain's
+    :class:`terrasph.robots.rft_terrain.RFTCoupling`) to `t_end` (s); writes frames (if the stepper
+    has any) every `frame_interval` and robot samples every `series_interval` (s) to `output` (HDF5)
+    if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
     `memory` (plain data), which is checkpointed with the run. Returns the run's series by group
     name (``robot/…``, ``diagnostics``, ``walls/…``; the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
@@ -170,15 +171,13 @@ def run_coupled(coupled: CoupledSimulation, t_end: float, *, output: str | os.Pa
     # the loop checks them too, under its own names: these are the caller's
     check_run_options({"frame_interval": frame_interval, "series_interval": series_interval}, checkpoint_every,
                       resume, output)
-    sim = coupled.sim
+    walls = WallLoads(coupled.sim) if isinstance(coupled, CoupledSimulation) else None
     if not resume:  # the first sample's means start now
-        sim.reset_body_means()
-        sim.reset_wall_load_means()
-    describe = {**sim.describe(), "robot": {"couplings": {b.name: {"shape": b.shape.name, "width": b.width}
-                                                          for b in coupled.robot.coupled},
-                                            "mujoco": mujoco.__version__}}
-    walls = WallLoads(sim)
+        coupled.reset_body_means()
+        if walls:
+            coupled.sim.reset_wall_load_means()
     loop = RunLoop(ControlledRun(coupled, control, {} if memory is None else memory), output, frame_interval,
-                   series_interval, [RobotLoads(coupled), *([walls] if walls.groups else [])], config or describe,
-                   {**versions(), "mujoco": mujoco.__version__}, checkpoint_every, progress)
+                   series_interval, [RobotLoads(coupled), *([walls] if walls and walls.groups else [])],
+                   config or coupled.describe(), {**versions(), "mujoco": mujoco.__version__}, checkpoint_every,
+                   progress)
     return loop.run(t_end, resume).series

@@ -95,6 +95,11 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
                "horizontal plate pushed into a bed and pulled out",
                "A horizontal plate pushed down into a settled bed of glass beads at constant speed, then pulled "
                "up; vertical force against depth."),
+    SceneEntry("plate-drag", "plate_drag", "terrasph.scenes.plate_drag", "PlateDrag", "run_plate_drag",
+               "a plate moved at an attack angle through a bed (resistive force theory's experiment)",
+               "A plate at attack angle beta moved in direction gamma at constant speed through a settled bed of "
+               "glass beads; the stress per unit depth alpha_x, alpha_z that calibrates resistive force theory "
+               "(docs/rft.md)."),
     SceneEntry("leg-wheel", "leg_wheel", "terrasph.robots.leg_wheel", "LegWheel", "run_leg_wheel",
                "hybrid leg-wheel driven through glass beads (dissertation ch. 4)",
                "One leg-wheel, free in x and z, carrying a load, paused and then driven clockwise by a motor "

@@ -12,13 +12,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from terrasph import bodies
+from terrasph import bodies, rft
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
 from terrasph.geometry import wall_layers_needed
@@ -85,6 +86,10 @@ class LegRotation:
     t_end: float | None = shared("t_end", None, default_text="the end of the sweep, settle_time + sweep angle / omega")
     fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help('leg-rotation'))
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and terrasph.Numerics
+    terrain: str = option("sph", choices=rft.TERRAINS, help="the SPH bed, or resistive force theory on a flat "
+                                                           "surface (terrasph.rft, docs/rft.md)")
+    rft_table: str = option("generic", help='terrain rft: the coefficient map, "generic" or a JSON table '
+                                            "(terrasph rft-calibrate)")
 
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
@@ -114,6 +119,10 @@ class LegRotation:
         if not (math.isfinite(self.hip_height) and -self.bed_depth < self.hip_height < self.leg_length):
             raise ConfigError(f"parameter 'hip_height' = {self.hip_height!r} is invalid: allowed between "
                               f"-bed_depth and leg_length (the leg must reach the sand)")
+        if self.terrain not in rft.TERRAINS:
+            raise ConfigError(f"parameter 'terrain' = {self.terrain!r} is invalid: allowed one of {', '.join(rft.TERRAINS)}")
+        if self.terrain == "rft":
+            rft.coefficient_table(self.rft_table)  # an unknown name or a malformed file, before any work
 
     @property
     def grid_spacing(self) -> float:
@@ -235,6 +244,8 @@ def run_leg_rotation(config: LegRotation = LegRotation(), *, output: str | os.Pa
     ``resume=True`` continues the run in `output` from its checkpoint; ``until`` replaces the end
     time (see :meth:`terrasph.simulation.Simulation.run`).
     """
+    if config.terrain == "rft":
+        return _run_rft_leg_rotation(config, output, plot)
     scene, material, numerics = build_leg_rotation(config)
     sim = Simulation(scene, material, numerics, width=config.width)
     interval = 1.0 / (config.samples_per_radian * config.omega)
@@ -246,13 +257,62 @@ def run_leg_rotation(config: LegRotation = LegRotation(), *, output: str | os.Pa
     turning = series["time"] > config.settle_time + 1e-9
     result = LegResult(series["angle"][turning], series["force"][turning, 1], series["force"][turning, 0],
                        series["torque"][turning], config, len(sim.mass), sim.leaked_particles, run)
-    if output is not None:
-        write_results(output, result.summary())
-        if plot:
-            from terrasph import plotting
+    _finish(result, output, plot, f"ω = {config.omega:g} rad/s, Δx = {1e3 * config.grid_spacing:.2f} mm")
+    return result
 
-            png = Path(output).with_suffix(".png")
-            plotting.plot_leg_loads([(result.theta, result.lift, result.thrust, config.leg)], path=png,
-                                    title=f"ω = {config.omega:g} rad/s, Δx = {1e3 * config.grid_spacing:.2f} mm")
-            result.plot = os.fspath(png)
+
+def _finish(result: LegResult, output: str | os.PathLike | None, plot: bool, title: str) -> None:
+    """Writes the summary into the run file and, with `plot`, the PNG of lift and thrust beside it."""
+    if output is None:
+        return
+    write_results(output, result.summary())
+    if plot:
+        from terrasph import plotting
+
+        png = Path(output).with_suffix(".png")
+        plotting.plot_leg_loads([(result.theta, result.lift, result.thrust, result.config.leg)], path=png, title=title)
+        result.plot = os.fspath(png)
+
+
+def _run_rft_leg_rotation(config: LegRotation, output: str | os.PathLike | None, plot: bool) -> LegResult:
+    """The sweep on the RFT terrain (terrasph.rft): the hip ``hip_height`` above a flat surface at z = 0,
+    the load at the middle of each sample interval of the prescribed rotation (RFT is quasi-static: no
+    settling, no state). The run file holds the same ``/series/bodies/leg`` as the SPH's."""
+    from terrasph.io import RunWriter
+    from terrasph.simulation import versions
+
+    start = time.perf_counter()
+    try:
+        elements = rft.SurfaceElements.from_shape(config.shape(), width=config.width)
+    except ValueError as error:
+        raise ConfigError(f"leg geometry: {error}") from None
+    table = rft.coefficient_table(config.rft_table)
+    sweep = config.end_angle - config.start_angle
+    count = max(1, round(config.samples_per_radian * sweep))
+    theta = config.start_angle + (np.arange(count) + 0.5) * sweep / count
+    hip = (0.0, config.hip_height)
+    reach = min(float((elements.centre @ bodies.rotation_matrix(a).T)[:, 1].min()) for a in theta) + config.hip_height
+    if reach >= 0:
+        raise ConfigError(f"parameter 'hip_height' = {config.hip_height!r} is invalid for the RFT terrain: no element "
+                          "of the leg's surface goes below the free surface during the sweep")
+    loads = [rft.body_load(elements, a, hip, np.zeros(2), config.omega, 0.0, table) for a in theta]
+    force = np.array([load.force for load in loads])
+    torque = np.array([load.torque for load in loads])
+    times = config.settle_time + (theta - config.start_angle) / config.omega
+    wall = time.perf_counter() - start
+    if output is not None:
+        describe = {"scene": "leg-rotation", "leg_rotation": dataclasses.asdict(config),
+                    "rft": {"elements": len(elements), "source": table.source, "zeta": table.zeta}}
+        with RunWriter(output, describe, versions=versions()) as writer:
+            for k in range(count):
+                writer.append_series("bodies/leg", {"time": times[k], "angle": theta[k], "force": force[k],
+                                                    "torque": torque[k]})
+            writer.set_attrs("/run", {"status": "completed", "time": config.duration, "steps": count,
+                                      "wall_time": time.perf_counter() - start})
+    run = RunResult(time=config.duration, steps=count, wall_time=wall, frames=0,
+                    output=None if output is None else os.fspath(output), status="completed",
+                    bodies={"leg": {"time": times, "angle": theta, "force": force, "torque": torque}})
+    result = LegResult(theta, force[:, 1], force[:, 0], torque, config, 0, 0, run)
+    _finish(result, output, plot, f"RFT ({table.source or config.rft_table}, ζ = {table.zeta:.3g} N/m³), "
+                                  f"ω = {config.omega:g} rad/s")
     return result

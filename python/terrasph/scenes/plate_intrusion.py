@@ -31,7 +31,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -67,9 +67,33 @@ FIT_FROM_DEPTH = 0.01
 RESOLUTIONS: dict[str, float] = {"coarse": 0.0025, "fine": 0.002, "finer": 0.0016}
 
 
+class PlateConfig:
+    """What the plate scenes' configurations share (plate-intrusion, plate-drag): the numerics at
+    their `spacing` and fidelity tier with their `numerics` overrides, and the plate's thickness."""
+
+    SCENE: ClassVar[str]  #: the registered scene, whose fidelity tiers apply
+    spacing: float
+    thickness: float | None
+    fidelity: str
+    numerics: dict[str, Any]
+
+    def build_numerics(self) -> Numerics:
+        """terrasph.Numerics at this spacing and fidelity with the overrides applied."""
+        return scene_numerics(self.SCENE, self.fidelity, self.spacing, overrides=self.numerics)
+
+    @property
+    def plate_thickness(self) -> float:
+        """Thickness as given, or the least allowed: ceil(2·h_factor) rows of Δx."""
+        if self.thickness is not None:
+            return self.thickness
+        return bodies.minimum_thickness(self.spacing, self.build_numerics().h_factor)
+
+
 @dataclass(frozen=True)
-class PlateIntrusion:
+class PlateIntrusion(PlateConfig):
     """Configuration of a plate intrusion. Lengths in m, times in s, speeds in m/s."""
+
+    SCENE: ClassVar[str] = "plate-intrusion"
 
     speed: float = option(0.02, help="plate speed, down then up", unit="m/s")
     max_depth: float = option(0.04, help="depth of the plate's underside below the free surface at the turn",
@@ -152,22 +176,11 @@ class PlateIntrusion:
         """The chapter 3 glass beads (``glass_beads()``) under the configured constitutive model."""
         return dataclasses.replace(glass_beads(), model=self.model)
 
-    def build_numerics(self) -> Numerics:
-        """terrasph.Numerics at this spacing and fidelity with the overrides applied."""
-        return scene_numerics("plate-intrusion", self.fidelity, self.spacing, overrides=self.numerics)
-
     def footprint(self) -> Footprint:
         """The bed and the plate, the container's floor and sides (size guard)."""
         return Footprint(self.spacing, self.bed_width * self.bed_depth + self.plate_length * self.plate_thickness,
                          self.bed_width + 2.0 * (self.bed_depth + WALL_FREEBOARD), self.end_time, self.material(),
                          self.build_numerics())
-
-    @property
-    def plate_thickness(self) -> float:
-        """Thickness as given, or the least allowed: ceil(2·h_factor) rows of Δx."""
-        if self.thickness is not None:
-            return self.thickness
-        return bodies.minimum_thickness(self.spacing, self.build_numerics().h_factor)
 
     @property
     def buried(self) -> bool:

@@ -1,0 +1,418 @@
+"""Resistive force theory (RFT) in the plane: granular forces on any terrasph body shape in microseconds.
+
+RFT (Li, Zhang & Goldman 2013, Science 339:1408) cuts the body's surface into small elements and
+gives each one below the free surface z_s, at depth d = z_s − z, the stress
+
+    σ_x = −s·α_x(β, γ)·d,    σ_z = α_z(β, γ)·d          (Li et al. 2013, Eq. 1; s = sign of v_x)
+
+so an element of length ℓ and width w feels F = σ ℓ w. The angles follow Li et al.'s Fig. 2, written
+here in terrasph's frame (x forward, z up) for an element moving with v_x ≥ 0 (one moving backward is
+mirrored x → −x, which flips the sign of its F_x: the s above):
+
+* β ∈ [−π/2, π/2], the element's angle from the horizontal, counter-clockwise: its tangent is
+  (cos β, sin β), so β > 0 is a plate whose front edge is raised;
+* γ ∈ [−π/2, π/2], the direction of its velocity below the horizontal: v ∥ (cos γ, −sin γ), so
+  γ = π/2 is straight down (intrusion) and γ = −π/2 straight up (extraction).
+
+Each face of the body is its own element (Li et al. treat the two faces of a thin plate alike): only a
+*leading* face, whose outward normal n has n·v > 0, pushes grains and is loaded; a trailing face
+leaves a cavity. With these conventions the generic map below has the published properties that the
+tests check: a horizontal plate pushed down meets α_z(0, π/2) = 1 (the map's normalisation, so ζ is
+that plate's stress per unit depth), pulled up a quarter of it, −0.25; a horizontal drag is resisted
+(α_x(β, 0) > 0 for every β) and lifts (α_z(0, 0) = 0.375); vertical intrusion is mirror-symmetric
+(α_z even, α_x odd in β at γ = ±π/2).
+
+**The coefficient map** is Li et al.'s discrete Fourier fit (their supplementary Eq. S2, m ∈ {−1, 0, 1},
+n ∈ {0, 1}), with α = ζ·α̂:
+
+    α̂_z = A00 + A10 cos 2β + B11 sin(2β + γ) + B01 sin γ + B−11 sin(−2β + γ)
+    α̂_x = C11 cos(2β + γ) + C01 cos γ + C−11 cos(−2β + γ) + D10 sin 2β
+
+The *generic* coefficients (their Table S2: A00 = 0.206, A10 = 0.169, B11 = 0.212, B01 = 0.358,
+B−11 = 0.055, C11 = −0.124, C01 = 0.253, C−11 = 0.007, D10 = 0.088) fit every dry medium they tested
+up to the scale ζ. Li et al. state α and ζ in N/cm³; terrasph works in SI, N/m³ (1 N/cm³ = 10⁶ N/m³).
+A coefficient table (:class:`RFTCoefficients`) holds the nine dimensionless coefficients normalised so
+that α̂_z(0, π/2) = 1, and ζ in N/m³; the default ζ of the chapter 3 glass beads is the SPH's own
+(:data:`GLASS_BEADS_ZETA`). A table fitted to other data (``terrasph rft-calibrate``) is a JSON file
+(:func:`save_coefficients`, :func:`load_coefficients`).
+
+**Geometry** (:class:`SurfaceElements`) is read from :attr:`terrasph.bodies.BodyShape.outline` only:
+each loop is cut at its corners and resampled into chords of about ``element_length``; where loops
+overlap (a leg-wheel's spokes at the hub) the parts of a loop inside another are dropped, so only the
+body's outer surface is loaded.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import pathlib
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from terrasph.bodies import BodyShape
+from terrasph.config import ConfigError
+
+__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "REGULARISATION_SPEED", "TABLE_FORMAT", "TERRAINS",
+           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "coefficient_table", "fit_coefficients",
+           "fourier_basis", "load_coefficients", "map_correlation", "save_coefficients"]
+
+#: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
+TERRAINS = ("sph", "rft")
+
+#: the nine Fourier coefficients of Li et al. 2013 (Eq. S2), in the order of :func:`fourier_basis`
+COEFFICIENT_NAMES = ("A00", "A10", "B11", "B01", "Bm11", "C11", "C01", "Cm11", "D10")
+
+#: ζ of the chapter 3 glass beads (N/m³): the SPH's stress per unit depth on a horizontal plate pushed
+#: down, k/(L W) = 247.9 N/m / (0.04 m × 0.0254 m) (α = 15.2 ρ0 g; docs/benchmarks.md, plate intrusion)
+GLASS_BEADS_ZETA = 2.44e5
+
+#: the ``format`` entry of a coefficient table file
+TABLE_FORMAT = "terrasph-rft-coefficients"
+
+
+@dataclass(frozen=True)
+class RFTCoefficients:
+    """An RFT coefficient map: α = ζ·α̂(β, γ) with α̂ the Fourier series of the module docstring.
+
+    The nine coefficients are dimensionless, normalised so that α̂_z(0, π/2) = 1 (a horizontal plate
+    pushed straight down); `zeta` ζ is that plate's stress per unit depth in N/m³.
+    """
+
+    A00: float
+    A10: float
+    B11: float
+    B01: float
+    Bm11: float
+    C11: float
+    C01: float
+    Cm11: float
+    D10: float
+    zeta: float = GLASS_BEADS_ZETA
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        for name in (*COEFFICIENT_NAMES, "zeta"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError(f"RFT coefficient '{name}' = {value!r} is invalid: allowed a finite number")
+        if not self.zeta > 0:
+            raise ConfigError(f"RFT coefficient 'zeta' = {self.zeta!r} is invalid: allowed > 0 (N/m³)")
+
+    @property
+    def vector(self) -> np.ndarray:
+        """The nine coefficients in :data:`COEFFICIENT_NAMES` order."""
+        return np.array([getattr(self, name) for name in COEFFICIENT_NAMES])
+
+    def with_zeta(self, zeta: float) -> RFTCoefficients:
+        """The same map with another scale ζ (N/m³)."""
+        return RFTCoefficients(*self.vector, zeta=zeta, source=self.source)
+
+    def alpha(self, beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """(α_x, α_z) in N/m³ at the angles of the module docstring (β, γ in [−π/2, π/2])."""
+        ax, az, _, _ = _alpha_hat(self.vector, *_trig(beta, gamma))
+        return self.zeta * ax, self.zeta * az
+
+
+def _trig(beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, ...]:
+    """cos 2β, sin 2β, cos γ, sin γ."""
+    b, g = np.asarray(beta, dtype=float), np.asarray(gamma, dtype=float)
+    return np.cos(2 * b), np.sin(2 * b), np.cos(g), np.sin(g)
+
+
+def fourier_basis(beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+    """The terms multiplying each coefficient of :data:`COEFFICIENT_NAMES` in α̂_x and α̂_z: two
+    (..., 9) arrays, so α̂ = basis @ coefficients (the series is linear in them, so a least-squares
+    fit is linear)."""
+    trig = np.broadcast_arrays(*_trig(beta, gamma))
+    columns = [_alpha_hat(unit, *trig)[:2] for unit in np.eye(len(COEFFICIENT_NAMES))]
+    return np.stack([x for x, _ in columns], axis=-1), np.stack([z for _, z in columns], axis=-1)
+
+
+#: Li, Zhang & Goldman 2013 (Science 339:1408), supplementary Table S2: the generic coefficients,
+#: here with the chapter 3 glass beads' ζ (GLASS_BEADS_ZETA)
+GENERIC = RFTCoefficients(0.206, 0.169, 0.212, 0.358, 0.055, -0.124, 0.253, 0.007, 0.088,
+                          source="Li, Zhang & Goldman 2013, Science 339:1408, Table S2 (generic)")
+
+
+# ---------------------------------------------------------------------------------------------
+# coefficient tables
+
+def save_coefficients(table: RFTCoefficients, path: str | os.PathLike[str], **extra: Any) -> pathlib.Path:
+    """Writes `table` as JSON (with its units; `extra` entries, e.g. the fit's quality, are kept)."""
+    out = pathlib.Path(path)
+    document = {"format": TABLE_FORMAT, "version": 1,
+                "units": {"zeta": "N/m^3", "coefficients": "1 (alpha / zeta)"},
+                "zeta": table.zeta, "coefficients": {name: getattr(table, name) for name in COEFFICIENT_NAMES},
+                "source": table.source, **extra}
+    out.write_text(json.dumps(document, indent=2) + "\n")
+    return out
+
+
+def load_coefficients(path: str | os.PathLike[str]) -> RFTCoefficients:
+    """Reads a table written by :func:`save_coefficients`; ConfigError naming what is wrong."""
+    try:
+        document = json.loads(pathlib.Path(path).read_text())
+    except OSError as error:
+        raise ConfigError(f"RFT coefficient table '{path}' cannot be read: {error.strerror}") from None
+    except json.JSONDecodeError as error:
+        raise ConfigError(f"RFT coefficient table '{path}' is not JSON: {error.msg} (line {error.lineno})") from None
+    if not isinstance(document, dict) or document.get("format") != TABLE_FORMAT:
+        raise ConfigError(f"RFT coefficient table '{path}' is malformed: allowed a JSON object with "
+                          f"\"format\": \"{TABLE_FORMAT}\"")
+    coefficients = document.get("coefficients")
+    if not isinstance(coefficients, dict) or set(coefficients) != set(COEFFICIENT_NAMES) or "zeta" not in document:
+        raise ConfigError(f"RFT coefficient table '{path}' is malformed: allowed \"zeta\" (N/m^3) and "
+                          f"\"coefficients\" with exactly {', '.join(COEFFICIENT_NAMES)}")
+    try:
+        return RFTCoefficients(**{name: coefficients[name] for name in COEFFICIENT_NAMES}, zeta=document["zeta"],
+                               source=str(document.get("source", path)))
+    except ConfigError as error:
+        raise ConfigError(f"RFT coefficient table '{path}': {error}") from None
+
+
+def coefficient_table(name: str | RFTCoefficients, zeta: float | None = None) -> RFTCoefficients:
+    """A coefficient map by name: ``"generic"`` (:data:`GENERIC`) or the path of a JSON table; an
+    optional `zeta` (N/m³) replaces its scale. ConfigError for an unknown name."""
+    if isinstance(name, RFTCoefficients):
+        table = name
+    elif name == "generic":
+        table = GENERIC
+    elif isinstance(name, (str, os.PathLike)) and pathlib.Path(name).suffix == ".json":
+        table = load_coefficients(name)
+    else:
+        raise ConfigError(f"parameter 'rft_table' = {name!r} is invalid: allowed 'generic' or the path of a "
+                          "JSON coefficient table (terrasph rft-calibrate)")
+    if zeta is None:
+        return table
+    if isinstance(zeta, bool) or not isinstance(zeta, (int, float)) or not (math.isfinite(zeta) and zeta > 0):
+        raise ConfigError(f"parameter 'rft_zeta' = {zeta!r} is invalid: allowed a finite number > 0 (N/m³)")
+    return table.with_zeta(float(zeta))
+
+
+# ---------------------------------------------------------------------------------------------
+# geometry
+
+#: a loop's direction changing by more than this (rad) at a vertex makes the vertex a corner, kept
+#: exactly when the loop is resampled
+_CORNER_ANGLE = math.radians(20.0)
+
+
+def _winding(points: np.ndarray, loops: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Sum over `loops` of each point's winding number (counter-clockwise +1; Sunday's crossing rule):
+    > 0 inside the body the loops bound (outer loops counter-clockwise, holes clockwise)."""
+    total = np.zeros(len(points), dtype=np.int64)
+    px, pz = points[:, 0:1], points[:, 1:2]
+    for loop in loops:
+        a, b = loop, np.roll(loop, -1, axis=0)
+        left = (b[:, 0] - a[:, 0]) * (pz - a[:, 1]) - (px - a[:, 0]) * (b[:, 1] - a[:, 1])
+        up = (a[:, 1] <= pz) & (b[:, 1] > pz) & (left > 0)
+        down = (a[:, 1] > pz) & (b[:, 1] <= pz) & (left < 0)
+        total += up.sum(axis=1) - down.sum(axis=1)
+    return total
+
+
+def _resampled(loop: np.ndarray, length: float) -> np.ndarray:
+    """The closed `loop` as chords of about `length`: cut at its corners, each run between two corners
+    divided into equal arc-length parts (vertices returned in loop order, last not repeated)."""
+    edges = np.roll(loop, -1, axis=0) - loop
+    heading = np.arctan2(edges[:, 1], edges[:, 0])
+    turn = np.abs(np.remainder(heading - np.roll(heading, 1) + math.pi, 2 * math.pi) - math.pi)
+    corners = np.flatnonzero(turn > _CORNER_ANGLE)
+    if len(corners) == 0:
+        corners = np.array([0])
+    out = []
+    n = len(loop)
+    for k, start in enumerate(corners):
+        steps = (corners[(k + 1) % len(corners)] - start) % n or n
+        run = loop[(start + np.arange(steps + 1)) % n]
+        arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(run, axis=0).T))]
+        parts = max(1, math.ceil(arc[-1] / length - 1e-9))
+        s = np.linspace(0.0, arc[-1], parts + 1)[:-1]
+        out.append(np.column_stack([np.interp(s, arc, run[:, 0]), np.interp(s, arc, run[:, 1])]))
+    return np.concatenate(out)
+
+
+@dataclass(frozen=True)
+class SurfaceElements:
+    """The outer surface of a body shape as RFT elements in its own frame.
+
+    Attributes:
+        centre: (E, 2) element midpoints (m).
+        normal: (E, 2) unit outward normals (into the sand).
+        length: (E,) element lengths (m).
+        width: out-of-plane width (m) the loads are computed for.
+    """
+
+    centre: np.ndarray
+    normal: np.ndarray
+    length: np.ndarray
+    width: float
+
+    @classmethod
+    def from_shape(cls, shape: BodyShape, element_length: float | None = None,
+                   width: float | None = None) -> SurfaceElements:
+        """Elements of about `element_length` (m; default R/40 of the shape) from ``shape.outline``;
+        ConfigError if the shape has no outline or a bad length."""
+        if not shape.outline:
+            raise ConfigError(f"shape {shape.name!r} has no outline: RFT reads the body's outline "
+                              "(terrasph.bodies.BodyShape.outline)")
+        length = shape.radius / 40.0 if element_length is None else element_length
+        if isinstance(length, bool) or not isinstance(length, (int, float)) or not (0 < length <= shape.radius):
+            raise ConfigError(f"parameter 'element_length' = {element_length!r} is invalid: allowed (0, "
+                              f"{shape.radius:g}] m (at most the shape's radius)")
+        width = shape.width if width is None else width
+        if not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
+            raise ConfigError(f"parameter 'width' = {width!r} is invalid: allowed a finite number > 0 (m)")
+        loops = tuple(_resampled(loop, length) for loop in shape.outline)
+        centres, normals, lengths = [], [], []
+        for a in loops:
+            e = np.roll(a, -1, axis=0) - a
+            ell = np.hypot(e[:, 0], e[:, 1])
+            keep = ell > 0
+            centres.append((a + 0.5 * e)[keep])
+            normals.append((np.column_stack([e[:, 1], -e[:, 0]]) / np.where(ell > 0, ell, 1.0)[:, None])[keep])
+            lengths.append(ell[keep])
+        centre, normal, ell = np.concatenate(centres), np.concatenate(normals), np.concatenate(lengths)
+        # a face just outside which lies body (another loop's inside) is internal: drop it
+        probe = centre + 1e-4 * length * normal
+        outer = _winding(probe, loops) <= 0
+        if not outer.any():
+            raise ConfigError(f"shape {shape.name!r} has no outer surface (every outline face lies inside another loop)")
+        return cls(centre[outer], normal[outer], ell[outer], float(width))
+
+    def __len__(self) -> int:
+        return len(self.length)
+
+
+#: Speed (m/s) below which a leading face's load fades linearly to zero with its normal speed n·v: the
+#: one regularisation of the rate-independent map, so that the load is continuous in the velocity
+#: (a face turning from leading to trailing, a body coming to rest) and a robot's step can treat it
+#: implicitly (terrasph.robots.rft_terrain). 0.1 mm/s is far below the speeds of the scenes (cm/s); a body
+#: resting on the sand creeps at most this fast.
+REGULARISATION_SPEED = 1e-4
+
+
+def _alpha_hat(c: np.ndarray, cos2b: np.ndarray, sin2b: np.ndarray, cosg: np.ndarray,
+               sing: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """α̂_x, α̂_z and their derivatives in γ from the coefficients `c` (COEFFICIENT_NAMES order) and the
+    trigonometric values of 2β and γ: the series of the module docstring with its sums of angles
+    expanded (sin(2β ± γ) = sin 2β cos γ ± cos 2β sin γ, ...)."""
+    a00, a10, b11, b01, bm11, c11, c01, cm11, d10 = c
+    az = a00 + a10 * cos2b + (b11 - bm11) * sin2b * cosg + (b11 + bm11) * cos2b * sing + b01 * sing
+    daz = -(b11 - bm11) * sin2b * sing + (b11 + bm11) * cos2b * cosg + b01 * cosg
+    ax = (c11 + cm11) * cos2b * cosg + (cm11 - c11) * sin2b * sing + c01 * cosg + d10 * sin2b
+    dax = -(c11 + cm11) * cos2b * sing + (cm11 - c11) * sin2b * cosg - c01 * sing
+    return ax, az, dax, daz
+
+
+@dataclass(frozen=True)
+class BodyLoad:
+    """The RFT load on a body: `force` (F_x, F_z) N, clockwise `torque` N·m about its origin and, if
+    asked for, `jacobian` ∂(F_x, F_z, τ)/∂(v_x, v_z, ω) (3 × 3, SI units) at fixed pose."""
+
+    force: np.ndarray
+    torque: float
+    jacobian: np.ndarray | None = None
+
+
+def body_load(elements: SurfaceElements, angle: float, origin: tuple[float, float] | np.ndarray,
+              velocity: np.ndarray, omega: float, surface: float, table: RFTCoefficients, *,
+              regularisation: float = REGULARISATION_SPEED, jacobian: bool = False) -> BodyLoad:
+    """RFT load on a body at pose (`angle` clockwise, `origin`) moving with `velocity` (v_x, v_z) m/s at
+    its origin and spinning at `omega` rad/s clockwise, for a flat free surface at z = `surface`.
+
+    Each element below the surface with outward normal n and velocity v (v + ω (r_z, −r_x) at arm r)
+    takes σ ℓ w with σ of the module docstring, times min(1, n·v / `regularisation`) for n·v > 0 (0
+    for a trailing face; `regularisation` = 0: the bare map). The torque is Σ (r × F)_y = r_z F_x −
+    r_x F_z (terrasph.robots.mjcf's convention). With `jacobian`, also the load's derivative in the
+    body's velocity: through γ (∂γ/∂v = s (v_z, −v_x)/|v|², γ = atan2(−v_z, s v_x)) and through the
+    regularisation (∂/∂v (n·v/v_ε) = n/v_ε).
+    """
+    c, s_ = math.cos(angle), math.sin(angle)
+    rot = np.array([[c, s_], [-s_, c]])  # terrasph.bodies.rotation_matrix (clockwise)
+    arm = elements.centre @ rot.T
+    depth = surface - arm[:, 1] - float(origin[1])
+    below = depth > 0
+    arm, depth = arm[below], depth[below]
+    normal = elements.normal[below] @ rot.T
+    vx = float(velocity[0]) + omega * arm[:, 1]  # v + ω (r_z, −r_x)
+    vz = float(velocity[1]) - omega * arm[:, 0]
+    normal_speed = normal[:, 0] * vx + normal[:, 1] * vz
+    lead = normal_speed > 0
+    if not lead.any():
+        return BodyLoad(np.zeros(2), 0.0, np.zeros((3, 3)) if jacobian else None)
+    arm, depth, normal, vx, vz, normal_speed = (arm[lead], depth[lead], normal[lead], vx[lead], vz[lead],
+                                                normal_speed[lead])
+    sign = np.where(vx < 0, -1.0, 1.0)  # faces moving backward are mirrored x → −x
+    speed = np.hypot(vx, vz)
+    cosg, sing = sign * vx / speed, -vz / speed
+    # the leading face's tangent (n_z, −s n_x) = (cos β, sin β) up to sign; 2β is blind to the sign
+    tx, tz = normal[:, 1], -sign * normal[:, 0]
+    cos2b, sin2b = tx * tx - tz * tz, 2.0 * tx * tz
+    ax, az, dax, daz = _alpha_hat(table.vector, cos2b, sin2b, cosg, sing)
+    weight = table.zeta * depth * elements.length[below][lead] * elements.width
+    raw = np.stack([-sign * ax, az], axis=1) * weight[:, None]  # the bare map's force per element
+    fade = np.minimum(1.0, normal_speed / regularisation) if regularisation > 0 else np.ones_like(depth)
+    element_force = raw * fade[:, None]
+    force = element_force.sum(axis=0)
+    torque = float(np.sum(arm[:, 1] * element_force[:, 0] - arm[:, 0] * element_force[:, 1]))
+    if not jacobian:
+        return BodyLoad(force, torque)
+    # per element ∂F/∂v (2 × 2): the map's change with γ, then the regularisation's ramp
+    dgamma = np.column_stack([sign * vz, -sign * vx]) / (speed * speed)[:, None]
+    draw = np.stack([-sign * dax, daz], axis=1) * weight[:, None]
+    ramp = normal_speed < regularisation
+    dfade = np.where(ramp[:, None], normal / regularisation, 0.0) if regularisation > 0 else np.zeros_like(normal)
+    element_jacobian = (draw[:, :, None] * dgamma[:, None, :] * fade[:, None, None]
+                        + raw[:, :, None] * dfade[:, None, :])
+    # the element's velocity is T ξ with ξ = (v_x, v_z, ω), T = [[1, 0, r_z], [0, 1, −r_x]]
+    to_element = np.zeros((len(arm), 2, 3))
+    to_element[:, 0, 0] = to_element[:, 1, 1] = 1.0
+    to_element[:, 0, 2], to_element[:, 1, 2] = arm[:, 1], -arm[:, 0]
+    return BodyLoad(force, torque, np.einsum("eia,eij,ejb->ab", to_element, element_jacobian, to_element))
+
+
+# ---------------------------------------------------------------------------------------------
+# calibration
+
+#: the (β, γ) grid on which two maps are compared (:func:`map_correlation`): 31 × 31 over [−π/2, π/2]²
+_COMPARISON_GRID = np.meshgrid(np.linspace(-math.pi / 2, math.pi / 2, 31), np.linspace(-math.pi / 2, math.pi / 2, 31))
+
+
+def fit_coefficients(beta: np.ndarray, gamma: np.ndarray, alpha_x: np.ndarray, alpha_z: np.ndarray,
+                     source: str = "") -> tuple[RFTCoefficients, dict[str, float]]:
+    """Least-squares fit of the nine Fourier coefficients to measured stresses per unit depth α_x,
+    α_z (N/m³) at attack angles β and directions γ (rad, the module docstring's convention), both
+    components in one linear system (:func:`fourier_basis`); returned normalised (α̂_z(0, π/2) = 1,
+    ζ the fitted map's value there) with the fit's quality: ``rms_residual`` over ``rms_measured``
+    (N/m³) and the ``points`` used. ConfigError with fewer than 9 points or an unusable fit."""
+    beta, gamma, alpha_x, alpha_z = (np.asarray(v, dtype=float).ravel() for v in (beta, gamma, alpha_x, alpha_z))
+    if not len(beta) == len(gamma) == len(alpha_x) == len(alpha_z) or len(beta) < len(COEFFICIENT_NAMES):
+        raise ConfigError(f"an RFT fit needs at least {len(COEFFICIENT_NAMES)} measured (β, γ, α_x, α_z) points of "
+                          f"equal count; got {len(beta)}")
+    basis_x, basis_z = fourier_basis(beta, gamma)
+    matrix = np.vstack([basis_x, basis_z])
+    measured = np.concatenate([alpha_x, alpha_z])
+    raw, *_ = np.linalg.lstsq(matrix, measured, rcond=None)
+    zeta = float(fourier_basis(0.0, math.pi / 2)[1] @ raw)
+    if not (math.isfinite(zeta) and zeta > 0):
+        raise ConfigError(f"the fitted map pushes a horizontal plate going down upward (ζ = {zeta:g} N/m³): "
+                          "the points do not determine it")
+    residual = matrix @ raw - measured
+    quality = {"rms_residual": float(np.sqrt(np.mean(residual ** 2))), "rms_measured": float(np.sqrt(np.mean(measured ** 2))),
+               "points": int(len(beta))}
+    return RFTCoefficients(*(raw / zeta), zeta=zeta, source=source), quality
+
+
+def map_correlation(first: RFTCoefficients, second: RFTCoefficients) -> dict[str, float]:
+    """Shape correlation of two maps: Pearson's r of α̂_x and of α̂_z (each map divided by its ζ) over a
+    31 × 31 grid of [−π/2, π/2]² in (β, γ), and the ratio of their scales ζ."""
+    beta, gamma = _COMPARISON_GRID
+    ax1, az1 = first.with_zeta(1.0).alpha(beta, gamma)
+    ax2, az2 = second.with_zeta(1.0).alpha(beta, gamma)
+    return {"r_x": float(np.corrcoef(ax1.ravel(), ax2.ravel())[0, 1]),
+            "r_z": float(np.corrcoef(az1.ravel(), az2.ravel())[0, 1]), "zeta_ratio": first.zeta / second.zeta}
