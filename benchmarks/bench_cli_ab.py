@@ -33,8 +33,6 @@ def run_side(path: str, command: list[str], extra: list[str], out: Path) -> tupl
         env["PYTHONPATH"] = path
     else:
         env.pop("PYTHONPATH", None)
-    if out.exists():
-        out.unlink()
     argv = [sys.executable, "-c", "import sys; from terrasph.cli import main; sys.exit(main())",
             *command, *extra, "--out", str(out), "--no-progress"]
     started = time.perf_counter()
@@ -67,7 +65,7 @@ def main() -> None:
             order = ("A", "B") if index % 2 == 0 else ("B", "A")
             for side in order:
                 path, extra = sides[side]
-                wall, summary = run_side(path, command, extra, Path(scratch) / f"{side}.h5")
+                wall, summary = run_side(path, command, extra, Path(scratch) / f"{side}{index}.h5")
                 walls[side].append(wall)
                 figures = {key: summary[key] for key in args.keys if key in summary}
                 print(f"round {index + 1} {side}: {wall:.1f} s  {json.dumps(figures)}", flush=True)

@@ -44,7 +44,7 @@ from terrasph.simulation import Simulation
 DX = 0.005
 WIDTH, HEIGHT = 0.4, 0.04
 PLATE_HEIGHT = 0.025  # reference above the bed surface: 1.75 cm gap below the 1.5 cm thick plate
-PUSH_START, PUSH_SPEED, PUSH_TIME = 0.1, 0.05, 0.25  # s, m/s, s: 1.25 cm down, to a 0.5 cm gap
+PUSH_START, PUSH_SPEED, PUSH_TIME = 0.15, 0.05, 0.25  # s, m/s, s: 1.25 cm down, to a 0.5 cm gap
 
 
 def bed_with_plate(reference_shift: float = 0.0, **active_domain: float) -> Simulation:

@@ -8,9 +8,9 @@ References and tolerances
   term).
 * Dynamics of a +1 % bump on 4 central particles (20 × 20 lattice, no walls, no gravity, the
   packing's ρ0 with c0 = 18 m/s near the elastic wave's 14 m/s): after 100 steps the measured
-  max|ρ − ρ0|/ρ0 is 0.59 % with δ = 0.1 and 2.8 % with δ = 0 (pure continuity: the acoustic wave
-  rings and focuses). Asserted: with δ the bump is below its initial 1 % and below 1/4 of the
-  δ = 0 value [0.21]. (With Table 2.1's c0 = 89 m/s, five times the wave speed, δ h c0 diffused
+  max|ρ − ρ0|/ρ0 is 0.57 % with δ = 0.1 and 1.6 % with δ = 0 (pure continuity: the acoustic wave
+  rings and focuses). Asserted: with δ the bump is below its initial 1 % and below half the
+  δ = 0 value [0.35; 0.21 with the former α_Π = 0.1]. (With Table 2.1's c0 = 89 m/s, five times the wave speed, δ h c0 diffused
   the bump to 0.09 % within 50 steps: δ-SPH's strength against the waves scales with c0/c.)
 * Masses are never changed by the solver: asserted bitwise (np.array_equal).
 * Total momentum Σ m v with no walls and no gravity: pair forces are antisymmetric, so it is
@@ -70,7 +70,7 @@ def test_density_bump_decays_faster_with_delta_sph(free_block, model) -> None:
         assert np.array_equal(sim.mass, mass0)
         assert float(np.sum(sim.mass)) == total0
     assert deviations[0.1] < 0.01  # below the initial 1 % bump
-    assert deviations[0.1] < 0.25 * deviations[0.0]
+    assert deviations[0.1] < 0.5 * deviations[0.0]
 
 
 @pytest.mark.parametrize("model", ["mu_i_hypoelastic", "mu_i_rate"])

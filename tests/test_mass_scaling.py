@@ -9,8 +9,9 @@ starts close to its lithostatic state and rings in its lowest vertical mode. Ref
   later, within 5 %, and as deep, within 5 % (the static compression does not depend on inertia)
   [17.5 ms, 0.3 %];
 * settled with f = 16 for the same number of bed wave periods (t √f), the bed's vertical stress
-  profile equals the unscaled run's layer by layer within 0.5 % of the deepest layer's stress
-  (equilibrium ∇·σ + ρg = 0 holds whatever the inertia) [0.14 %].
+  profile equals the unscaled run's layer by layer within 1.5 % of the deepest layer's stress
+  (equilibrium ∇·σ + ρg = 0 holds whatever the inertia) [0.72 %; 0.14 % with the artificial
+  viscosity α_Π = 0.1, which damped the bed's settling waves five times as much].
 """
 
 from __future__ import annotations
@@ -82,7 +83,7 @@ def test_the_settled_bed_carries_its_weight_as_without_scaling() -> None:
     scaled.advance(0.2 * 4.0)  # the same number of the bed's (4× longer) wave periods
     expected, got = stress_profile(reference), stress_profile(scaled)
     assert len(got) == len(expected) >= 8
-    assert np.max(np.abs(got - expected)) < 0.005 * expected.max()
+    assert np.max(np.abs(got - expected)) < 0.015 * expected.max()
     assert scaled.leaked_particles == 0
 
 

@@ -65,8 +65,9 @@ class ColumnCollapse:
     friction_angles_deg: tuple[float, float] = option(
         (21.0, 33.0), cli=("mu1-deg", "mu2-deg"), unit="degrees",
         help="friction angle of the mu(I) rheology: --mu1-deg atan(mu1), --mu2-deg atan(mu2) >= it")
-    water_content: float = option(0.0, help="water content w; > 0 gives the wet material of Table 2.1 with "
-                                            "cohesion", unit="kg/kg")
+    #: > 0 gives the wet material of Table 2.1 with cohesion; help and range from the parameter table
+    water_content: float = option(0.0, help=f"{parameter('material.water_content').doc}; allowed "
+                                            f"{parameter('material.water_content').allowed}", unit="kg/kg")
     floor_length: float = option(0.35, help="length of the rough flat floor right of the left wall", unit="m")
     bed: str = option("flat", choices=BEDS, help="bed under the column: flat floor, or a circular or elliptical "
                                                  "trough whose lowest point is at the left wall (Fig. 2.7-2.8)")
