@@ -12,6 +12,7 @@
 // neighbour lists are rebuilt from the positions they were built at, and no rate is recomputed.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -161,6 +162,8 @@ template <int D> class Simulation {
   using ForcePass = void (Simulation::*)(double);
 
   void compose_passes();
+  void compose_stress_passes();
+  void compose_force_pass();
   void step(double dt);
   void apply_due_removals();
   void update_neighbours_if_needed();
@@ -180,7 +183,12 @@ template <int D> class Simulation {
   void wall_velocity_pass();
   template <class Model, int Density> void velocity_gradient_and_stress_pass(double dt);
   template <class Model, int Density> void strain_and_stress_pass(double dt);
-  double advanced_density(double rho, double rate, double dt) const;
+  // ρ + Δt Dρ/Dt, held at the optional floor numerics.density_floor·ρ0: with the tension-free EOS a
+  // grain that separates from the bulk carries no pressure below ρ0 either way; the floor keeps it
+  // from re-entering the bed unresisted. The kicks (Δt/2) and the symplectic update (Δt) use it.
+  double advanced_density(double rho, double rate, double dt) const {
+    return std::max(rho + dt * rate, params_.numerics.density_floor * params_.material.reference_density);
+  }
   void small_strain_pass(VecArray<D>& reference, MatArray<D>& strain, double reference_time);
   template <int Density>
   void add_granular_velocity_gradient(Index i, bool correct, const ForceConstants<D>& constants, Mat<D>& grad,
