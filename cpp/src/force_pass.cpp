@@ -10,14 +10,7 @@
 
 namespace terrasph {
 
-using detail::add_granular_forces;
-using detail::continuity_and_diffusion;
-using detail::continuity_only;
-using detail::density_terms;
-using detail::dispatch_flags;
-using detail::force_constants;
-using detail::no_density_terms;
-using detail::PairBatch;
+using namespace detail;  // the pair passes' shared pieces (pair_loops.hpp)
 
 // The force pass of this run, compiled for its optional terms: where Dρ/Dt is summed, δ-SPH, XSPH,
 // whether the granular–wall pair forces are kept (bodies, tracked wall loads), wall friction.
@@ -194,25 +187,18 @@ void Simulation<D>::add_half_list_pairs(Index i, const ForceConstants<D>& c) {
     const double m_j = p.mass[j];
     const double rho_j = p.density[j];
     const double inv_rho_mean = 2.0 / (rho_i + rho_j);
-    const double pi_ij = term::artificial_viscosity(vij.dot(xij), batch.r2[k], c.h, c.alpha, c.c0, inv_rho_mean);
-    // (σ_i/ρ_i² + σ_j/ρ_j² − Π_ij I)·∇_iW_ij, the momentum term per unit neighbour mass (Eq. 2.45)
-    const Vec<D> t = term::momentum<D>(1.0, si, row_mat<D>(p.stress_over_rho2, j), pi_ij, grad_w);
+    const Vec<D> t = momentum_per_unit_mass<D>(c, si, row_mat<D>(p.stress_over_rho2, j), vij, xij, batch.r2[k], grad_w,
+                                               inv_rho_mean);
     a.noalias() += m_j * t;
-    double drho_i = 0.0, drho_j = 0.0;
-    if constexpr (Density >= continuity_only) {
-      drho_i = term::continuity<D>(m_j, vij, grad_w);
-      drho_j = term::continuity<D>(m_i, vij, grad_w);  // v_ji·∇_jW_ji = v_ij·∇_iW_ij
-    }
-    if constexpr (Density == continuity_and_diffusion) {  // ρ_j − ρ_i + ∇ρ^H·x_ij, antisymmetric
-      const double difference = rho_j - rho_i + c.hydrostatic_gradient.dot(xij);
-      drho_i += term::density_diffusion(c.delta_h_c0, difference, p.volume[j], grad_factor);
-      drho_j += term::density_diffusion(c.delta_h_c0, -difference, volume_i, grad_factor);
-    }
-    r += drho_i;
+    const double difference = dynamic_density_difference<D>(c, rho_i, rho_j, xij);
+    const DensityRatePair<Density> drho_i =
+        density_rate_pair<D, Density>(c, m_j, p.volume[j], difference, vij, grad_w, grad_factor);
+    r += drho_i.total();
     if constexpr (UseXsph) x += term::xsph<D>(c.chi, m_j, inv_rho_mean, batch.value[k], vij);
     if (j_awake) {
       row_vec<D>(p.acceleration, j) -= m_i * t;
-      if constexpr (Density != no_density_terms) p.density_rate[j] += drho_j;
+      if constexpr (Density != no_density_terms)
+        p.density_rate[j] += density_rate_pair<D, Density>(c, m_i, volume_i, -difference, vij, grad_w, grad_factor).total();
       if constexpr (UseXsph)
         row_vec<D>(*xsph_correction_, j) += term::xsph<D>(c.chi, m_i, inv_rho_mean, batch.value[k], Vec<D>(-vij));
     }

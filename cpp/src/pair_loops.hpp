@@ -1,6 +1,7 @@
 // The pieces the pair passes share (stress_pass.cpp, force_pass.cpp): the flags made compile-time,
-// the run's pair constants, the batched kernel evaluation, and the two loop drivers over a grain's
-// pairs (the whole list, gathered; the strips' half list, each pair once). Private to cpp/src.
+// the run's pair constants, the batched kernel evaluation, the loop drivers over a grain's pairs
+// (its whole list, gathered; the strips' half list, each pair once) and the granular pair
+// interactions, each written once for both drivers. Private to cpp/src.
 #pragma once
 
 #include <algorithm>
@@ -75,45 +76,113 @@ void gather_pairs(const WendlandC2<D>& kernel, const std::int32_t* j, int count,
   }
 }
 
-// The granular pairs' share of Dv_i/Dt, the XSPH sum and the Density terms of Dρ_i/Dt of particle
-// i, in list order. A pair beyond the support has W = (dW/dr)/r = 0, so all its terms are exact
-// zeros: adding them is cheaper than a mispredicted branch.
-template <int D, int Density, bool UseXsph>
-void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
-                         const WendlandC2<D>& kernel, const ForceConstants<D>& constants, Vec<D>& acc,
-                         Vec<D>& xsph, double& drho) {
-  namespace term = pair_terms;
-  const ForceConstants<D> c = constants;
-  const Vec<D> xi = row_vec<D>(p.position, i);
-  const Vec<D> vi = row_vec<D>(p.velocity, i);
-  const double rho_i = p.density[i];
-  const Mat<D> si = row_mat<D>(p.stress_over_rho2, i);
-  Vec<D> a = acc, x = xsph;  // local accumulators
-  double r = drho;
+// visit(j, batch, k) for each pair of grain i in `list`, in list order, the kernel of a batch of
+// them evaluated at once (W too when WithValue): the loop driver of every granular pair sum, the
+// gathers over the full list and the each-pair-once sums over the strips' half list.
+template <int D, bool WithValue, class Visit>
+void for_each_listed_pair(Index i, const NeighbourList& list, const WendlandC2<D>& kernel, const VecArray<D>& position,
+                          Visit&& visit) {
+  const Vec<D> xi = row_vec<D>(position, i);
   const Index end = list.offsets[i + 1];
   for (Index first = list.offsets[i]; first < end; first += kPairBatch) {
     const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
     const std::int32_t* js = list.indices.data() + first;
     PairBatch<D> batch;
-    gather_pairs<D, UseXsph>(kernel, js, count, xi, p.position, batch);  // W only for XSPH
-    for (int k = 0; k < count; ++k) {
-      const double grad_factor = batch.gradient_factor[k];
-      const std::int32_t j = js[k];
-      const Vec<D>& xij = batch.x[k];
-      const double r2 = batch.r2[k];
-      const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
-      const Vec<D> vij = vi - row_vec<D>(p.velocity, j);
-      const double m_j = p.mass[j];
-      const double rho_j = p.density[j];
-      const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
-      if constexpr (Density >= continuity_only) r += term::continuity<D>(m_j, vij, grad_w);
-      if constexpr (Density == continuity_and_diffusion)  // x_ji = −x_ij
-        r += term::density_diffusion(c.delta_h_c0, rho_j - rho_i + c.hydrostatic_gradient.dot(xij), p.volume[j], grad_factor);
-      const double pi_ij = term::artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
-      a.noalias() += term::momentum<D>(m_j, si, row_mat<D>(p.stress_over_rho2, j), pi_ij, grad_w);
-      if constexpr (UseXsph) x += term::xsph<D>(c.chi, m_j, inv_rho_mean, batch.value[k], vij);
-    }
+    gather_pairs<D, WithValue>(kernel, js, count, xi, position, batch);
+    for (int k = 0; k < count; ++k) visit(js[k], batch, k);
   }
+}
+
+// ---- The granular pair interactions, each written once. A pass's gather (i's sums over its full
+// list) and its each-pair-once variant (i's and j's sums from the half list) call the same function;
+// j's terms are i's with the pair turned round (x_ji = −x_ij, v_ji = −v_ij, ∇_jW_ji = −∇_iW_ij), so
+// each is the gather's to the bit. A pair beyond the support has W = (dW/dr)/r = 0, so all its terms
+// are exact zeros: adding them is cheaper than a mispredicted branch.
+
+// V_j (f_j − f_i) ⊗ ∇_iW_ij, pair ij's share of the SPH gradient of a field f (Eq. 2.48: f = v for
+// ∇v, with the walls' ghost velocities; f = u for the small strain of Eq. 3.6). With V_i it is the
+// same pair's share for j (f_ij ⊗ ∇_jW_ji = f_ji ⊗ ∇_iW_ij).
+template <int D> Mat<D> gradient_pair(double volume_j, double grad_factor, const Vec<D>& f_ji, const Vec<D>& xij) {
+  return ((volume_j * grad_factor) * f_ji) * xij.transpose();
+}
+
+// V_j x_ij ⊗ ∇_iW_ij, subtracted from the renormalisation matrix M_i = Σ_j V_j x_ji ⊗ ∇_iW_ij
+// (Eq. 2.48).
+template <int D> Mat<D> moment_pair(double volume_j, double grad_factor, const Vec<D>& xij) {
+  return ((volume_j * grad_factor) * xij) * xij.transpose();
+}
+
+// ρ_j − ρ_i + ∇ρ^H·x_ij, the dynamic density difference δ-SPH diffuses (pair_terms::density_diffusion);
+// j's is its negative.
+template <int D>
+double dynamic_density_difference(const ForceConstants<D>& c, double rho_i, double rho_j, const Vec<D>& xij) {
+  return rho_j - rho_i + c.hydrostatic_gradient.dot(xij);
+}
+
+// The Density terms of Dρ_i/Dt from one granular pair (Eq. 2.42–2.43), kept apart so that each
+// driver sums them in its own fixed order: a gather adds them one by one, a pair evaluated once
+// adds their total to i and to j.
+template <int Density> struct DensityRatePair {
+  double continuity = 0.0, diffusion = 0.0;
+  void add_to(double& sum) const {
+    if constexpr (Density >= continuity_only) sum += continuity;
+    if constexpr (Density == continuity_and_diffusion) sum += diffusion;
+  }
+  double total() const {
+    if constexpr (Density == continuity_and_diffusion) return continuity + diffusion;
+    return continuity;
+  }
+};
+
+// Continuity m_j v_ij·∇_iW_ij and, with δ-SPH, the diffusion of the dynamic density difference
+// (Eq. 2.42–2.43) of pair ij for i; for j: (m_i, V_i, −difference) with the same v_ij and ∇_iW_ij
+// (v_ji·∇_jW_ji = v_ij·∇_iW_ij).
+template <int D, int Density>
+DensityRatePair<Density> density_rate_pair(const ForceConstants<D>& c, double m_j, double volume_j, double difference,
+                                           const Vec<D>& vij, const Vec<D>& grad_w, double grad_factor) {
+  DensityRatePair<Density> terms;
+  if constexpr (Density >= continuity_only) terms.continuity = pair_terms::continuity<D>(m_j, vij, grad_w);
+  if constexpr (Density == continuity_and_diffusion)
+    terms.diffusion = pair_terms::density_diffusion(c.delta_h_c0, difference, volume_j, grad_factor);
+  return terms;
+}
+
+// (σ_i/ρ_i² + σ_j/ρ_j² − Π_ij I)·∇_iW_ij, the momentum term of pair ij per unit neighbour mass
+// (Eq. 2.45–2.47): i gains m_j times it, j loses m_i times it.
+template <int D, class MatJ>
+Vec<D> momentum_per_unit_mass(const ForceConstants<D>& c, const Mat<D>& si, const MatJ& sj, const Vec<D>& vij,
+                              const Vec<D>& xij, double r2, const Vec<D>& grad_w, double inv_rho_mean) {
+  const double pi_ij = pair_terms::artificial_viscosity(vij.dot(xij), r2, c.h, c.alpha, c.c0, inv_rho_mean);
+  return pair_terms::momentum<D>(1.0, si, sj, pi_ij, grad_w);
+}
+
+// The granular pairs' share of Dv_i/Dt, the XSPH sum and the Density terms of Dρ_i/Dt of particle
+// i, in list order (the force pass's gather).
+template <int D, int Density, bool UseXsph>
+void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
+                         const WendlandC2<D>& kernel, const ForceConstants<D>& constants, Vec<D>& acc,
+                         Vec<D>& xsph, double& drho) {
+  const ForceConstants<D> c = constants;
+  const Vec<D> vi = row_vec<D>(p.velocity, i);
+  const double rho_i = p.density[i];
+  const Mat<D> si = row_mat<D>(p.stress_over_rho2, i);
+  Vec<D> a = acc, x = xsph;  // local accumulators
+  double r = drho;
+  // W only for XSPH
+  for_each_listed_pair<D, UseXsph>(i, list, kernel, p.position, [&](std::int32_t j, const PairBatch<D>& batch, int k) {
+    const double grad_factor = batch.gradient_factor[k];
+    const Vec<D>& xij = batch.x[k];
+    const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
+    const Vec<D> vij = vi - row_vec<D>(p.velocity, j);
+    const double m_j = p.mass[j];
+    const double rho_j = p.density[j];
+    const double inv_rho_mean = 2.0 / (rho_i + rho_j);  // 1/ρ̄_ij, shared by Π_ij and XSPH
+    density_rate_pair<D, Density>(c, m_j, p.volume[j], dynamic_density_difference<D>(c, rho_i, rho_j, xij), vij,
+                                  grad_w, grad_factor).add_to(r);
+    a.noalias() += m_j * momentum_per_unit_mass<D>(c, si, row_mat<D>(p.stress_over_rho2, j), vij, xij, batch.r2[k],
+                                                   grad_w, inv_rho_mean);
+    if constexpr (UseXsph) x += pair_terms::xsph<D>(c.chi, m_j, inv_rho_mean, batch.value[k], vij);
+  });
   acc = a;
   xsph = x;
   drho = r;
@@ -153,18 +222,11 @@ template <bool WithValue, class Visit>
 bool Simulation<D>::for_each_held_pair(Index i, Visit&& visit) const {
   const bool i_awake = !frozen(i);
   if (!i_awake && !has_awake_half_neighbour(i)) return false;
-  const Vec<D> xi = row_vec<D>(granular_.position, i);
-  const Index end = granular_half_.offsets[i + 1];
-  for (Index first = granular_half_.offsets[i]; first < end; first += detail::kPairBatch) {
-    const int count = static_cast<int>(std::min<Index>(detail::kPairBatch, end - first));
-    const std::int32_t* js = granular_half_.indices.data() + first;
-    detail::PairBatch<D> batch;
-    detail::gather_pairs<D, WithValue>(kernel_, js, count, xi, granular_.position, batch);
-    for (int k = 0; k < count; ++k) {
-      const bool j_awake = !frozen(js[k]);
-      if (i_awake || j_awake) visit(js[k], j_awake, batch, k);
-    }
-  }
+  detail::for_each_listed_pair<D, WithValue>(i, granular_half_, kernel_, granular_.position,
+                                             [&](std::int32_t j, const detail::PairBatch<D>& batch, int k) {
+    const bool j_awake = !frozen(j);
+    if (i_awake || j_awake) visit(j, j_awake, batch, k);
+  });
   return i_awake;
 }
 

@@ -12,15 +12,7 @@
 
 namespace terrasph {
 
-using detail::continuity_and_diffusion;
-using detail::continuity_only;
-using detail::density_terms;
-using detail::dispatch_flags;
-using detail::force_constants;
-using detail::gather_pairs;
-using detail::kPairBatch;
-using detail::no_density_terms;
-using detail::PairBatch;
+using namespace detail;  // the pair passes' shared pieces (pair_loops.hpp)
 
 // The ∇v-and-stress pass and the wall stress pass of this run, compiled for its constitutive model
 // and for where the density's rate is summed (here with numerics.symplectic_density, with δ-SPH or not).
@@ -74,33 +66,22 @@ template <int D>
 template <int Density>
 void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, const ForceConstants<D>& c, Mat<D>& grad,
                                                    Mat<D>& moment, double& drho) {
-  namespace term = pair_terms;
-  const Vec<D> xi = row_vec<D>(granular_.position, i);
-  const Vec<D> vi = row_vec<D>(granular_.velocity, i);
-  [[maybe_unused]] const double rho_i = granular_.density[i];
+  const GranularParticles<D>& p = granular_;
+  const Vec<D> vi = row_vec<D>(p.velocity, i);
+  [[maybe_unused]] const double rho_i = p.density[i];
   Mat<D> g = grad, m = moment;  // local accumulators: the cache stores cannot alias them
   double r = drho;
-  const Index end = granular_granular_.offsets[i + 1];
-  for (Index first = granular_granular_.offsets[i]; first < end; first += kPairBatch) {
-    const int count = static_cast<int>(std::min<Index>(kPairBatch, end - first));
-    const std::int32_t* j = granular_granular_.indices.data() + first;
-    PairBatch<D> batch;
-    gather_pairs<D, false>(kernel_, j, count, xi, granular_.position, batch);
-    for (int k = 0; k < count; ++k) {
-      const Vec<D>& xij = batch.x[k];
-      const double vf = granular_.volume[j[k]] * batch.gradient_factor[k];
-      const Vec<D> vji = row_vec<D>(granular_.velocity, j[k]) - vi;
-      g.noalias() += (vf * vji) * xij.transpose();
-      if (correct) m.noalias() -= (vf * xij) * xij.transpose();
-      if constexpr (Density >= continuity_only) {
-        const Vec<D> grad_w = batch.gradient_factor[k] * xij;  // ∇_iW_ij (Eq. 2.39)
-        r += term::continuity<D>(granular_.mass[j[k]], Vec<D>(-vji), grad_w);
-      }
-      if constexpr (Density == continuity_and_diffusion)  // x_ji = −x_ij
-        r += term::density_diffusion(c.delta_h_c0, granular_.density[j[k]] - rho_i + c.hydrostatic_gradient.dot(xij),
-                                     granular_.volume[j[k]], batch.gradient_factor[k]);
-    }
-  }
+  for_each_listed_pair<D, false>(i, granular_granular_, kernel_, p.position, [&](std::int32_t j, const PairBatch<D>& batch,
+                                                                                 int k) {
+    const Vec<D>& xij = batch.x[k];
+    const double grad_factor = batch.gradient_factor[k];
+    const Vec<D> vji = row_vec<D>(p.velocity, j) - vi;
+    g.noalias() += gradient_pair<D>(p.volume[j], grad_factor, vji, xij);
+    if (correct) m.noalias() -= moment_pair<D>(p.volume[j], grad_factor, xij);
+    if constexpr (Density != no_density_terms)  // ∇_iW_ij = F x_ij (Eq. 2.39)
+      density_rate_pair<D, Density>(c, p.mass[j], p.volume[j], dynamic_density_difference<D>(c, rho_i, p.density[j], xij),
+                                    Vec<D>(-vji), Vec<D>(grad_factor * xij), grad_factor).add_to(r);
+  });
   grad = g;
   moment = m;
   drho = r;
@@ -124,7 +105,6 @@ void Simulation<D>::granular_gradient_pairs_once(const ForceConstants<D>& consta
 template <int D>
 template <int Density>
 void Simulation<D>::add_half_list_gradient_pairs(Index i, const ForceConstants<D>& c) {
-  namespace term = pair_terms;
   GranularParticles<D>& p = granular_;
   const Vec<D> vi = row_vec<D>(p.velocity, i);
   [[maybe_unused]] const double rho_i = p.density[i], m_i = p.mass[i];
@@ -135,23 +115,19 @@ void Simulation<D>::add_half_list_gradient_pairs(Index i, const ForceConstants<D
     const Vec<D>& xij = batch.x[k];
     const double grad_factor = batch.gradient_factor[k];
     const Vec<D> vji = row_vec<D>(p.velocity, j) - vi;
-    // V_j (v_j − v_i) ⊗ ∇_iW_ij for i; V_i (v_i − v_j) ⊗ ∇_jW_ji, the same product, for j (Eq. 2.48)
-    g.noalias() += ((p.volume[j] * grad_factor) * vji) * xij.transpose();
-    double drho_i = 0.0, drho_j = 0.0;
-    if constexpr (Density >= continuity_only) {
+    g.noalias() += gradient_pair<D>(p.volume[j], grad_factor, vji, xij);
+    [[maybe_unused]] DensityRatePair<Density> drho_i, drho_j;
+    if constexpr (Density != no_density_terms) {
+      const Vec<D> vij = -vji;
       const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
-      drho_i = term::continuity<D>(p.mass[j], Vec<D>(-vji), grad_w);
-      drho_j = term::continuity<D>(m_i, Vec<D>(-vji), grad_w);  // v_ji·∇_jW_ji = v_ij·∇_iW_ij
+      const double difference = dynamic_density_difference<D>(c, rho_i, p.density[j], xij);
+      drho_i = density_rate_pair<D, Density>(c, p.mass[j], p.volume[j], difference, vij, grad_w, grad_factor);
+      drho_j = density_rate_pair<D, Density>(c, m_i, volume_i, -difference, vij, grad_w, grad_factor);
+      r += drho_i.total();
     }
-    if constexpr (Density == continuity_and_diffusion) {  // ρ_j − ρ_i + ∇ρ^H·x_ij, antisymmetric
-      const double difference = p.density[j] - rho_i + c.hydrostatic_gradient.dot(xij);
-      drho_i += term::density_diffusion(c.delta_h_c0, difference, p.volume[j], grad_factor);
-      drho_j += term::density_diffusion(c.delta_h_c0, -difference, volume_i, grad_factor);
-    }
-    r += drho_i;
     if (j_awake) {
-      row_mat<D>(p.velocity_gradient, j).noalias() += ((volume_i * grad_factor) * vji) * xij.transpose();
-      if constexpr (Density != no_density_terms) p.density_rate[j] += drho_j;
+      row_mat<D>(p.velocity_gradient, j).noalias() += gradient_pair<D>(volume_i, grad_factor, vji, xij);
+      if constexpr (Density != no_density_terms) p.density_rate[j] += drho_j.total();
     }
   });
   if (!i_awake) return;
@@ -175,9 +151,8 @@ void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& gr
     const std::int32_t w = granular_wall_.indices[s];
     const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
     const double factor = kernel.pair_gradient_factor(xiw.squaredNorm());
-    const double vf = wall_volume * factor;
-    g.noalias() += (vf * (row_vec<D>(walls_.ghost_velocity, w) - vi)) * xiw.transpose();
-    if (correct) m.noalias() -= (vf * xiw) * xiw.transpose();
+    g.noalias() += gradient_pair<D>(wall_volume, factor, Vec<D>(row_vec<D>(walls_.ghost_velocity, w) - vi), xiw);
+    if (correct) m.noalias() -= moment_pair<D>(wall_volume, factor, xiw);
     if constexpr (Continuity)  // Eq. 2.42 with the wall's own velocity, as in the force pass
       r += pair_terms::continuity<D>(walls_.mass[w], Vec<D>(vi - row_vec<D>(walls_.velocity, w)), Vec<D>(factor * xiw));
   }
@@ -268,9 +243,9 @@ void Simulation<D>::small_strain_pass(VecArray<D>& reference, MatArray<D>& strai
       const Vec<D> xij = xi - xj;
       const double r2 = xij.squaredNorm();
       if (r2 >= h2x4) continue;
-      const double vf = granular_.volume[j] * kernel_.gradient_factor(std::sqrt(r2));
-      grad.noalias() += (vf * (xj - row_vec<D>(reference, j) - ui)) * xij.transpose();
-      moment.noalias() -= (vf * xij) * xij.transpose();
+      const double grad_factor = kernel_.gradient_factor(std::sqrt(r2));
+      grad.noalias() += gradient_pair<D>(granular_.volume[j], grad_factor, Vec<D>(xj - row_vec<D>(reference, j) - ui), xij);
+      moment.noalias() -= moment_pair<D>(granular_.volume[j], grad_factor, xij);
     }
     if (std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
     row_mat<D>(strain, i) = 0.5 * (grad + grad.transpose());
