@@ -172,6 +172,32 @@ RunCounters counters_from_dict(const py::dict& d) {
   return c;
 }
 
+// A load's state (a body's or a fixed wall group's) into / from the saved dictionary.
+template <int D> void load_to_dict(const LoadAccumulator<D>& load, py::dict& d) {
+  d["force"] = Vec<D>(load.force);
+  d["torque"] = load.torque;
+  d["impulse"] = Vec<D>(load.impulse);
+  d["angular_impulse"] = load.angular_impulse;
+  d["impulse_time"] = load.impulse_time;
+}
+template <int D> void load_from_dict(const py::dict& d, LoadAccumulator<D>& load) {
+  load.force = d["force"].cast<Vec<D>>();
+  load.torque = d["torque"].cast<double>();
+  load.impulse = d["impulse"].cast<Vec<D>>();
+  load.angular_impulse = d["angular_impulse"].cast<double>();
+  load.impulse_time = d["impulse_time"].cast<double>();
+}
+// A load as users read it: force and torque at the last step and their time averages since the
+// last reset (the last values before any step has been averaged).
+template <int D> void load_summary(const LoadAccumulator<D>& load, py::dict& d) {
+  d["force"] = Vec<D>(load.force);
+  d["torque"] = load.torque;
+  const double t = load.impulse_time;
+  d["mean_force"] = t > 0.0 ? Vec<D>(load.impulse / t) : Vec<D>(load.force);
+  d["mean_torque"] = t > 0.0 ? load.angular_impulse / t : load.torque;
+  d["averaged_over"] = t;
+}
+
 // A body's full state as numbers: kinematics, loads, impulses, and its motion schedule.
 template <int D> py::dict body_to_dict(const RigidBody<D>& b) {
   py::dict d;
@@ -183,11 +209,7 @@ template <int D> py::dict body_to_dict(const RigidBody<D>& b) {
   d["acceleration"] = Vec<D>(k.acceleration);
   d["angular_acceleration"] = k.angular_acceleration;
   d["driven"] = b.driven;
-  d["force"] = Vec<D>(b.force);
-  d["torque"] = b.torque;
-  d["impulse"] = Vec<D>(b.impulse);
-  d["angular_impulse"] = b.angular_impulse;
-  d["impulse_time"] = b.impulse_time;
+  load_to_dict<D>(b, d);
   d["motion_start"] = b.motion_start;
   d["start_reference"] = Vec<D>(b.motion.start().reference);
   d["start_angle"] = b.motion.start().angle;
@@ -224,11 +246,7 @@ template <int D> RigidBody<D> body_from_dict(const py::dict& d) {
   b.kinematics.acceleration = d["acceleration"].cast<Vec<D>>();
   b.kinematics.angular_acceleration = d["angular_acceleration"].cast<double>();
   b.driven = d["driven"].cast<bool>();
-  b.force = d["force"].cast<Vec<D>>();
-  b.torque = d["torque"].cast<double>();
-  b.impulse = d["impulse"].cast<Vec<D>>();
-  b.angular_impulse = d["angular_impulse"].cast<double>();
-  b.impulse_time = d["impulse_time"].cast<double>();
+  load_from_dict<D>(d, b);
   return b;
 }
 
@@ -242,12 +260,7 @@ template <int D> py::dict body_summary(const RigidBody<D>& b) {
   d["acceleration"] = Vec<D>(b.kinematics.acceleration);
   d["angular_acceleration"] = b.kinematics.angular_acceleration;
   d["driven"] = b.driven;
-  d["force"] = Vec<D>(b.force);
-  d["torque"] = b.torque;
-  const double t = b.impulse_time;
-  d["mean_force"] = t > 0.0 ? Vec<D>(b.impulse / t) : Vec<D>(b.force);
-  d["mean_torque"] = t > 0.0 ? b.angular_impulse / t : b.torque;
-  d["averaged_over"] = t;
+  load_summary<D>(b, d);
   return d;
 }
 
@@ -335,11 +348,7 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
              for (const WallLoad<D>& load : s.wall_loads()) {
                py::dict l;
                l["group"] = load.group;
-               l["force"] = Vec<D>(load.force);
-               l["torque"] = load.torque;
-               l["impulse"] = Vec<D>(load.impulse);
-               l["angular_impulse"] = load.angular_impulse;
-               l["impulse_time"] = load.impulse_time;
+               load_to_dict<D>(load, l);
                wall_loads.append(l);
              }
              d["wall_loads"] = py::dict(py::arg("tracked") = s.tracks_wall_loads(),
@@ -364,11 +373,7 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
                  const py::dict l = item.cast<py::dict>();
                  WallLoad<D> load;
                  load.group = l["group"].cast<std::int32_t>();
-                 load.force = l["force"].cast<Vec<D>>();
-                 load.torque = l["torque"].cast<double>();
-                 load.impulse = l["impulse"].cast<Vec<D>>();
-                 load.angular_impulse = l["angular_impulse"].cast<double>();
-                 load.impulse_time = l["impulse_time"].cast<double>();
+                 load_from_dict<D>(l, load);
                  loads.push_back(load);
                }
                s.restore_wall_loads(wall_loads["point"].cast<Vec<D>>(), loads);
@@ -427,12 +432,7 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
              py::dict out;
              for (const WallLoad<D>& load : s.wall_loads()) {
                py::dict d;
-               d["force"] = Vec<D>(load.force);
-               d["torque"] = load.torque;
-               const double t = load.impulse_time;
-               d["mean_force"] = t > 0.0 ? Vec<D>(load.impulse / t) : Vec<D>(load.force);
-               d["mean_torque"] = t > 0.0 ? load.angular_impulse / t : load.torque;
-               d["averaged_over"] = t;
+               load_summary<D>(load, d);
                out[py::int_(load.group)] = d;
              }
              return out;

@@ -75,11 +75,7 @@ template <int D> int Simulation<D>::attach_body(std::int32_t wall_group, RigidBo
 }
 
 template <int D> void Simulation<D>::reset_body_impulses() {
-  for (RigidBody<D>& body : bodies_) {
-    body.impulse.setZero();
-    body.angular_impulse = 0.0;
-    body.impulse_time = 0.0;
-  }
+  for (RigidBody<D>& body : bodies_) body.reset_impulses();
 }
 
 // Places every body particle at its body's pose at `time` (the schedule's for a prescribed body,
@@ -103,31 +99,34 @@ template <int D> void Simulation<D>::move_bodies(double time) {
   });
 }
 
-// Force and clockwise torque of the terrain on each body (Eq. 3.24–3.25), summed from the stored
-// pair forces in a fixed order (granular particle, then its neighbour list), so the totals do not
-// depend on the thread count and are the exact opposite of the pair forces on the grains.
-template <int D> void Simulation<D>::accumulate_body_loads(double dt) {
-  for (RigidBody<D>& body : bodies_) {
-    body.force.setZero();
-    body.torque = 0.0;
-  }
+// Force and clockwise torque of the grains on each body (about its reference point) and, when
+// tracked, on each fixed wall group (about the tracking point) (Eq. 3.24–3.25), summed from the
+// stored pair forces in a fixed order (granular particle, then its neighbour list), so the totals
+// do not depend on the thread count and are the exact opposite of the pair forces on the grains:
+// with the weight they balance the grains' momentum, Σ m_i a_i = M g − Σ F_bodies − Σ F_walls.
+template <int D> void Simulation<D>::accumulate_loads(double dt) {
+  for (RigidBody<D>& body : bodies_) body.clear_load();
+  for (WallLoad<D>& load : wall_loads_) load.clear_load();
+  auto by_group = [](const WallLoad<D>& load, std::int32_t group) { return load.group < group; };
   const Index n = granular_.size();
   for (Index i = 0; i < n; ++i) {
     for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
       const std::int32_t w = granular_wall_.indices[s];
       const std::int32_t b = walls_.body[w];
-      if (b < 0) continue;
-      RigidBody<D>& body = bodies_[static_cast<size_t>(b)];
+      if (b < 0 && !tracks_wall_loads_) continue;  // a fixed wall's pair force is kept only when tracked
       const Vec<D> f = row_vec<D>(pair_wall_force_, s);
-      body.force += f;
-      body.torque += quarter_turn_clockwise<D>(row_vec<D>(walls_.position, w) - body.kinematics.reference).dot(f);
+      const Vec<D> x = row_vec<D>(walls_.position, w);
+      if (b >= 0) {
+        RigidBody<D>& body = bodies_[static_cast<size_t>(b)];
+        body.add(f, x - body.kinematics.reference);
+      } else {  // every fixed wall's group is listed (track_wall_loads), so the search finds it
+        const auto load = std::lower_bound(wall_loads_.begin(), wall_loads_.end(), walls_.group[w], by_group);
+        load->add(f, x - wall_load_point_);
+      }
     }
   }
-  for (RigidBody<D>& body : bodies_) {
-    body.impulse += dt * body.force;
-    body.angular_impulse += dt * body.torque;
-    body.impulse_time += dt;
-  }
+  for (RigidBody<D>& body : bodies_) body.integrate(dt);
+  for (WallLoad<D>& load : wall_loads_) load.integrate(dt);
 }
 
 // Each body's pose after this step's move with its distance field, for the active domain's "far
@@ -168,11 +167,7 @@ template <int D> void Simulation<D>::track_wall_loads(const Vec<D>& point) {
 }
 
 template <int D> void Simulation<D>::reset_wall_load_impulses() {
-  for (WallLoad<D>& load : wall_loads_) {
-    load.impulse.setZero();
-    load.angular_impulse = 0.0;
-    load.impulse_time = 0.0;
-  }
+  for (WallLoad<D>& load : wall_loads_) load.reset_impulses();
 }
 
 template <int D> void Simulation<D>::restore_wall_loads(const Vec<D>& point, const std::vector<WallLoad<D>>& loads) {
@@ -186,34 +181,6 @@ template <int D> void Simulation<D>::restore_wall_loads(const Vec<D>& point, con
   wall_loads_ = loads;
 }
 
-// Force and clockwise torque about the tracking point of the grains on each fixed wall group
-// (Eq. 3.24–3.25), summed in the fixed order of accumulate_body_loads: with the body loads and
-// the weight they balance the grains' momentum, Σ m_i a_i = M g − Σ F_bodies − Σ F_walls.
-template <int D> void Simulation<D>::accumulate_wall_loads(double dt) {
-  for (WallLoad<D>& load : wall_loads_) {
-    load.force.setZero();
-    load.torque = 0.0;
-  }
-  auto by_group = [](const WallLoad<D>& load, std::int32_t group) { return load.group < group; };
-  const Index n = granular_.size();
-  for (Index i = 0; i < n; ++i) {
-    for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
-      const std::int32_t w = granular_wall_.indices[s];
-      if (walls_.body[w] >= 0) continue;
-      // every fixed wall's group is listed (track_wall_loads), so the search finds it
-      const auto load = std::lower_bound(wall_loads_.begin(), wall_loads_.end(), walls_.group[w], by_group);
-      const Vec<D> f = row_vec<D>(pair_wall_force_, s);
-      load->force += f;
-      load->torque += quarter_turn_clockwise<D>(row_vec<D>(walls_.position, w) - wall_load_point_).dot(f);
-    }
-  }
-  for (WallLoad<D>& load : wall_loads_) {
-    load.impulse += dt * load.force;
-    load.angular_impulse += dt * load.torque;
-    load.impulse_time += dt;
-  }
-}
-
 #define TERRASPH_INSTANTIATE(D) \
   template int Simulation<D>::add_body(std::int32_t, const Vec<D>&, double, std::vector<MotionSegment<D>>); \
   template int Simulation<D>::add_driven_body(std::int32_t, const Vec<D>&, double); \
@@ -221,12 +188,11 @@ template <int D> void Simulation<D>::accumulate_wall_loads(double dt) {
   template int Simulation<D>::attach_body(std::int32_t, RigidBody<D>); \
   template void Simulation<D>::reset_body_impulses(); \
   template void Simulation<D>::move_bodies(double); \
-  template void Simulation<D>::accumulate_body_loads(double); \
+  template void Simulation<D>::accumulate_loads(double); \
   template BodyProximity<D> Simulation<D>::body_proximity(double); \
   template void Simulation<D>::track_wall_loads(const Vec<D>&); \
   template void Simulation<D>::reset_wall_load_impulses(); \
-  template void Simulation<D>::restore_wall_loads(const Vec<D>&, const std::vector<WallLoad<D>>&); \
-  template void Simulation<D>::accumulate_wall_loads(double);
+  template void Simulation<D>::restore_wall_loads(const Vec<D>&, const std::vector<WallLoad<D>>&);
 TERRASPH_INSTANTIATE(2)
 TERRASPH_INSTANTIATE(3)
 #undef TERRASPH_INSTANTIATE

@@ -32,8 +32,7 @@ template <int D> void Simulation<D>::compute_rates(double dt) {
   (this->*wall_stress_pass_)();
   lap(t.wall_stress);
   (this->*force_pass_)(dt);
-  if (!bodies_.empty()) accumulate_body_loads(dt);
-  if (tracks_wall_loads_) accumulate_wall_loads(dt);
+  if (keeps_pair_forces()) accumulate_loads(dt);
   lap(t.forces);
 }
 

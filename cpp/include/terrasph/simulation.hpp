@@ -61,13 +61,8 @@ struct WallRemoval {
 // The load of the grains on one fixed wall group (a wall group that is not a body), kept when
 // asked for (Simulation::track_wall_loads): Eq. 3.24–3.25 summed over the group's particles, per
 // metre of depth, the clockwise torque about the tracking point.
-template <int D> struct WallLoad {
+template <int D> struct WallLoad : LoadAccumulator<D> {
   std::int32_t group = 0;
-  Vec<D> force = Vec<D>::Zero();    // at the last rate evaluation
-  double torque = 0.0;              // at the last rate evaluation
-  Vec<D> impulse = Vec<D>::Zero();  // Σ F dt since the last reset (for time-averaged loads)
-  double angular_impulse = 0.0;     // Σ T dt since the last reset
-  double impulse_time = 0.0;        // Σ dt since the last reset
 };
 
 template <int D> class Simulation {
@@ -208,8 +203,7 @@ template <int D> class Simulation {
   bool keeps_pair_forces() const { return !bodies_.empty() || tracks_wall_loads_; }
   int attach_body(std::int32_t wall_group, RigidBody<D> body);
   void move_bodies(double time);
-  void accumulate_body_loads(double dt);
-  void accumulate_wall_loads(double dt);
+  void accumulate_loads(double dt);
   void check_health() const;
   void mark_interior_walls();
   void check_ids() const;
