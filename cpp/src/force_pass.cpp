@@ -171,7 +171,7 @@ void Simulation<D>::granular_pairs_once(const ForceConstants<D>& constants) {
 
 template <int D>
 template <int Density, bool UseXsph>
-void Simulation<D>::add_half_list_pairs(Index i, const ForceConstants<D>& c) {
+[[gnu::flatten]] void Simulation<D>::add_half_list_pairs(Index i, const ForceConstants<D>& c) {
   namespace term = pair_terms;
   GranularParticles<D>& p = granular_;
   const Vec<D> vi = row_vec<D>(p.velocity, i);

@@ -14,6 +14,11 @@
 #include "terrasph/simulation.hpp"
 
 namespace terrasph::detail {
+// Internal linkage, as helpers local to each pass file. The per-grain pair sums (add_granular_forces
+// here, the passes' add_* members) are [[gnu::flatten]]: the loop driver and the interactions are
+// inlined into them whatever their size, so the sums stay in registers (without it the split passes
+// ran 15-22 % slower, measured with bench_ab.py).
+namespace {
 
 // Calls f(std::bool_constant<b>...) with each runtime flag made a compile-time one: optional terms
 // are chosen once per run (when the passes are composed), not tested per pair, and without a
@@ -99,17 +104,19 @@ void for_each_listed_pair(Index i, const NeighbourList& list, const WendlandC2<D
 // each is the gather's to the bit. A pair beyond the support has W = (dW/dr)/r = 0, so all its terms
 // are exact zeros: adding them is cheaper than a mispredicted branch.
 
-// V_j (f_j − f_i) ⊗ ∇_iW_ij, pair ij's share of the SPH gradient of a field f (Eq. 2.48: f = v for
-// ∇v, with the walls' ghost velocities; f = u for the small strain of Eq. 3.6). With V_i it is the
-// same pair's share for j (f_ij ⊗ ∇_jW_ji = f_ji ⊗ ∇_iW_ij).
-template <int D> Mat<D> gradient_pair(double volume_j, double grad_factor, const Vec<D>& f_ji, const Vec<D>& xij) {
-  return ((volume_j * grad_factor) * f_ji) * xij.transpose();
+// Adds V_j (f_j − f_i) ⊗ ∇_iW_ij, pair ij's share of the SPH gradient of a field f (Eq. 2.48: f = v
+// for ∇v, with the walls' ghost velocities; f = u for the small strain of Eq. 3.6), to `sum`. With
+// V_i it is the same pair's share for j (f_ij ⊗ ∇_jW_ji = f_ji ⊗ ∇_iW_ij). In place, so the outer
+// product is summed without a temporary.
+template <int D, class Sum>
+void add_gradient_pair(Sum&& sum, double volume_j, double grad_factor, const Vec<D>& f_ji, const Vec<D>& xij) {
+  sum.noalias() += ((volume_j * grad_factor) * f_ji) * xij.transpose();
 }
 
-// V_j x_ij ⊗ ∇_iW_ij, subtracted from the renormalisation matrix M_i = Σ_j V_j x_ji ⊗ ∇_iW_ij
+// Subtracts V_j x_ij ⊗ ∇_iW_ij from the renormalisation matrix M_i = Σ_j V_j x_ji ⊗ ∇_iW_ij
 // (Eq. 2.48).
-template <int D> Mat<D> moment_pair(double volume_j, double grad_factor, const Vec<D>& xij) {
-  return ((volume_j * grad_factor) * xij) * xij.transpose();
+template <int D> void add_moment_pair(Mat<D>& moment, double volume_j, double grad_factor, const Vec<D>& xij) {
+  moment.noalias() -= ((volume_j * grad_factor) * xij) * xij.transpose();
 }
 
 // ρ_j − ρ_i + ∇ρ^H·x_ij, the dynamic density difference δ-SPH diffuses (pair_terms::density_diffusion);
@@ -159,7 +166,7 @@ Vec<D> momentum_per_unit_mass(const ForceConstants<D>& c, const Mat<D>& si, cons
 // The granular pairs' share of Dv_i/Dt, the XSPH sum and the Density terms of Dρ_i/Dt of particle
 // i, in list order (the force pass's gather).
 template <int D, int Density, bool UseXsph>
-void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
+[[gnu::flatten]] void add_granular_forces(Index i, const GranularParticles<D>& p, const NeighbourList& list,
                          const WendlandC2<D>& kernel, const ForceConstants<D>& constants, Vec<D>& acc,
                          Vec<D>& xsph, double& drho) {
   const ForceConstants<D> c = constants;
@@ -188,6 +195,7 @@ void add_granular_forces(Index i, const GranularParticles<D>& p, const Neighbour
   drho = r;
 }
 
+}  // namespace
 }  // namespace terrasph::detail
 
 namespace terrasph {

@@ -64,7 +64,7 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
 // force pass sums them otherwise.
 template <int D>
 template <int Density>
-void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, const ForceConstants<D>& c, Mat<D>& grad,
+[[gnu::flatten]] void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, const ForceConstants<D>& c, Mat<D>& grad,
                                                    Mat<D>& moment, double& drho) {
   const GranularParticles<D>& p = granular_;
   const Vec<D> vi = row_vec<D>(p.velocity, i);
@@ -76,8 +76,8 @@ void Simulation<D>::add_granular_velocity_gradient(Index i, bool correct, const 
     const Vec<D>& xij = batch.x[k];
     const double grad_factor = batch.gradient_factor[k];
     const Vec<D> vji = row_vec<D>(p.velocity, j) - vi;
-    g.noalias() += gradient_pair<D>(p.volume[j], grad_factor, vji, xij);
-    if (correct) m.noalias() -= moment_pair<D>(p.volume[j], grad_factor, xij);
+    add_gradient_pair<D>(g, p.volume[j], grad_factor, vji, xij);
+    if (correct) add_moment_pair<D>(m, p.volume[j], grad_factor, xij);
     if constexpr (Density != no_density_terms)  // ∇_iW_ij = F x_ij (Eq. 2.39)
       density_rate_pair<D, Density>(c, p.mass[j], p.volume[j], dynamic_density_difference<D>(c, rho_i, p.density[j], xij),
                                     Vec<D>(-vji), Vec<D>(grad_factor * xij), grad_factor).add_to(r);
@@ -104,7 +104,7 @@ void Simulation<D>::granular_gradient_pairs_once(const ForceConstants<D>& consta
 
 template <int D>
 template <int Density>
-void Simulation<D>::add_half_list_gradient_pairs(Index i, const ForceConstants<D>& c) {
+[[gnu::flatten]] void Simulation<D>::add_half_list_gradient_pairs(Index i, const ForceConstants<D>& c) {
   GranularParticles<D>& p = granular_;
   const Vec<D> vi = row_vec<D>(p.velocity, i);
   [[maybe_unused]] const double rho_i = p.density[i], m_i = p.mass[i];
@@ -115,7 +115,7 @@ void Simulation<D>::add_half_list_gradient_pairs(Index i, const ForceConstants<D
     const Vec<D>& xij = batch.x[k];
     const double grad_factor = batch.gradient_factor[k];
     const Vec<D> vji = row_vec<D>(p.velocity, j) - vi;
-    g.noalias() += gradient_pair<D>(p.volume[j], grad_factor, vji, xij);
+    add_gradient_pair<D>(g, p.volume[j], grad_factor, vji, xij);
     [[maybe_unused]] DensityRatePair<Density> drho_i, drho_j;
     if constexpr (Density != no_density_terms) {
       const Vec<D> vij = -vji;
@@ -126,7 +126,7 @@ void Simulation<D>::add_half_list_gradient_pairs(Index i, const ForceConstants<D
       r += drho_i.total();
     }
     if (j_awake) {
-      row_mat<D>(p.velocity_gradient, j).noalias() += gradient_pair<D>(volume_i, grad_factor, vji, xij);
+      add_gradient_pair<D>(row_mat<D>(p.velocity_gradient, j), volume_i, grad_factor, vji, xij);
       if constexpr (Density != no_density_terms) p.density_rate[j] += drho_j.total();
     }
   });
@@ -151,8 +151,8 @@ void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& gr
     const std::int32_t w = granular_wall_.indices[s];
     const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
     const double factor = kernel.pair_gradient_factor(xiw.squaredNorm());
-    g.noalias() += gradient_pair<D>(wall_volume, factor, Vec<D>(row_vec<D>(walls_.ghost_velocity, w) - vi), xiw);
-    if (correct) m.noalias() -= moment_pair<D>(wall_volume, factor, xiw);
+    add_gradient_pair<D>(g, wall_volume, factor, Vec<D>(row_vec<D>(walls_.ghost_velocity, w) - vi), xiw);
+    if (correct) add_moment_pair<D>(m, wall_volume, factor, xiw);
     if constexpr (Continuity)  // Eq. 2.42 with the wall's own velocity, as in the force pass
       r += pair_terms::continuity<D>(walls_.mass[w], Vec<D>(vi - row_vec<D>(walls_.velocity, w)), Vec<D>(factor * xiw));
   }
@@ -244,8 +244,8 @@ void Simulation<D>::small_strain_pass(VecArray<D>& reference, MatArray<D>& strai
       const double r2 = xij.squaredNorm();
       if (r2 >= h2x4) continue;
       const double grad_factor = kernel_.gradient_factor(std::sqrt(r2));
-      grad.noalias() += gradient_pair<D>(granular_.volume[j], grad_factor, Vec<D>(xj - row_vec<D>(reference, j) - ui), xij);
-      moment.noalias() -= moment_pair<D>(granular_.volume[j], grad_factor, xij);
+      add_gradient_pair<D>(grad, granular_.volume[j], grad_factor, Vec<D>(xj - row_vec<D>(reference, j) - ui), xij);
+      add_moment_pair<D>(moment, granular_.volume[j], grad_factor, xij);
     }
     if (std::abs(moment.determinant()) > 0.1) grad = grad * moment.inverse();
     row_mat<D>(strain, i) = 0.5 * (grad + grad.transpose());
