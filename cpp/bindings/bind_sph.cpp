@@ -15,6 +15,7 @@
 #include <cstring>
 #include <numeric>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "terrasph/errors.hpp"
@@ -147,46 +148,26 @@ void fields_from_dict(FieldRegistry& fields, const py::dict& saved, const std::s
   for (const auto& f : fields.all()) write_rows(*f, saved[py::str(f->name())], order, "saved " + label + " field '" + f->name() + "'");
 }
 
+// The saved values of a part of the State that lists them (for_each_saved: RunCounters,
+// LoadAccumulator) into / from a dictionary, each value copied (an Eigen vector becomes an array).
+template <class Saved> void saved_to_dict(const Saved& saved, py::dict& d) {
+  Saved::for_each_saved(saved, [&](const char* name, const auto& value) { d[name] = std::decay_t<decltype(value)>(value); });
+}
+template <class Saved> void saved_from_dict(const py::dict& d, Saved& saved) {
+  Saved::for_each_saved(saved, [&](const char* name, auto& value) { value = d[name].cast<std::decay_t<decltype(value)>>(); });
+}
+
 py::dict counters_to_dict(const RunCounters& c) {
   py::dict d;
-  d["step"] = c.step;
-  d["time"] = c.time;
-  d["last_dt"] = c.last_dt;
-  d["neighbour_builds"] = c.neighbour_builds;
-  d["max_speed"] = c.max_speed;
-  d["max_acceleration"] = c.max_acceleration;
-  d["penetrating_particles"] = c.penetrating_particles;
-  d["penetrated_particles"] = c.penetrated_particles;
+  saved_to_dict(c, d);
   return d;
 }
 RunCounters counters_from_dict(const py::dict& d) {
   RunCounters c;
-  c.step = d["step"].cast<std::int64_t>();
-  c.time = d["time"].cast<double>();
-  c.last_dt = d["last_dt"].cast<double>();
-  c.neighbour_builds = d["neighbour_builds"].cast<std::int64_t>();
-  c.max_speed = d["max_speed"].cast<double>();
-  c.max_acceleration = d["max_acceleration"].cast<double>();
-  c.penetrating_particles = d["penetrating_particles"].cast<std::int64_t>();
-  c.penetrated_particles = d["penetrated_particles"].cast<std::int64_t>();
+  saved_from_dict(d, c);
   return c;
 }
 
-// A load's state (a body's or a fixed wall group's) into / from the saved dictionary.
-template <int D> void load_to_dict(const LoadAccumulator<D>& load, py::dict& d) {
-  d["force"] = Vec<D>(load.force);
-  d["torque"] = load.torque;
-  d["impulse"] = Vec<D>(load.impulse);
-  d["angular_impulse"] = load.angular_impulse;
-  d["impulse_time"] = load.impulse_time;
-}
-template <int D> void load_from_dict(const py::dict& d, LoadAccumulator<D>& load) {
-  load.force = d["force"].cast<Vec<D>>();
-  load.torque = d["torque"].cast<double>();
-  load.impulse = d["impulse"].cast<Vec<D>>();
-  load.angular_impulse = d["angular_impulse"].cast<double>();
-  load.impulse_time = d["impulse_time"].cast<double>();
-}
 // A load as users read it: force and torque at the last step and their time averages since the
 // last reset (the last values before any step has been averaged).
 template <int D> void load_summary(const LoadAccumulator<D>& load, py::dict& d) {
@@ -209,7 +190,7 @@ template <int D> py::dict body_to_dict(const RigidBody<D>& b) {
   d["acceleration"] = Vec<D>(k.acceleration);
   d["angular_acceleration"] = k.angular_acceleration;
   d["driven"] = b.driven;
-  load_to_dict<D>(b, d);
+  saved_to_dict<LoadAccumulator<D>>(b, d);
   d["motion_start"] = b.motion_start;
   d["start_reference"] = Vec<D>(b.motion.start().reference);
   d["start_angle"] = b.motion.start().angle;
@@ -246,7 +227,7 @@ template <int D> RigidBody<D> body_from_dict(const py::dict& d) {
   b.kinematics.acceleration = d["acceleration"].cast<Vec<D>>();
   b.kinematics.angular_acceleration = d["angular_acceleration"].cast<double>();
   b.driven = d["driven"].cast<bool>();
-  load_from_dict<D>(d, b);
+  saved_from_dict<LoadAccumulator<D>>(d, b);
   return b;
 }
 
@@ -348,7 +329,7 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
              for (const WallLoad<D>& load : s.wall_loads()) {
                py::dict l;
                l["group"] = load.group;
-               load_to_dict<D>(load, l);
+               saved_to_dict<LoadAccumulator<D>>(load, l);
                wall_loads.append(l);
              }
              d["wall_loads"] = py::dict(py::arg("tracked") = s.tracks_wall_loads(),
@@ -373,7 +354,7 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
                  const py::dict l = item.cast<py::dict>();
                  WallLoad<D> load;
                  load.group = l["group"].cast<std::int32_t>();
-                 load_from_dict<D>(l, load);
+                 saved_from_dict<LoadAccumulator<D>>(l, load);
                  loads.push_back(load);
                }
                s.restore_wall_loads(wall_loads["point"].cast<Vec<D>>(), loads);

@@ -133,6 +133,16 @@ template <int D> struct LoadAccumulator {
     angular_impulse = 0.0;
     impulse_time = 0.0;
   }
+
+  // f(name, member) for each value a saved state carries, each named once here (Self is a
+  // LoadAccumulator or a const one: the saving and the restoring code walk the same list).
+  template <class Self, class F> static void for_each_saved(Self& load, F&& f) {
+    f("force", load.force);
+    f("torque", load.torque);
+    f("impulse", load.impulse);
+    f("angular_impulse", load.angular_impulse);
+    f("impulse_time", load.impulse_time);
+  }
 };
 
 // A rigid body: its schedule, its current kinematics, and the granular load on it.

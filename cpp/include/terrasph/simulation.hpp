@@ -49,7 +49,20 @@ struct RunCounters {
   // lies a layer or more inside its wall) has got past the wall's surface row
   std::int64_t penetrating_particles = 0;  // at the last rate evaluation
   std::int64_t penetrated_particles = 0;   // distinct particles that ever were, over the run
-  PhaseTimes phase_seconds;
+  PhaseTimes phase_seconds;  // a measurement, not state: not saved
+
+  // f(name, member) for each counter a saved state carries, each named once here (Self is
+  // RunCounters or const RunCounters: the saving and the restoring code walk the same list).
+  template <class Self, class F> static void for_each_saved(Self& c, F&& f) {
+    f("step", c.step);
+    f("time", c.time);
+    f("last_dt", c.last_dt);
+    f("neighbour_builds", c.neighbour_builds);
+    f("max_speed", c.max_speed);
+    f("max_acceleration", c.max_acceleration);
+    f("penetrating_particles", c.penetrating_particles);
+    f("penetrated_particles", c.penetrated_particles);
+  }
 };
 
 // A wall group to remove at a given simulation time (e.g. the gate of a column collapse).
