@@ -149,7 +149,7 @@ void fields_from_dict(FieldRegistry& fields, const py::dict& saved, const std::s
 }
 
 // The saved values of a part of the State that lists them (for_each_saved: RunCounters,
-// LoadAccumulator) into / from a dictionary, each value copied (an Eigen vector becomes an array).
+// LoadAccumulator, BodyKinematics) into / from a dictionary, each value copied (an Eigen vector becomes an array).
 template <class Saved> void saved_to_dict(const Saved& saved, py::dict& d) {
   Saved::for_each_saved(saved, [&](const char* name, const auto& value) { d[name] = std::decay_t<decltype(value)>(value); });
 }
@@ -182,13 +182,7 @@ template <int D> void load_summary(const LoadAccumulator<D>& load, py::dict& d) 
 // A body's full state as numbers: kinematics, loads, impulses, and its motion schedule.
 template <int D> py::dict body_to_dict(const RigidBody<D>& b) {
   py::dict d;
-  const BodyKinematics<D>& k = b.kinematics;
-  d["reference"] = Vec<D>(k.reference);
-  d["angle"] = k.angle;
-  d["velocity"] = Vec<D>(k.velocity);
-  d["spin"] = k.spin;
-  d["acceleration"] = Vec<D>(k.acceleration);
-  d["angular_acceleration"] = k.angular_acceleration;
+  saved_to_dict(b.kinematics, d);
   d["driven"] = b.driven;
   saved_to_dict<LoadAccumulator<D>>(b, d);
   d["motion_start"] = b.motion_start;
@@ -220,12 +214,7 @@ template <int D> RigidBody<D> body_from_dict(const py::dict& d) {
   }
   b.motion = PrescribedMotion<D>(start, std::move(segments));
   b.motion_start = d["motion_start"].cast<double>();
-  b.kinematics.reference = d["reference"].cast<Vec<D>>();
-  b.kinematics.angle = d["angle"].cast<double>();
-  b.kinematics.velocity = d["velocity"].cast<Vec<D>>();
-  b.kinematics.spin = d["spin"].cast<double>();
-  b.kinematics.acceleration = d["acceleration"].cast<Vec<D>>();
-  b.kinematics.angular_acceleration = d["angular_acceleration"].cast<double>();
+  saved_from_dict(d, b.kinematics);
   b.driven = d["driven"].cast<bool>();
   saved_from_dict<LoadAccumulator<D>>(d, b);
   return b;
@@ -234,12 +223,7 @@ template <int D> RigidBody<D> body_from_dict(const py::dict& d) {
 // The load and pose of a body as users read it (per metre of depth; Python multiplies by width).
 template <int D> py::dict body_summary(const RigidBody<D>& b) {
   py::dict d;
-  d["reference"] = Vec<D>(b.kinematics.reference);
-  d["angle"] = b.kinematics.angle;
-  d["velocity"] = Vec<D>(b.kinematics.velocity);
-  d["spin"] = b.kinematics.spin;
-  d["acceleration"] = Vec<D>(b.kinematics.acceleration);
-  d["angular_acceleration"] = b.kinematics.angular_acceleration;
+  saved_to_dict(b.kinematics, d);
   d["driven"] = b.driven;
   load_summary<D>(b, d);
   return d;

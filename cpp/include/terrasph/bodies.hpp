@@ -57,6 +57,16 @@ template <int D> struct BodyKinematics {
   double spin = 0.0;                     // clockwise angular velocity (rad/s)
   Vec<D> acceleration = Vec<D>::Zero();  // of the reference point (0 for a prescribed schedule)
   double angular_acceleration = 0.0;     // clockwise (rad/s², 0 for a prescribed schedule)
+
+  // f(name, member) for each value a saved state carries (as LoadAccumulator::for_each_saved).
+  template <class Self, class F> static void for_each_saved(Self& k, F&& f) {
+    f("reference", k.reference);
+    f("angle", k.angle);
+    f("velocity", k.velocity);
+    f("spin", k.spin);
+    f("acceleration", k.acceleration);
+    f("angular_acceleration", k.angular_acceleration);
+  }
 };
 
 // A piecewise-constant-velocity schedule starting at t = 0; after its last piece the body holds
