@@ -5,9 +5,11 @@
 A speed change to the core that should not change any result (a reordered loop, a cache, a new
 pass structure) must leave every line the same; run it before and after and `diff` the output.
 The variants switch each optional term on and off (δ-SPH, XSPH, the rate or hypoelastic μ(I)
-model, kernel gradient correction, Shepard filter) and include a rotating leg, with and without the
+model, kernel gradient correction, Shepard filter, the density advanced in the ∇v pass, each pair once
+in cell order, wall friction, tracked wall loads) and include a rotating leg, with and without the
 active domain's radius (and with it, each pair once in cell order), so each code path of the two pair
 passes and of the freezing is hashed. Same output for any thread count (the core's determinism).
+tests/data/state_digests.txt holds the expected output (tests/test_state_digest.py compares it).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from terrasph.scenes.leg_rotation import LegRotation, build_leg_rotation
 from terrasph.simulation import Simulation
 
 STATE = ("position", "velocity", "density", "stress", "acceleration", "density_rate", "pressure")
+WALL_LOAD = ("force", "torque", "impulse", "angular_impulse", "impulse_time")
 BODY = ("reference", "angle", "velocity", "spin", "force", "torque", "mean_force", "mean_torque", "averaged_over")
 
 
@@ -34,6 +37,9 @@ def digest(sim: Simulation) -> str:
     for body in range(sim.core.body_count):
         state = sim.core.body_state(body)
         h.update(repr({key: state[key] for key in BODY}).encode())
+    for load in sim.core.state()["wall_loads"]["loads"]:  # none unless tracked
+        for key in WALL_LOAD:
+            h.update(np.asarray(load[key], dtype=np.float64).tobytes())
     return h.hexdigest()[:16]
 
 
@@ -47,7 +53,19 @@ def bed_variants() -> dict[str, tuple[Material, Numerics]]:
         "plain": (Material(model="mu_i_rate"), Numerics(spacing=SPACING, xsph=0.0, delta_sph=0.0)),
         "correction+shepard": (Material(), Numerics(spacing=SPACING, kernel_gradient_correction=True,
                                                     shepard_interval=7)),
+        "symplectic": (Material(), Numerics(spacing=SPACING, symplectic_density=True)),
+        "pairs-once": (Material(), Numerics(spacing=SPACING, cell_order=True, symmetric_pairs=True)),
+        "symplectic+pairs-once": (Material(), Numerics(spacing=SPACING, symplectic_density=True, cell_order=True,
+                                                       symmetric_pairs=True)),
+        "no-delta+pairs-once": (Material(), Numerics(spacing=SPACING, delta_sph=0.0, cell_order=True,
+                                                     symmetric_pairs=True)),
+        "strain+wall-friction": (Material(model="mu_i_strain"), Numerics(spacing=SPACING,
+                                                                         wall_friction_coefficient=0.4)),
     }
+
+
+# variants that also keep the load of the grains on the box's walls
+TRACKS_WALL_LOADS = ("strain+wall-friction",)
 
 
 def leg_digest(numerics: dict[str, bool | int | float], steps: int) -> str:
@@ -70,6 +88,8 @@ def main() -> None:
     _core.set_num_threads(args.threads)
     for name, (material, numerics) in bed_variants().items():
         sim = bed(3000, material, numerics)
+        if name in TRACKS_WALL_LOADS:
+            sim.track_wall_loads()
         sim.advance(1e9, max_steps=args.steps)
         print(name, digest(sim), flush=True)
     print("leg", leg_digest({}, 2 * args.steps), flush=True)

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <numeric>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "terrasph/errors.hpp"
@@ -147,47 +148,43 @@ void fields_from_dict(FieldRegistry& fields, const py::dict& saved, const std::s
   for (const auto& f : fields.all()) write_rows(*f, saved[py::str(f->name())], order, "saved " + label + " field '" + f->name() + "'");
 }
 
+// The saved values of a part of the State that lists them (for_each_saved: RunCounters,
+// LoadAccumulator, BodyKinematics) into / from a dictionary, each value copied (an Eigen vector becomes an array).
+template <class Saved> void saved_to_dict(const Saved& saved, py::dict& d) {
+  Saved::for_each_saved(saved, [&](const char* name, const auto& value) { d[name] = std::decay_t<decltype(value)>(value); });
+}
+template <class Saved> void saved_from_dict(const py::dict& d, Saved& saved) {
+  Saved::for_each_saved(saved, [&](const char* name, auto& value) { value = d[name].cast<std::decay_t<decltype(value)>>(); });
+}
+
 py::dict counters_to_dict(const RunCounters& c) {
   py::dict d;
-  d["step"] = c.step;
-  d["time"] = c.time;
-  d["last_dt"] = c.last_dt;
-  d["neighbour_builds"] = c.neighbour_builds;
-  d["max_speed"] = c.max_speed;
-  d["max_acceleration"] = c.max_acceleration;
-  d["penetrating_particles"] = c.penetrating_particles;
-  d["penetrated_particles"] = c.penetrated_particles;
+  saved_to_dict(c, d);
   return d;
 }
 RunCounters counters_from_dict(const py::dict& d) {
   RunCounters c;
-  c.step = d["step"].cast<std::int64_t>();
-  c.time = d["time"].cast<double>();
-  c.last_dt = d["last_dt"].cast<double>();
-  c.neighbour_builds = d["neighbour_builds"].cast<std::int64_t>();
-  c.max_speed = d["max_speed"].cast<double>();
-  c.max_acceleration = d["max_acceleration"].cast<double>();
-  c.penetrating_particles = d["penetrating_particles"].cast<std::int64_t>();
-  c.penetrated_particles = d["penetrated_particles"].cast<std::int64_t>();
+  saved_from_dict(d, c);
   return c;
+}
+
+// A load as users read it: force and torque at the last step and their time averages since the
+// last reset (the last values before any step has been averaged).
+template <int D> void load_summary(const LoadAccumulator<D>& load, py::dict& d) {
+  d["force"] = Vec<D>(load.force);
+  d["torque"] = load.torque;
+  const double t = load.impulse_time;
+  d["mean_force"] = t > 0.0 ? Vec<D>(load.impulse / t) : Vec<D>(load.force);
+  d["mean_torque"] = t > 0.0 ? load.angular_impulse / t : load.torque;
+  d["averaged_over"] = t;
 }
 
 // A body's full state as numbers: kinematics, loads, impulses, and its motion schedule.
 template <int D> py::dict body_to_dict(const RigidBody<D>& b) {
   py::dict d;
-  const BodyKinematics<D>& k = b.kinematics;
-  d["reference"] = Vec<D>(k.reference);
-  d["angle"] = k.angle;
-  d["velocity"] = Vec<D>(k.velocity);
-  d["spin"] = k.spin;
-  d["acceleration"] = Vec<D>(k.acceleration);
-  d["angular_acceleration"] = k.angular_acceleration;
+  saved_to_dict(b.kinematics, d);
   d["driven"] = b.driven;
-  d["force"] = Vec<D>(b.force);
-  d["torque"] = b.torque;
-  d["impulse"] = Vec<D>(b.impulse);
-  d["angular_impulse"] = b.angular_impulse;
-  d["impulse_time"] = b.impulse_time;
+  saved_to_dict<LoadAccumulator<D>>(b, d);
   d["motion_start"] = b.motion_start;
   d["start_reference"] = Vec<D>(b.motion.start().reference);
   d["start_angle"] = b.motion.start().angle;
@@ -217,37 +214,18 @@ template <int D> RigidBody<D> body_from_dict(const py::dict& d) {
   }
   b.motion = PrescribedMotion<D>(start, std::move(segments));
   b.motion_start = d["motion_start"].cast<double>();
-  b.kinematics.reference = d["reference"].cast<Vec<D>>();
-  b.kinematics.angle = d["angle"].cast<double>();
-  b.kinematics.velocity = d["velocity"].cast<Vec<D>>();
-  b.kinematics.spin = d["spin"].cast<double>();
-  b.kinematics.acceleration = d["acceleration"].cast<Vec<D>>();
-  b.kinematics.angular_acceleration = d["angular_acceleration"].cast<double>();
+  saved_from_dict(d, b.kinematics);
   b.driven = d["driven"].cast<bool>();
-  b.force = d["force"].cast<Vec<D>>();
-  b.torque = d["torque"].cast<double>();
-  b.impulse = d["impulse"].cast<Vec<D>>();
-  b.angular_impulse = d["angular_impulse"].cast<double>();
-  b.impulse_time = d["impulse_time"].cast<double>();
+  saved_from_dict<LoadAccumulator<D>>(d, b);
   return b;
 }
 
 // The load and pose of a body as users read it (per metre of depth; Python multiplies by width).
 template <int D> py::dict body_summary(const RigidBody<D>& b) {
   py::dict d;
-  d["reference"] = Vec<D>(b.kinematics.reference);
-  d["angle"] = b.kinematics.angle;
-  d["velocity"] = Vec<D>(b.kinematics.velocity);
-  d["spin"] = b.kinematics.spin;
-  d["acceleration"] = Vec<D>(b.kinematics.acceleration);
-  d["angular_acceleration"] = b.kinematics.angular_acceleration;
+  saved_to_dict(b.kinematics, d);
   d["driven"] = b.driven;
-  d["force"] = Vec<D>(b.force);
-  d["torque"] = b.torque;
-  const double t = b.impulse_time;
-  d["mean_force"] = t > 0.0 ? Vec<D>(b.impulse / t) : Vec<D>(b.force);
-  d["mean_torque"] = t > 0.0 ? b.angular_impulse / t : b.torque;
-  d["averaged_over"] = t;
+  load_summary<D>(b, d);
   return d;
 }
 
@@ -335,11 +313,7 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
              for (const WallLoad<D>& load : s.wall_loads()) {
                py::dict l;
                l["group"] = load.group;
-               l["force"] = Vec<D>(load.force);
-               l["torque"] = load.torque;
-               l["impulse"] = Vec<D>(load.impulse);
-               l["angular_impulse"] = load.angular_impulse;
-               l["impulse_time"] = load.impulse_time;
+               saved_to_dict<LoadAccumulator<D>>(load, l);
                wall_loads.append(l);
              }
              d["wall_loads"] = py::dict(py::arg("tracked") = s.tracks_wall_loads(),
@@ -364,11 +338,7 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
                  const py::dict l = item.cast<py::dict>();
                  WallLoad<D> load;
                  load.group = l["group"].cast<std::int32_t>();
-                 load.force = l["force"].cast<Vec<D>>();
-                 load.torque = l["torque"].cast<double>();
-                 load.impulse = l["impulse"].cast<Vec<D>>();
-                 load.angular_impulse = l["angular_impulse"].cast<double>();
-                 load.impulse_time = l["impulse_time"].cast<double>();
+                 saved_from_dict<LoadAccumulator<D>>(l, load);
                  loads.push_back(load);
                }
                s.restore_wall_loads(wall_loads["point"].cast<Vec<D>>(), loads);
@@ -427,12 +397,7 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
              py::dict out;
              for (const WallLoad<D>& load : s.wall_loads()) {
                py::dict d;
-               d["force"] = Vec<D>(load.force);
-               d["torque"] = load.torque;
-               const double t = load.impulse_time;
-               d["mean_force"] = t > 0.0 ? Vec<D>(load.impulse / t) : Vec<D>(load.force);
-               d["mean_torque"] = t > 0.0 ? load.angular_impulse / t : load.torque;
-               d["averaged_over"] = t;
+               load_summary<D>(load, d);
                out[py::int_(load.group)] = d;
              }
              return out;

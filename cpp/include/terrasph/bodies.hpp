@@ -57,6 +57,16 @@ template <int D> struct BodyKinematics {
   double spin = 0.0;                     // clockwise angular velocity (rad/s)
   Vec<D> acceleration = Vec<D>::Zero();  // of the reference point (0 for a prescribed schedule)
   double angular_acceleration = 0.0;     // clockwise (rad/s², 0 for a prescribed schedule)
+
+  // f(name, member) for each value a saved state carries (as LoadAccumulator::for_each_saved).
+  template <class Self, class F> static void for_each_saved(Self& k, F&& f) {
+    f("reference", k.reference);
+    f("angle", k.angle);
+    f("velocity", k.velocity);
+    f("spin", k.spin);
+    f("acceleration", k.acceleration);
+    f("angular_acceleration", k.angular_acceleration);
+  }
 };
 
 // A piecewise-constant-velocity schedule starting at t = 0; after its last piece the body holds
@@ -104,21 +114,57 @@ template <int D> class PrescribedMotion {
   std::vector<MotionSegment<D>> segments_;
 };
 
+// The load of the grains on a rigid body or on a fixed wall group (Eq. 3.24–3.25): force and
+// clockwise torque at the last rate evaluation, summed from the granular–wall pair forces, and
+// their time integrals since the last reset (for time-averaged loads). Per metre of depth in 2D.
+template <int D> struct LoadAccumulator {
+  Vec<D> force = Vec<D>::Zero();     // Eq. 3.24 at the last rate evaluation
+  double torque = 0.0;               // Eq. 3.25 at the last rate evaluation
+  Vec<D> impulse = Vec<D>::Zero();   // Σ F dt since the last reset
+  double angular_impulse = 0.0;      // Σ T dt since the last reset
+  double impulse_time = 0.0;         // Σ dt since the last reset
+
+  void clear_load() {
+    force.setZero();
+    torque = 0.0;
+  }
+  // Adds one pair force f acting at `arm` from the torque point (clockwise torque).
+  void add(const Vec<D>& f, const Vec<D>& arm) {
+    force += f;
+    torque += quarter_turn_clockwise<D>(arm).dot(f);
+  }
+  void integrate(double dt) {
+    impulse += dt * force;
+    angular_impulse += dt * torque;
+    impulse_time += dt;
+  }
+  void reset_impulses() {
+    impulse.setZero();
+    angular_impulse = 0.0;
+    impulse_time = 0.0;
+  }
+
+  // f(name, member) for each value a saved state carries, each named once here (Self is a
+  // LoadAccumulator or a const one: the saving and the restoring code walk the same list).
+  template <class Self, class F> static void for_each_saved(Self& load, F&& f) {
+    f("force", load.force);
+    f("torque", load.torque);
+    f("impulse", load.impulse);
+    f("angular_impulse", load.angular_impulse);
+    f("impulse_time", load.impulse_time);
+  }
+};
+
 // A rigid body: its schedule, its current kinematics, and the granular load on it.
 // Force and torque are per metre of depth in 2D (N/m, N·m/m); the Python layer multiplies by the
 // body's real width. The torque is about the reference point, clockwise-positive.
-template <int D> struct RigidBody {
+template <int D> struct RigidBody : LoadAccumulator<D> {
   // false: follows `motion`; true: driven from outside (a multibody engine sets its kinematics
   // before every step, DESIGN §3.6)
   bool driven = false;
   PrescribedMotion<D> motion;
   double motion_start = 0.0;         // simulation time at which the schedule's t = 0 falls
   BodyKinematics<D> kinematics;
-  Vec<D> force = Vec<D>::Zero();     // Eq. 3.24 at the last rate evaluation
-  double torque = 0.0;               // Eq. 3.25 at the last rate evaluation
-  Vec<D> impulse = Vec<D>::Zero();   // Σ F dt since the last reset (for time-averaged loads)
-  double angular_impulse = 0.0;      // Σ T dt since the last reset
-  double impulse_time = 0.0;         // Σ dt since the last reset
 };
 
 // Points binned in cells of side L (sorted, occupied cells only): a query visits the 3^D cells

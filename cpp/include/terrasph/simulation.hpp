@@ -12,6 +12,7 @@
 // neighbour lists are rebuilt from the positions they were built at, and no rate is recomputed.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -48,7 +49,20 @@ struct RunCounters {
   // lies a layer or more inside its wall) has got past the wall's surface row
   std::int64_t penetrating_particles = 0;  // at the last rate evaluation
   std::int64_t penetrated_particles = 0;   // distinct particles that ever were, over the run
-  PhaseTimes phase_seconds;
+  PhaseTimes phase_seconds;  // a measurement, not state: not saved
+
+  // f(name, member) for each counter a saved state carries, each named once here (Self is
+  // RunCounters or const RunCounters: the saving and the restoring code walk the same list).
+  template <class Self, class F> static void for_each_saved(Self& c, F&& f) {
+    f("step", c.step);
+    f("time", c.time);
+    f("last_dt", c.last_dt);
+    f("neighbour_builds", c.neighbour_builds);
+    f("max_speed", c.max_speed);
+    f("max_acceleration", c.max_acceleration);
+    f("penetrating_particles", c.penetrating_particles);
+    f("penetrated_particles", c.penetrated_particles);
+  }
 };
 
 // A wall group to remove at a given simulation time (e.g. the gate of a column collapse).
@@ -60,13 +74,8 @@ struct WallRemoval {
 // The load of the grains on one fixed wall group (a wall group that is not a body), kept when
 // asked for (Simulation::track_wall_loads): Eq. 3.24–3.25 summed over the group's particles, per
 // metre of depth, the clockwise torque about the tracking point.
-template <int D> struct WallLoad {
+template <int D> struct WallLoad : LoadAccumulator<D> {
   std::int32_t group = 0;
-  Vec<D> force = Vec<D>::Zero();    // at the last rate evaluation
-  double torque = 0.0;              // at the last rate evaluation
-  Vec<D> impulse = Vec<D>::Zero();  // Σ F dt since the last reset (for time-averaged loads)
-  double angular_impulse = 0.0;     // Σ T dt since the last reset
-  double impulse_time = 0.0;        // Σ dt since the last reset
 };
 
 template <int D> class Simulation {
@@ -161,6 +170,8 @@ template <int D> class Simulation {
   using ForcePass = void (Simulation::*)(double);
 
   void compose_passes();
+  void compose_stress_passes();
+  void compose_force_pass();
   void step(double dt);
   void apply_due_removals();
   void update_neighbours_if_needed();
@@ -180,7 +191,12 @@ template <int D> class Simulation {
   void wall_velocity_pass();
   template <class Model, int Density> void velocity_gradient_and_stress_pass(double dt);
   template <class Model, int Density> void strain_and_stress_pass(double dt);
-  double advanced_density(double rho, double rate, double dt) const;
+  // ρ + Δt Dρ/Dt, held at the optional floor numerics.density_floor·ρ0: with the tension-free EOS a
+  // grain that separates from the bulk carries no pressure below ρ0 either way; the floor keeps it
+  // from re-entering the bed unresisted. The kicks (Δt/2) and the symplectic update (Δt) use it.
+  double advanced_density(double rho, double rate, double dt) const {
+    return std::max(rho + dt * rate, params_.numerics.density_floor * params_.material.reference_density);
+  }
   void small_strain_pass(VecArray<D>& reference, MatArray<D>& strain, double reference_time);
   template <int Density>
   void add_granular_velocity_gradient(Index i, bool correct, const ForceConstants<D>& constants, Mat<D>& grad,
@@ -200,8 +216,7 @@ template <int D> class Simulation {
   bool keeps_pair_forces() const { return !bodies_.empty() || tracks_wall_loads_; }
   int attach_body(std::int32_t wall_group, RigidBody<D> body);
   void move_bodies(double time);
-  void accumulate_body_loads(double dt);
-  void accumulate_wall_loads(double dt);
+  void accumulate_loads(double dt);
   void check_health() const;
   void mark_interior_walls();
   void check_ids() const;
