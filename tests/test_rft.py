@@ -223,7 +223,7 @@ def test_plate_dropped_on_the_sand_stops_at_twice_the_bearing_depth():
 def test_leg_wheel_on_rft_runs_and_is_deterministic(tmp_path):
     """``terrain='rft'``: the leg-wheel scene's run loop and series on the RFT terrain; the C-leg wheel
     drives forward with a slip in (0, 1), and a second run gives the same series bit for bit."""
-    config = LegWheel(terrain="rft", settle_time=0.1, duration=0.5)
+    config = LegWheel(terrain="rft", settle_time=0.1, t_end=0.5)
     first = run_leg_wheel(config, output=tmp_path / "a.h5")
     second = run_leg_wheel(config, plot=False)
     summary = first.summary()
