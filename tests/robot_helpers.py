@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from terrasph.config import Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots import CoupledSimulation, PlanarRobot
@@ -43,3 +45,25 @@ def couple(xml: str, couplings: dict[str, object], scene: Scene, numerics: Numer
                               for k, v in couplings.items()})
     robot.add_to_scene(scene)
     return CoupledSimulation(robot, Simulation(scene, material, numerics or Numerics(spacing=DX)))
+
+
+def run_interrupted(monkeypatch, run: Callable[[], object], stop_at: int) -> None:
+    """Runs `run` with SIGINT sent to this process during coupled step `stop_at` (caught by the run
+    loop and honoured after that step), expecting the KeyboardInterrupt it ends with."""
+    import os
+    import signal
+
+    import pytest
+
+    step, taken = CoupledSimulation.step, [0]
+
+    def interrupted_step(self: CoupledSimulation) -> float:
+        taken[0] += 1
+        if taken[0] == stop_at:
+            os.kill(os.getpid(), signal.SIGINT)
+        return step(self)
+
+    monkeypatch.setattr(CoupledSimulation, "step", interrupted_step)
+    with pytest.raises(KeyboardInterrupt):
+        run()
+    monkeypatch.setattr(CoupledSimulation, "step", step)

@@ -6,8 +6,6 @@ refused by name."""
 from __future__ import annotations
 
 import json
-import os
-import signal
 
 import numpy as np
 import pytest
@@ -15,9 +13,10 @@ from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
 from terrasph.robots import shape_inertial
-from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
 from terrasph.simulation import checkpoint_path
+
+from robot_helpers import run_interrupted
 
 TINY = ["--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04", "--bed-width", "0.2",
         "--bed-depth", "0.04", "--start-x", "0.08", "--settle-time", "0.1", "--t-end", "0.16", "--omega", "1.5",
@@ -93,19 +92,8 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
                       bed_depth=0.04, start_x=0.08, settle_time=0.03, t_end=0.07, load=2.0,
                       series_interval=0.005, frame_interval=0.02)
     whole = run_leg_wheel(config, tmp_path / "whole.h5")
-    step, taken, stop_at = CoupledSimulation.step, [0], int(0.7 * whole.summary()["steps"])
-
-    def interrupted_step(self: CoupledSimulation) -> float:
-        taken[0] += 1
-        if taken[0] == stop_at:
-            os.kill(os.getpid(), signal.SIGINT)  # caught by the run loop, honoured after this step
-        return step(self)
-
     stopped = tmp_path / "stopped.h5"
-    monkeypatch.setattr(CoupledSimulation, "step", interrupted_step)
-    with pytest.raises(KeyboardInterrupt):
-        run_leg_wheel(config, stopped)
-    monkeypatch.setattr(CoupledSimulation, "step", step)
+    run_interrupted(monkeypatch, lambda: run_leg_wheel(config, stopped), int(0.7 * whole.summary()["steps"]))
     assert checkpoint_path(stopped).is_file()
     assert read_run(stopped).group_attrs["/run"]["status"] == "interrupted"
     assert 0.03 < read_run(stopped).series["diagnostics"]["time"][-1] < 0.07

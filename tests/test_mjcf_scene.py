@@ -20,6 +20,8 @@ from terrasph.io import read_run
 from terrasph.robots.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
 from terrasph.robots.terrain_robot import terrain_robot
 
+from robot_helpers import run_interrupted
+
 gymnasium = pytest.importorskip("gymnasium")
 ASSETS = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets")
 HOPPER = os.path.join(ASSETS, "hopper.xml")
@@ -176,27 +178,13 @@ def test_an_interrupted_mjcf_run_resumes_bitwise(tmp_path, monkeypatch, capsys) 
     """The hopper run stopped by SIGINT after 60 % of its coupled steps and finished by ``terrasph resume``
     (the scene found by name in the run file, its ctrl specs rebuilt) equals the run never stopped
     in every series but wall time, bit for bit."""
-    import signal
-
-    from terrasph.robots.coupling import CoupledSimulation
     from terrasph.simulation import checkpoint_path
 
     config = MjcfScene(model=HOPPER, bed_width=0.8, bed_depth=0.06, spacing=DX, settle_time=0.02, t_end=0.08,
                        ctrl=(*HOLD[:2], "foot_joint=sin:0.2,0.05"), series_interval=0.005)
     whole = run_mjcf(config, tmp_path / "whole.h5")
-    step, taken, stop_at = CoupledSimulation.step, [0], int(0.6 * whole.summary()["steps"])
-
-    def interrupted_step(self: CoupledSimulation) -> float:
-        taken[0] += 1
-        if taken[0] == stop_at:
-            os.kill(os.getpid(), signal.SIGINT)  # caught by the run loop, honoured after this step
-        return step(self)
-
     stopped = tmp_path / "stopped.h5"
-    monkeypatch.setattr(CoupledSimulation, "step", interrupted_step)
-    with pytest.raises(KeyboardInterrupt):
-        run_mjcf(config, stopped)
-    monkeypatch.setattr(CoupledSimulation, "step", step)
+    run_interrupted(monkeypatch, lambda: run_mjcf(config, stopped), int(0.6 * whole.summary()["steps"]))
     assert checkpoint_path(stopped).is_file()
     assert 0.02 < read_run(stopped).series["diagnostics"]["time"][-1] < 0.08  # stopped while driven
     assert main(["resume", str(stopped), "--no-progress"]) == 0
