@@ -1,0 +1,35 @@
+"""The μ(I) rheology against an analytic flow: steady flow down a rough inclined plane (slow).
+
+Reference: Bagnold's profile of μ(I) (GDR MiDi 2004; Jop, Forterre & Pouliquen 2005), with I the
+shear rate γ̇ = du/dy times d/√(P/ρ_s) as Jop et al. fitted I0 = 0.279 with:
+u(y) = (2/3)(I/d)√(ρ g cos θ/ρ_s)[h^{3/2} − (h − y)^{3/2}], I = I0 (tan θ − μ1)/(μ2 − tan θ).
+The dissertation's I (half the shear rate) would double every speed. Scene:
+benchmarks/inclined_plane.py — a 2 cm layer (10 rows at Δx = 2 mm) of the rate model on a rough
+plane 2 m long between end walls, the profile read at mid-length and averaged over the steady
+window (from the first sample 0.1 s apart whose speed changed by less than 1 %, while the speed
+stays within 2 % of the window's mean, before the end walls' disturbances arrive). Asserted: a window of at least three samples, and the largest difference of
+its mean profile from Bagnold over the layer (the kernel-truncated top row left out) below 5 % of
+the analytic surface speed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from inclined_plane import run_angle  # noqa: E402
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.mark.parametrize("angle", [24.0])
+def test_the_steady_profile_is_bagnolds(angle: float) -> None:
+    args = argparse.Namespace(spacing=0.002, depth=0.02, length=2.0, t_end=2.0, sample_interval=0.1,
+                              steady_change=0.01, model="mu_i_rate", threads=2, numerics=[])
+    result = run_angle(angle, args)
+    assert "profile" in result and result["samples"] >= 3, "no steady window before the end walls' disturbances"
+    assert result["error"] < 0.05
