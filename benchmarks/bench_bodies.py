@@ -1,4 +1,4 @@
-"""Cost of rigid bodies and wall time of the default leg scene (issue 3).
+"""Cost of rigid bodies and wall time of the default leg scene.
 
     python benchmarks/bench_bodies.py [--threads 2] [--steps 400] [--repeats 3]
 

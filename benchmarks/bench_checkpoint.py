@@ -1,4 +1,4 @@
-"""Cost of checkpoints (issue 10): file size and write/restore time per 10 000 granular particles.
+"""Cost of checkpoints: file size and write/restore time per 10 000 granular particles.
 
     python benchmarks/bench_checkpoint.py [--sizes 10000 40000] [--repeats 5]
 

@@ -1,4 +1,4 @@
-"""Error against run time of the column collapse (issue 2; wet and Drucker–Prager columns, issue 13).
+"""Error against run time of the column collapse (wet and Drucker–Prager columns).
 
 Runs the collapse at several resolutions, each until at rest, and prints a table of interior
 particles, Δx, steps, wall time, CPU time of this process, L*, H* and their change against the

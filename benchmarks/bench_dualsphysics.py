@@ -1,4 +1,4 @@
-"""Side by side with DualSPHysics: particle-steps per wall second and per CPU second (issue 12).
+"""Side by side with DualSPHysics: particle-steps per wall second and per CPU second.
 
     python benchmarks/bench_dualsphysics.py --source DUALSPHYSICS_DIR [--sizes 20000 80000]
         [--threads 1 2] [--rounds 2] [--tmax 0.05] [--steps 200] [--work DIR] [--no-build]

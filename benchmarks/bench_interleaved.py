@@ -1,4 +1,4 @@
-"""Cost of numerics variants of the default leg-wheel, interleaved window by window in one process (issue 12).
+"""Cost of numerics variants of the default leg-wheel, interleaved window by window in one process.
 
     python benchmarks/bench_interleaved.py --variant NAME:KEY=VALUE,... [--variant ...] [--threads 2]
         [--window 0.05] [--t-end 6.0]

@@ -1,4 +1,4 @@
-"""Error against run time for the rotating C-leg (issue 3).
+"""Error against run time for the rotating C-leg.
 
 Runs the leg-rotation scene at several resolutions (rows of particles across the 6.4 mm leg:
 3, 4, 5 → Δx = 2.13, 1.60, 1.28 mm) and prints a table of grains, steps, wall time, peak lift

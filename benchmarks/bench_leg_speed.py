@@ -1,4 +1,4 @@
-"""Rate dependence of a rotating leg's loads: r_fs = F(fast)/F(slow) of chapter 3, Fig. 3.5 (issue 3).
+"""Rate dependence of a rotating leg's loads: r_fs = F(fast)/F(slow) of chapter 3, Fig. 3.5.
 
 Runs one leg at a slow and a fast angular velocity for each value of the grain–grain artificial
 viscosity α_Π, in the CI variant of the leg scene (8 cm bed, 0.3 s pause, Δx = 2.13 mm), and

@@ -1,4 +1,4 @@
-"""Where the default leg-wheel's SPH step goes, phase by phase, at rest and driven (issue 12).
+"""Where the default leg-wheel's SPH step goes, phase by phase, at rest and driven.
 
     python benchmarks/bench_leg_wheel_phases.py [--threads 2] [--rest 0.6] [--driven 0.2]
         [--numerics NAME=VALUE ...]

@@ -1,4 +1,4 @@
-"""Error against run time of the speed levers (issue 12), on the leg scene or the column collapse.
+"""Error against run time of the speed levers, on the leg scene or the column collapse.
 
     python benchmarks/bench_levers.py leg [--variant NAME:KEY=VALUE,KEY=VALUE ...] [--threads 2]
         [--bed-depth 0.08] [--settle 0.3] [--omega 0.8]

@@ -1,4 +1,4 @@
-"""Stability of the explicit MuJoCo–SPH coupling against the body's mass (issue 11 item 2).
+"""Stability of the explicit MuJoCo–SPH coupling against the body's mass.
 
 A plate 6 cm × 1.5 cm × 5 cm wide is set down on a 20 × 4 cm bed of 3 mm glass beads (Δx = 5 mm
 or ``--spacing=DX``),

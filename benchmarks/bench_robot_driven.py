@@ -1,4 +1,4 @@
-"""Stability of the explicit MuJoCo–SPH coupling for a driven leg-wheel against its mass (issue 11 item 2).
+"""Stability of the explicit MuJoCo–SPH coupling for a driven leg-wheel against its mass.
 
 The plate of bench_robot_coupling.py measures the limit for a body at rest; this is the driven
 case. The leg-wheel rig of the scene ``leg-wheel`` (terrasph.robots.leg_wheel) at the README's

@@ -1,4 +1,4 @@
-"""Throughput, thread scaling, memory per particle and feature cost of the SPH core (issue 2).
+"""Throughput, thread scaling, memory per particle and feature cost of the SPH core.
 
     python benchmarks/bench_sph.py throughput [--sizes 20000 80000 320000] [--threads 1 2] [--steps 200]
         [--numerics NAME=VALUE ...] [--particles-per-thread N]
@@ -131,7 +131,7 @@ def features(size: int, steps: int, repeats: int, only: list[str], cpu: bool = F
 
 
 def scaling(sizes: list[int], steps: int, repeats: int, numerics: dict[str, bool | int | float]) -> None:
-    """CPU time per particle-step on one thread against the particle count (issue 12: flat within
+    """CPU time per particle-step on one thread against the particle count (flat within
     15 %), and the core's own storage per particle (`sim.core.memory_bytes`). CPU time of this process, the best of `repeats` rounds interleaved over the sizes, so
     that other processes' load (which wall time feels in full) moves every size alike."""
     _core.set_num_threads(1)

@@ -1,5 +1,5 @@
 """The strain-based quasi-static branch of Eq. 3.6 (``mu_i_strain``) against the hypoelastic μ(I)
-(``mu_i_hypoelastic``, the default) and the rate form (``mu_i_rate``), issue 13.
+(``mu_i_hypoelastic``, the default) and the rate form (``mu_i_rate``).
 
 Two scenes per model, each printed as a table row and drawn into figures:
 

@@ -1,4 +1,4 @@
-"""Thread count on a shared machine (issue 15, item 1): 2 threads against 1, idle and with a
+"""Thread count on a shared machine: 2 threads against 1, idle and with a
 competing CPU-bound process, under terrasph's default wait (a bounded spin), sleeping threads
 (passive) and a spinning one (active, what the OpenMP runtime did before terrasph set the policy).
 

@@ -1,6 +1,6 @@
 """Column runout against the quasi-2D fits of Lube, Huppert, Sparks & Freundt (2005, Phys. Rev. E
-72, 041301): L* = (L∞ − L0)/L0 ≈ 1.2 a for a ≲ 1.8 and ≈ 1.9 a^(2/3) for a ≳ 2.8, a = H0/L0
-(issue 13). Every column has the area of the dissertation's 7 × 8 cm column (L0·H0 = 56 cm², so the
+72, 041301): L* = (L∞ − L0)/L0 ≈ 1.2 a for a ≲ 1.8 and ≈ 1.9 a^(2/3) for a ≳ 2.8, a = H0/L0.
+Every column has the area of the dissertation's 7 × 8 cm column (L0·H0 = 56 cm², so the
 same particle count at a named resolution), Table 2.1's beads with μ1 = tan 21°, μ2 = tan 33°, on a
 0.6 m rough floor; the front is the column scene's (first thinner than
 DEPOSIT_THICKNESS_GRAIN_DIAMETERS grain diameters); each run until at rest (or --t-end).

@@ -1,4 +1,4 @@
-"""Does the column's thin toe come to rest? (issue 13) The 7 × 8 cm column collapse with and
+"""Does the column's thin toe come to rest? The 7 × 8 cm column collapse with and
 without Coulomb wall friction: at each time, the reach of the connected tail (`toe_front`,
 analysis.front_position) and the largest |v_x| of the five front-most grains (the toe and any grain
 ahead of it). Wave-speed step; CPU time per run.

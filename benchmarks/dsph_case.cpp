@@ -1,4 +1,4 @@
-// The 2D dam break CaseDambreakVal2D written for DualSPHysics' solver without its GenCase (issue 12).
+// The 2D dam break CaseDambreakVal2D written for DualSPHysics' solver without its GenCase.
 //
 // DualSPHysics' case generator GenCase is a closed-source binary; a checkout without it (such as a
 // snapshot that leaves out large files) cannot make the case that the solver loads. This program

@@ -1,4 +1,4 @@
-"""Table and figures from leg-rotation run files (issue 3, Fig. 3.2–3.5 of the dissertation).
+"""Table and figures from leg-rotation run files (Fig. 3.2–3.5 of the dissertation).
 
     python benchmarks/leg_report.py RUN.h5 [RUN.h5 ...] [--out DIR]
 

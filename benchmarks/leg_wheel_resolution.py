@@ -1,4 +1,4 @@
-"""Error against run time for one leg-wheel at several resolutions (issue 11): the same wheel and
+"""Error against run time for one leg-wheel at several resolutions: the same wheel and
 bed (reversed C-leg, legs 1.5 cm thick and 5 cm long, 30 × 5 cm bed, load 4.9 N, 0.2 s pause,
 ω = 1.5 rad/s) at each Δx; mean slip, mean forward speed, final and maximum sinkage, and their
 differences from the finest Δx given, with the wall time of each run.

@@ -1,4 +1,4 @@
-"""Extraction resistance against the dead weight of the grains above (issue 13, "strength at low
+"""Extraction resistance against the dead weight of the grains above ("strength at low
 confinement"): a plate pushed into the settled bed of glass beads and pulled out again, for each
 constitutive model given. At each depth d of the up stroke it prints the downward load on the plate,
 the weight of the prism of grains above it, W_p = ρ0 g d L W, their ratio, and the ratio of the

@@ -1,4 +1,4 @@
-"""Column runout against Lube et al. (2005) and the thin toe coming to rest (issue 13). Slow.
+"""Column runout against Lube et al. (2005) and the thin toe coming to rest. Slow.
 
 Runout: columns of aspect ratio a = 0.5, 2 and 6 (the ends and the middle of the range 0.5–6)
 with the area of the dissertation's 7 × 8 cm column at the "fit" resolution (~1040 grains,

@@ -1,4 +1,4 @@
-"""Rotating legs in glass beads (dissertation ch. 3, issue 3): the CI variant of the scene.
+"""Rotating legs in glass beads (dissertation ch. 3): the CI variant of the scene.
 
 Set-up: the chapter 3 leg (2R = 7.62 cm hip to toe, 6.4 mm thick, 2.54 cm wide, hip 2 cm above
 the surface) and bed material (3 mm glass beads, ρ_s = 2600 kg/m³ at packing 0.63, μ1 = tan 23°,

@@ -1,5 +1,5 @@
 """Extraction of a buried plate: uplift resistance against the dead weight of the grains above
-(issue 13, "strength at low confinement").
+("strength at low confinement").
 
 A plate 4 cm long (B), three rows thick, is buried with its top face H = 3 cm below the surface of a
 14 × 7 cm bed of chapter 3's glass beads (Δx = 2.5 mm, φ = atan μ1 = 23°) before anything moves,

@@ -1,4 +1,4 @@
-"""A granular bed settling under gravity in a rough box (DESIGN §3.5, issue 2).
+"""A granular bed settling under gravity in a rough box (docs/design.md §3.5).
 
 Setup: Δx = 5 mm, a 0.12 m × 0.05 m bed (240 particles) in a rough (no-slip) box drawn as one
 polyline, released at the hydrostatic density (Simulation's default) and run for 0.2 s

@@ -13,7 +13,7 @@
 
 namespace terrasph {
 
-// The stress model of the grains (DESIGN §3.3; docs/design_decisions.md).
+// The stress model of the grains (docs/design.md §3.3; docs/design_decisions.md).
 enum class ConstitutiveModel {
   mu_i_rate,         // Eq. 2.29 everywhere: τ = (μ(I)P + c) D′/(|D′| + ε), no stress state
   mu_i_hypoelastic,  // hypoelastic–plastic μ(I): deviatoric stress s as state (Jaumann rate),

@@ -1,4 +1,4 @@
-"""Two-way coupling of a MuJoCo robot with the SPH terrain (DESIGN §3.6, dissertation Eq. 4.1–4.7).
+"""Two-way coupling of a MuJoCo robot with the SPH terrain (docs/design.md §3.6, dissertation Eq. 4.1–4.7).
 
 The coupled step from t_n to t_{n+1} = t_n + dt (docs/robots.md):
 
