@@ -1,7 +1,7 @@
 // What an idle OpenMP thread costs on this machine (libgomp): how long the second thread of a team
 // takes to start a parallel region that follows a serial gap of the master's, and how long it
 // spins after a region before it sleeps, for the GOMP_SPINCOUNT or OMP_WAIT_POLICY in the
-// environment. The figures behind terrasph.threads.LONG_SPIN / SHORT_SPIN (docs/benchmarks.md,
+// environment. The figures behind terrasph.threads.LONG_SPIN / SHORT_SPIN (docs/speed_history.md,
 // sixth round of the speed levers).
 //
 //   g++ -std=c++17 -O2 -fopenmp benchmarks/omp_wake.cpp -o omp_wake
