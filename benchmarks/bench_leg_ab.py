@@ -1,6 +1,6 @@
 """Interleaved A/B of the default rotating-leg scene (or the coarse leg-wheel) between two
-installs of terrasph, in one run on one machine: wall time per simulated second, the issue-12
-measure.
+installs of terrasph, in one run on one machine: wall time per simulated second, the measure of
+the speed work.
 
     python benchmarks/bench_leg_ab.py --a-python VENV_A/bin/python --b-python VENV_B/bin/python \\
         [--a-numerics KEY=VALUE ...] [--b-numerics KEY=VALUE ...] [--a-env NAME=VALUE ...] [--b-env ...] \\
