@@ -10,7 +10,7 @@ vertical slip surface estimate γHBW(1 + K0 tan φ·H/B) = 1.19 γHBW (Majer 195
 1987; Dickin 1994).
 
 * The peak extraction load exceeds the dead weight by at least 15 % [hypoelastic μ(I): +32 % here,
-  +30 % on the 20 × 10 cm bed of benchmarks/plate_extraction.py --buried 0.03, docs/chapter2.md]:
+  +30 % on the 20 × 10 cm bed of benchmarks/validation/plate_extraction.py --buried 0.03, docs/chapter2.md]:
   the model's frictional strength carries shear on the slip surfaces once the overburden is intact.
 * It lies within ±25 % of the vertical-slip estimate [1.10 × it here, 1.09 × on the larger bed].
 * No grain leaks.

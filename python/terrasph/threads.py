@@ -5,7 +5,7 @@ Two things make a team of OpenMP threads slow on a busy machine: threads that sp
 wait for long (each spin takes a core another process needs) and more threads than free cores
 (each parallel region then waits for a thread the OS has descheduled). On an idle machine the
 opposite costs: a thread that sleeps between two of a step's loops starts the next one 25–40 µs
-late on a virtual machine (benchmarks/omp_wake.cpp), as much as a small loop's work.
+late on a virtual machine (benchmarks/performance/omp_wake.cpp), as much as a small loop's work.
 :func:`idle_cores` counts the cores idle right now; :func:`threads_for` and :func:`spin_count`
 turn that into a thread count and libgomp's spin (``GOMP_SPINCOUNT``).
 

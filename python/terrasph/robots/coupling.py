@@ -58,14 +58,14 @@ __all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "RobotS
            "mujoco_state", "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
-#: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/bench_robot_coupling.py):
+#: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/validation/bench_robot_coupling.py):
 #: a plate set down on the bed is thrown off it at 1.5e-4 and stays at 2e-4 (Δx = 5 mm); the
 #: accepted range starts a factor 5 above that.
 MIN_MASS_RATIO = 1e-3
 #: Below this ratio (and above MIN_MASS_RATIO) the coupling warns: a driven leg-wheel turned by a
 #: constant motor torque (its spin free, not held by a servo) is stable down to 5e-4 but its mean
 #: spin departs from that of heavier wheels below 1e-2 (x5 at 1e-3; docs/robots.md,
-#: benchmarks/bench_robot_driven.py). A wheel whose spin a velocity servo holds is not affected.
+#: benchmarks/validation/bench_robot_driven.py). A wheel whose spin a velocity servo holds is not affected.
 ACCURATE_MASS_RATIO = 1e-2
 
 
