@@ -24,7 +24,7 @@ import argparse
 import json
 import time
 
-from bench_sph import parse_value
+from terrasph.cli_common import setting_value
 from terrasph import _core
 from terrasph.scenes import ColumnCollapse, run_column_collapse
 from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
@@ -40,7 +40,7 @@ def parse_variant(text: str) -> tuple[str, dict[str, bool | int | float | str]]:
     overrides: dict[str, bool | int | float | str] = {}
     for pair in filter(None, rest.split(",")):
         key, _, value = pair.partition("=")
-        overrides[key] = value if key == "material_preset" else parse_value(value)
+        overrides[key] = value if key == "material_preset" else setting_value(value)
     return name, overrides
 
 

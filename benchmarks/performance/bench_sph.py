@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable
 
 from terrasph import _core
+from terrasph.cli_common import setting_value
 from terrasph.config import Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.scene import Scene
@@ -54,19 +55,10 @@ def time_steps(sim: Simulation, steps: int, clock: Callable[[], float] = time.pe
     return (clock() - start) / steps
 
 
-def parse_value(text: str) -> bool | int | float:
-    """true/false, an integer or a float."""
-    if text.lower() in ("true", "false"):
-        return text.lower() == "true"
-    try:
-        return int(text)
-    except ValueError:
-        return float(text)
-
-
 def parse_numerics(pairs: list[str]) -> dict[str, bool | int | float]:
-    """{"cell_order": True, "cfl": 0.4} from ["cell_order=true", "cfl=0.4"]."""
-    return {name: parse_value(text) for name, _, text in (pair.partition("=") for pair in pairs)}
+    """{"cell_order": True, "cfl": 0.4} from ["cell_order=true", "cfl=0.4"]. Names are not checked
+    against this build's Numerics: an A/B passes them on to other builds."""
+    return {name: setting_value(text) for name, _, text in (pair.partition("=") for pair in pairs)}
 
 
 def throughput(sizes: list[int], threads: list[int], steps: int, numerics: dict[str, bool | int | float]) -> None:
