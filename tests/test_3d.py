@@ -1,4 +1,4 @@
-"""The core in 3D (issue 10): ``Simulation<3>`` runs, although every scene is 2D.
+"""The core in 3D: ``Simulation<3>`` runs, although every scene is 2D.
 
 References: on a cubic lattice at rest, Wendland C2 with h = 1.3Δx in 3D gives Σ_j V_j W_ij = 1
 within 1.5 % [0.95 %] and Σ_j V_j ∇W_ij = 0 to round-off (1e-12 / h) in the bulk (the lattice is

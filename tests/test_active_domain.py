@@ -1,4 +1,4 @@
-"""Active domain (numerics.freeze_speed, issue 12): settled grains far from every body and from
+"""Active domain (numerics.freeze_speed): settled grains far from every body and from
 every unsettled grain are frozen (not updated) and woken when anything comes within their
 neighbour radius.
 

@@ -1,4 +1,4 @@
-"""``terrasph animate``: a movie of a run's frames (issue 11, item 7), and its bad input.
+"""``terrasph animate``: a movie of a run's frames, and its bad input.
 
 The movie is read back with imageio: it must hold one picture per frame of the run, show
 something (not a blank picture), and draw the run's body in its body colour and the walls in grey.

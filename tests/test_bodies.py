@@ -48,7 +48,7 @@ def test_flat_leg_points_down_to_R():
 
 
 def test_positive_rotation_is_clockwise():
-    """DESIGN §2: legs turn clockwise (positive) when the robot moves in +x. Clockwise in the x–z plane
+    """docs/design.md §2: legs turn clockwise (positive) when the robot moves in +x. Clockwise in the x–z plane
     with z up takes 'down' (6 o'clock) to 'back' (9 o'clock, −x): the tip at (0, −R) goes to (−R, 0)."""
     leg = bodies.flat_leg(R, T, W, DX)
     tip = np.argmin(leg.position[:, 1])

@@ -1,4 +1,4 @@
-"""Cell-ordered storage (numerics.cell_order, issue 12): at each neighbour build the core gathers
+"""Cell-ordered storage (numerics.cell_order): at each neighbour build the core gathers
 both particle sets into the order of the cells, and nothing a user reads changes.
 
 References: the same run without reordering. The storage order changes the neighbour-list order

@@ -1,4 +1,4 @@
-"""Command line: ``terrasph --help`` and ``terrasph run column-collapse`` (issue 2, item 5).
+"""Command line: ``terrasph --help`` and ``terrasph run column-collapse``.
 
 The LSTM commands (``train``, ``predict``) are tested in test_lstm_*.py; here they only have to
 be listed. The real run is 0.05 s of the coarse collapse (~3 500 steps, a few seconds).

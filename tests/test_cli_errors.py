@@ -1,5 +1,4 @@
-"""Bad input to every command ends in one line and exit status 2, before any work (issue 15,
-items 2, 3 and 11).
+"""Bad input to every command ends in one line and exit status 2, before any work.
 
 The table below is every CLI command × every kind of bad input a user met: broken model files,
 inputs a model cannot read, output paths in missing directories or onto existing files, counts

@@ -1,4 +1,4 @@
-"""Dry granular column collapse at the coarsest resolution (issue 2; dissertation ch. 2).
+"""Dry granular column collapse at the coarsest resolution (dissertation ch. 2).
 
 Slow (about a minute per run on 2 cores): run with ``pytest --runslow`` or TERRASPH_RUN_SLOW=1.
 

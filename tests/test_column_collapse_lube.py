@@ -1,9 +1,9 @@
-"""Column runout against Lube et al. (2005) and the thin toe coming to rest (issue 13). Slow.
+"""Column runout against Lube et al. (2005) and the thin toe coming to rest. Slow.
 
 Runout: columns of aspect ratio a = 0.5, 2 and 6 (the ends and the middle of the range 0.5–6)
 with the area of the dissertation's 7 × 8 cm column at the "fit" resolution (~1040 grains,
 Δx = 2.32 mm), the default beads (the packing's density, μ1 = tan 21°, μ2 = tan 33°), Coulomb wall
-friction μ_w = μ1 and the default numerics (benchmarks/column_runout_lube.py). L* at the deposit
+friction μ_w = μ1 and the default numerics (benchmarks/validation/column_runout_lube.py). L* at the deposit
 front (four grain diameters thick) must lie within ±25 % of the quasi-2D fits of Lube, Huppert,
 Sparks & Freundt (2005, Phys. Rev. E 72, 041301): 1.2a for a ≤ 1.8, 1.9a^(2/3) for a ≥ 2.8, linear
 in between [measured ratios 0.86 / 0.98 / 0.88; with the former artificial viscosity α_Π = 0.1
@@ -28,7 +28,7 @@ import pytest
 from terrasph.scenes.column_collapse import ColumnCollapse, build_column_collapse, run_column_collapse
 from terrasph.simulation import Simulation
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "validation"))
 from column_runout_lube import column, lube_fit  # noqa: E402
 
 pytestmark = pytest.mark.slow

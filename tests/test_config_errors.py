@@ -1,4 +1,4 @@
-"""Bad input is refused with a clear error naming the parameter, before any work starts (issue 2).
+"""Bad input is refused with a clear error naming the parameter, before any work starts.
 
 "Before any work" is checked literally where it matters: the core simulation constructor is
 replaced by a trap, so a check that only happened inside the C++ core (or after stepping) fails.

@@ -1,4 +1,4 @@
-"""Conservation: δ-SPH density diffusion (DESIGN §3.4), mass and momentum.
+"""Conservation: δ-SPH density diffusion (docs/design.md §3.4), mass and momentum.
 
 References and tolerances
 -------------------------

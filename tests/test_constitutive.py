@@ -1,4 +1,4 @@
-"""Constitutive models behind one interface (issue 10), tested one particle at a time through
+"""Constitutive models behind one interface, tested one particle at a time through
 ``_core.constitutive_update`` against hand-computed references.
 
 * μ(I) rate form (Eq. 2.29–2.32): P from the EOS κ[(ρ/ρ0)^γ − 1]; the shear stress points along

@@ -1,4 +1,4 @@
-"""Results do not depend on the OpenMP thread count (issue 2): gather per particle, fixed
+"""Results do not depend on the OpenMP thread count: gather per particle, fixed
 neighbour order, no floating-point atomics. The state after a few hundred steps with 1, 2 and 3
 threads (3 splits the particles into uneven chunks) must be bitwise identical (np.array_equal, no
 tolerance)."""

@@ -1,4 +1,4 @@
-"""Bodies driven from outside (DESIGN §3.6; the core side of issue 11's multibody coupling).
+"""Bodies driven from outside (docs/design.md §3.6; the core side of the multibody coupling).
 
 References: a driven body's particles sit at c + R(θ) r with the pose last set (1e-12 m); their
 velocity is v_c + ω J R r (1e-12); their acceleration, which enters the wall pressure (Eq. 3.31),

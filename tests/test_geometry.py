@@ -1,4 +1,4 @@
-"""Wall sampling along polylines (DESIGN §3.5): layers on the wall side only, corners filled."""
+"""Wall sampling along polylines (docs/design.md §3.5): layers on the wall side only, corners filled."""
 
 import numpy as np
 import pytest

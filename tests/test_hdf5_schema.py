@@ -1,4 +1,4 @@
-"""docs/hdf5_schema.md against the files the scenes write (issue 15, item 10: the page named
+"""docs/hdf5_schema.md against the files the scenes write (the page named
 /results keys the files did not have).
 
 Each table of the page lists names in its first column; for every table, the names it documents

@@ -1,4 +1,4 @@
-"""Stable particle ids (issue 10): everything a user reads is keyed by id, whatever order the core
+"""Stable particle ids: everything a user reads is keyed by id, whatever order the core
 stores particles in, and nothing handed out can dangle.
 
 The storage order is permuted through the core's debug hook (the way cell-ordered storage will

@@ -4,7 +4,7 @@ Reference: Bagnold's profile of μ(I) (GDR MiDi 2004; Jop, Forterre & Pouliquen 
 shear rate γ̇ = du/dy times d/√(P/ρ_s) as Jop et al. fitted I0 = 0.279 with:
 u(y) = (2/3)(I/d)√(ρ g cos θ/ρ_s)[h^{3/2} − (h − y)^{3/2}], I = I0 (tan θ − μ1)/(μ2 − tan θ).
 The dissertation's I (half the shear rate) would double every speed. Scene:
-benchmarks/inclined_plane.py — a 2 cm layer (10 rows at Δx = 2 mm) of the rate model on a rough
+benchmarks/validation/inclined_plane.py — a 2 cm layer (10 rows at Δx = 2 mm) of the rate model on a rough
 plane 2 m long between end walls, the profile read at mid-length and averaged over the steady
 window (from the first sample 0.1 s apart whose speed changed by less than 1 %, while the speed
 stays within 2 % of the window's mean, before the end walls' disturbances arrive). Asserted: a window of at least three samples, and the largest difference of
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "validation"))
 from inclined_plane import run_angle  # noqa: E402
 
 pytestmark = pytest.mark.slow

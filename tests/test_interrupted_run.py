@@ -1,4 +1,4 @@
-"""An interrupted run is usable (issue 15, items 6 and 7): Ctrl-C ends `terrasph run` within a few
+"""An interrupted run is usable: Ctrl-C ends `terrasph run` within a few
 seconds however slow the steps, `/run` records the time and step reached, the XDMF sidecar and
 the PNG are written, and `terrasph info` / `terrasph plot` work on the file.
 

@@ -204,7 +204,7 @@ def test_xdmf_slab_selects_the_right_values(tmp_path: pathlib.Path) -> None:
 
 
 def test_xdmf_shows_bodies_with_their_index_and_the_walls(tmp_path: pathlib.Path) -> None:
-    """Issue 15, item 4: a body (leg, plate) is a particle set of its own in every frame of the
+    """A body (leg, plate) is a particle set of its own in every frame of the
     sidecar, with its particles' body index; the fixed walls are shown at every time."""
     path = tmp_path / "run.h5"
     with io.RunWriter(path, CONFIG) as writer:

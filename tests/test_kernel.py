@@ -1,4 +1,4 @@
-"""Wendland C2 kernel (DESIGN §3.1, Eq. 2.36) and SPH consistency on particle lattices.
+"""Wendland C2 kernel (docs/design.md §3.1, Eq. 2.36) and SPH consistency on particle lattices.
 
 References and tolerances
 -------------------------

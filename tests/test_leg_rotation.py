@@ -1,4 +1,4 @@
-"""Rotating legs in glass beads (dissertation ch. 3, issue 3): the CI variant of the scene.
+"""Rotating legs in glass beads (dissertation ch. 3): the CI variant of the scene.
 
 Set-up: the chapter 3 leg (2R = 7.62 cm hip to toe, 6.4 mm thick, 2.54 cm wide, hip 2 cm above
 the surface) and bed material (3 mm glass beads, ρ_s = 2600 kg/m³ at packing 0.63, μ1 = tan 23°,
@@ -120,7 +120,7 @@ def test_chapter_3_rate_dependence_returns_with_the_dissertations_artificial_vis
     """With the dissertation's α_Π = 1 between grains (terrasph's default is 0.1, chosen on the
     column collapse: docs/design_decisions.md) both peak lift and peak thrust of the C-leg grow from
     0.2 to 0.8 rad/s, as chapter 3 reports (Fig. 3.5: r_fs > 1 in both directions). Measured
-    (benchmarks/bench_leg_speed.py): lift ×1.18, thrust ×1.13, against ×1.20 and ×0.98 with
+    (benchmarks/studies/bench_leg_speed.py): lift ×1.18, thrust ×1.13, against ×1.20 and ×0.98 with
     α_Π = 0.1. The viscous term is ∝ α_Π c0 h |v_ij|, a rate-dependent resistance that shrinks
     with h; asserted: both ratios above 1.05."""
     results = {}

@@ -1,4 +1,4 @@
-"""Smoke run of the ``leg-wheel`` scene (issue 11 item 5) at a tiny size, through the CLI: the file
+"""Smoke run of the ``leg-wheel`` scene at a tiny size, through the CLI: the file
 holds the robot series, the wheel turns at the commanded ω after the pause and not before, it
 sinks, no grain leaks; the rig weighs load + the wheel's shape at its density; bad parameters are
 refused by name."""
@@ -115,7 +115,7 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
 
 def test_the_robot_progress_bar_ends_at_its_total(tmp_path, capsys) -> None:
     """The coupled loop's last step ends past t_end (its dt is the SPH's stable bound): the bar stops
-    at 100 %, with no tqdm clamping warning and no negative remaining time (issue 15, item 7)."""
+    at 100 %, with no tqdm clamping warning and no negative remaining time."""
     import warnings
 
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,

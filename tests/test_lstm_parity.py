@@ -1,6 +1,6 @@
 """Parity of the C++ LSTM engine with PyTorch, on outputs PyTorch itself computed (seeded).
 
-Tolerances (issue 4): max |C++ - PyTorch| <= 1e-5 in float32 and <= 1e-10 in float64. Streaming
+Tolerances: max |C++ - PyTorch| <= 1e-5 in float32 and <= 1e-10 in float64. Streaming
 and whole-sequence prediction must agree exactly (same arithmetic, bit for bit).
 """
 

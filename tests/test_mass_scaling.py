@@ -1,4 +1,4 @@
-"""Mass scaling (numerics.mass_scaling = f, issue 12): each grain's inertia is f times its mass,
+"""Mass scaling (numerics.mass_scaling = f): each grain's inertia is f times its mass,
 gravity and every force unchanged, so a wave is √f slower while an equilibrium stays where it was.
 
 Scene: test_step_bound's bed (Δx = 5 mm, 0.12 × 0.05 m of Table 2.1 beads in a rough box), which

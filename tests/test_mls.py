@@ -4,7 +4,7 @@
 * A linear field is reproduced to round-off at every particle — in the bulk, next to the walls and
   at the free surface — on a bed whose positions are jittered off the lattice; a quadratic field is
   not (the operator does something).
-* Off (mls_interval = 0) the run is untouched (benchmarks/state_digest.py digests unchanged). On a
+* Off (mls_interval = 0) the run is untouched (benchmarks/performance/state_digest.py digests unchanged). On a
   settled bed it does NOT lower the scatter of σ_zz at fixed depth (docs/design_decisions.md,
   "Chapter 2": smoothing breaks the bed's discrete equilibrium); every 50 steps on a Drucker–Prager
   bed it keeps the lithostatic profile within 3 % and the bed at rest (slow test).

@@ -1,4 +1,4 @@
-"""Cell-linked-list neighbour search (DESIGN §3.2) against an O(N²) brute force.
+"""Cell-linked-list neighbour search (docs/design.md §3.2) against an O(N²) brute force.
 
 ``_core.neighbour_lists(points, radius)`` returns CSR (offsets, indices) of the points strictly
 closer than `radius` (|x_i − x_j|² < radius²), self excluded. The brute force below uses the same

@@ -1,5 +1,5 @@
 """Smoke runs of the notebooks in a fresh kernel: each executes top to bottom in quick mode, and
-every figure it shows renders as an image, once (issue 15, item 5).
+every figure it shows renders as an image, once.
 
 A figure that a cell leaves as its value used to show only as text ("<Figure size …>") until some
 cell had created a pyplot figure, and a pyplot figure also returned as the value was shown twice.

@@ -1,4 +1,4 @@
-"""One definition per parameter (issue 10, item 6): Python and C++ agree on every default and range.
+"""One definition per parameter: Python and C++ agree on every default and range.
 
 The parameter lists live in cpp/include/terrasph/params.hpp. Python's Material/Numerics are
 generated from the table the core exports, and the core's structs from the same lists, so a

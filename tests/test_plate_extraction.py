@@ -1,5 +1,5 @@
 """Extraction of a buried plate: uplift resistance against the dead weight of the grains above
-(issue 13, "strength at low confinement").
+("strength at low confinement").
 
 A plate 4 cm long (B), three rows thick, is buried with its top face H = 3 cm below the surface of a
 14 × 7 cm bed of chapter 3's glass beads (Δx = 2.5 mm, φ = atan μ1 = 23°) before anything moves,
@@ -10,7 +10,7 @@ vertical slip surface estimate γHBW(1 + K0 tan φ·H/B) = 1.19 γHBW (Majer 195
 1987; Dickin 1994).
 
 * The peak extraction load exceeds the dead weight by at least 15 % [hypoelastic μ(I): +32 % here,
-  +30 % on the 20 × 10 cm bed of benchmarks/plate_extraction.py --buried 0.03, docs/chapter2.md]:
+  +30 % on the 20 × 10 cm bed of benchmarks/validation/plate_extraction.py --buried 0.03, docs/chapter2.md]:
   the model's frictional strength carries shear on the slip surfaces once the overburden is intact.
 * It lies within ±25 % of the vertical-slip estimate [1.10 × it here, 1.09 × on the larger bed].
 * No grain leaks.

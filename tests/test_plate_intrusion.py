@@ -1,4 +1,4 @@
-"""Plate intrusion (issue 3 item 5): a horizontal plate pushed into a settled bed, then pulled up.
+"""Plate intrusion: a horizontal plate pushed into a settled bed, then pulled up.
 
 Set-up: the scene's defaults. 3 mm glass beads (ρ0 = 1638 kg/m³, μ1 = tan 23°, μ2 = tan 33°,
 κ = 30 kPa) in a 20 cm × 10 cm rough box at Δx = 2.5 mm (3200 particles); a plate 4 cm long,

@@ -1,4 +1,4 @@
-"""``terrasph plot RUN.h5 --profiles N --fields [--time T]`` (issue 13, item 6): free-surface
+"""``terrasph plot RUN.h5 --profiles N --fields [--time T]``: free-surface
 profiles over time and the speed, pressure and shear-strain fields of a frame, from any run file.
 
 The run file is written here with the package's own writer: a block of grains on a lattice under

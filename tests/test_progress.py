@@ -1,4 +1,4 @@
-"""The progress bar of Simulation.run (issue 15, item 7): it ends at 100 % when a run stops early at
+"""The progress bar of Simulation.run: it ends at 100 % when a run stops early at
 rest, never overshoots its total (no "clamping frac" warning, no negative remaining time), and a
 disabled bar prints nothing, notebook widgets or not."""
 

@@ -1,4 +1,4 @@
-"""Every code block of README.md runs as written, at a small size (issue 15, item 8).
+"""Every code block of README.md runs as written, at a small size.
 
 Blocks run in README order in one scratch directory (later blocks use the files earlier ones
 write: the surrogate snippet reads the dataset and model the commands above it make). Each

@@ -1,4 +1,4 @@
-"""Checkpoint and restart (issue 10): a run stopped and continued equals, bit for bit, the run that
+"""Checkpoint and restart: a run stopped and continued equals, bit for bit, the run that
 never stopped.
 
 References, all exact: 2N steps straight against N steps, a checkpoint, a restore **in a new

@@ -1,4 +1,4 @@
-"""Rigid bodies in the terrain (DESIGN §3.6, Eq. 3.24–3.25, issue 3).
+"""Rigid bodies in the terrain (docs/design.md §3.6, Eq. 3.24–3.25).
 
 A 0.12 m × 0.05 m bed at Δx = 5 mm (240 particles) in a rough box. References, all exact or
 physical laws, with their tolerances:
@@ -12,7 +12,7 @@ physical laws, with their tolerances:
   the bed's weight, F_z = −M g within 1 % [0.001 %].
 * Prescribed motion is followed exactly: body particles sit at c + R(θ) r with θ from the
   schedule, and move with v = ω J R r, to 1e-12 m and 1e-12 m/s.
-* Loads are in N for the body's real width (DESIGN §2): a box carries the real sample's weight.
+* Loads are in N for the body's real width (docs/design.md §2): a box carries the real sample's weight.
 * Leak counter: zero in a settled bed; a grain pressed onto a wall's surface row is not counted, a
   grain on the second layer is.
 * Bad input (a negative duration, a body through a wall, a body thinner than its wall layers,
@@ -145,7 +145,7 @@ def test_prescribed_motion_is_followed_exactly() -> None:
 
 
 def test_a_body_container_carries_the_real_weight_of_its_bed() -> None:
-    """Loads are in newtons for the body's real out-of-plane width (DESIGN §2): a settled bed in a
+    """Loads are in newtons for the body's real out-of-plane width (docs/design.md §2): a settled bed in a
     box (a body of width W) loads it with the weight of the real sample, ρ_bulk · area · W · g,
     where the bulk density is the mean of the particles' densities over the block's area
     (independent of the per-metre masses the core integrates). Tolerance 1 % [0.02 %]."""

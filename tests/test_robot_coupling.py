@@ -1,4 +1,4 @@
-"""The coupled MuJoCo–SPH step (DESIGN §3.6, issue 11 items 2 and 4) in cases with known answers.
+"""The coupled MuJoCo–SPH step (docs/design.md §3.6) in cases with known answers.
 
 References, independent of the code under test:
 * free fall under MuJoCo's semi-implicit Euler with a fixed step: v_n = −g n dt and

@@ -1,4 +1,4 @@
-"""The load of the grains on the fixed walls (Simulation.track_wall_loads, issue 11's momentum
+"""The load of the grains on the fixed walls (Simulation.track_wall_loads, the coupling's momentum
 balance with the container's share).
 
 References, independent of the code under test:

@@ -1,4 +1,4 @@
-"""Planar MJCF robots (DESIGN §3.6, issue 11 item 1): MuJoCo's hinge sign against terrasph's
+"""Planar MJCF robots (docs/design.md §3.6): MuJoCo's hinge sign against terrasph's
 clockwise angle, the planar checks and their errors (also a body overlapping the bed or a wall at
 start), the shape inertia helper, the slip metric.
 

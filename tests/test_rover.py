@@ -1,4 +1,4 @@
-"""Smoke run of the ``rover`` scene (issue 11 item 6) at a tiny size through the CLI: the example
+"""Smoke run of the ``rover`` scene at a tiny size through the CLI: the example
 MJCF rover stands on its two leg-wheels, both turn at the commanded ω after the pause, it moves
 forward, no grain leaks; bad parameters are refused by name."""
 

@@ -71,7 +71,7 @@ def test_each_offered_field_is_one_option() -> None:
 
 
 def test_a_spacing_too_fine_is_refused_in_one_line_within_seconds(tmp_path, capsys) -> None:
-    """The issue's `--spacing 1e-4` (85 s build, then a traceback) and 1e-5 on a 1 x 0.3 m bed."""
+    """A user's `--spacing 1e-4` (85 s build, then a traceback) and 1e-5 on a 1 x 0.3 m bed."""
     out = tmp_path / "r.h5"
     for argv, reason in ((["--spacing", "1e-4"], "--yes"),
                          (["--spacing", "1e-5", "--bed-width", "1", "--bed-depth", "0.3"], "memory")):

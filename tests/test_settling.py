@@ -1,4 +1,4 @@
-"""A granular bed settling under gravity in a rough box (DESIGN §3.5, issue 2).
+"""A granular bed settling under gravity in a rough box (docs/design.md §3.5).
 
 Setup: Δx = 5 mm, a 0.12 m × 0.05 m bed (240 particles) in a rough (no-slip) box drawn as one
 polyline, released at the hydrostatic density (Simulation's default) and run for 0.2 s
@@ -12,7 +12,7 @@ References and tolerances (measured values in brackets)
 * Vertical stress σ_v = −σ_zz averaged in horizontal layers over the central 70 % of the width
   is linear in depth: a line fit has R² > 0.999 [0.99993], slope ρ g within 5 % [+2.1 %] with ρ the
   mean particle density, intercept below ρ g Δx (one layer's weight) [2.6 Pa vs 123 Pa].
-  The 3–5 % agreement of the issue's brief is what wall friction and the discrete free surface allow.
+  A 3–5 % agreement is what wall friction and the discrete free surface allow.
 * No particle leaves the box: every x within (0, W) and z within (0, top) — the wall lines.
 """
 

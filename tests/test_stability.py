@@ -1,4 +1,4 @@
-"""Stiff and extreme cases (DESIGN §3.7, issue 2): stiffer materials, a too-large fixed step, a tall
+"""Stiff and extreme cases (docs/design.md §3.7): stiffer materials, a too-large fixed step, a tall
 column, an injected NaN, and the output file of a run that went unstable.
 
 References and tolerances

@@ -1,4 +1,4 @@
-"""The state digests of benchmarks/state_digest.py against the committed tests/data/state_digests.txt.
+"""The state digests of benchmarks/performance/state_digest.py against the committed tests/data/state_digests.txt.
 
 Each line hashes the whole state of one scene variant after a fixed number of steps (every optional
 term on and off, the gather and each-pair-once passes, the active domain), so a change to the core
@@ -17,13 +17,13 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 EXPECTED = ROOT / "tests" / "data" / "state_digests.txt"
 UPDATE = ("a change that is meant to change results (a physics fix, a new default) updates the file, and says "
-          "why in its commit: python benchmarks/state_digest.py --threads 1 > tests/data/state_digests.txt")
+          "why in its commit: python benchmarks/performance/state_digest.py --threads 1 > tests/data/state_digests.txt")
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("threads", [1, 2])
 def test_state_digests_unchanged(threads: int) -> None:
-    out = subprocess.run([sys.executable, "state_digest.py", "--threads", str(threads)], cwd=ROOT / "benchmarks",
+    out = subprocess.run([sys.executable, "state_digest.py", "--threads", str(threads)], cwd=ROOT / "benchmarks" / "performance",
                          check=True, capture_output=True, text=True).stdout
     expected = EXPECTED.read_text().splitlines()
     changed = [f"{e!r} is now {g!r}" for e, g in zip(expected, out.splitlines()) if e != g]

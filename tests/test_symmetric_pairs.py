@@ -1,4 +1,4 @@
-"""Each granular pair evaluated once (numerics.symmetric_pairs, issue 12): the two pair passes
+"""Each granular pair evaluated once (numerics.symmetric_pairs): the two pair passes
 add every pair's terms to both grains from a half neighbour list, the grains dealt to threads in
 strips of two parities. Each pair's terms are the gather's to the bit (the terms for j are those
 for i with x_ij, v_ij and ∇W turned round), so only the order of the sums changes.

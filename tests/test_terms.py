@@ -1,4 +1,4 @@
-"""Properties of the optional terms and wall kinds that had no test of their own (issue 10).
+"""Properties of the optional terms and wall kinds that had no test of their own.
 
 * Free-slip (smooth) walls transmit no shear: a settled block given a uniform 0.2 m/s slide along a
   smooth floor keeps its x-momentum (≥ 99 % after 0.05 s [99.96 %]), while on a rough floor the

@@ -1,5 +1,5 @@
 """The README's test command is the fast suite; `.ci/run` adds the slow validation but not the long
-studies (issue 15, item 12: a new user checking an install must not wait an hour).
+studies (a new user checking an install must not wait an hour).
 
 Budgets on this 2-core machine: the README command within 15 min, `.ci/run` within 45 min. The
 durations come from docs/benchmarks.md; what is checked here is the structure that keeps them:

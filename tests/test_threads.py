@@ -1,6 +1,6 @@
-"""Thread defaults that do not collapse on a shared machine (issue 15, item 1).
+"""Thread defaults that do not collapse on a shared machine.
 
-The speed itself is measured in benchmarks/bench_threads.py (figures in docs/benchmarks.md); here:
+The speed itself is measured in benchmarks/performance/bench_threads.py (figures in docs/benchmarks.md); here:
 terrasph bounds how long idle OpenMP threads spin, by the load, unless the user chose, picks a thread count
 within the cores it may use when a run starts (not at import), and leaves an explicit OMP_NUM_THREADS or
 --threads alone.

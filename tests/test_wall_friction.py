@@ -1,4 +1,4 @@
-"""Coulomb friction on walls (numerics.wall_friction_coefficient μ_w, issue 13).
+"""Coulomb friction on walls (numerics.wall_friction_coefficient μ_w).
 
 A single row of ten grains (Δx = 5 mm, no overburden: P ≈ 0, the grains of a column's toe) rests on
 a smooth floor and is set sliding at v0 = 0.3 m/s. With μ_w the only tangential force is the

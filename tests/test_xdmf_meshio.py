@@ -1,4 +1,4 @@
-"""The per-set XDMF 3 files that meshio reads (issue 15, item 4: "meshio cannot read the XDMF").
+"""The per-set XDMF 3 files that meshio reads ("meshio cannot read the XDMF").
 
 meshio's TimeSeriesReader reads every particle set (grains, bodies) of a small run with a body, and
 meshio.read the fixed walls; every frame's positions and fields must equal the run file's frames,

@@ -1,4 +1,4 @@
-"""Rigid-body geometry: robot legs, wheels and hybrid leg-wheels as particles (DESIGN §3.6, issue 3).
+"""Rigid-body geometry: robot legs, wheels and hybrid leg-wheels as particles (docs/design.md §3.6).
 
 Every generator returns a :class:`BodyShape` in the body's own frame: the reference point (hip
 axle of a leg, centre of a wheel) is at the origin, x forward (the direction the robot travels),
@@ -40,7 +40,7 @@ The figures themselves are not in the text; the readings follow from its words:
 * Wheel: the rim only, an annulus whose outer surface is at R.
 * Leg-wheel: n copies of a leg rotated about the axle by 2π/n (Fig. 4.2), spokes only.
 
-Rotation convention (DESIGN §2): positive angles are clockwise seen with x to the right and z up,
+Rotation convention (docs/design.md §2): positive angles are clockwise seen with x to the right and z up,
 so legs and wheels turn by positive angles when the robot moves in +x. A clockwise quarter turn
 takes a leg pointing down (tip at (0, −R)) to point backward (tip at (−R, 0)); over
 −π/4 ≤ θ ≤ π/4 the tip sweeps from front-down to back-down and pushes sand backward (thrust +x).
@@ -94,7 +94,7 @@ class BodyShape:
         spacing: Δx (m).
         thickness: requested thickness of the part (m); the realised one is round(t/Δx)·Δx.
         width: out-of-plane width (m). Particles carry per-metre-of-depth quantities; forces are
-            reported in N for this real width (per-depth force × width), DESIGN §2.
+            reported in N for this real width (per-depth force × width), docs/design.md §2.
         radius: R, distance from the axle to the leg tip along the centre line / to the wheel
             rim (m) -- the construction parameter (an L-leg's toe is at √(1 + fl²)·R).
         outline: the body's boundary in its own frame, the one geometry the particles fill and that
@@ -135,7 +135,7 @@ class BodyShape:
 
     def transformed(self, angle: float, origin: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
         """Positions and normals after a rotation by `angle` (radians, positive = clockwise,
-        DESIGN §2) about the reference point, then a translation of the reference point to `origin`."""
+        docs/design.md §2) about the reference point, then a translation of the reference point to `origin`."""
         rot = rotation_matrix(angle)
         positions = self.position @ rot.T + np.asarray(origin, dtype=float)
         normals = self.normal @ rot.T
@@ -148,7 +148,7 @@ class BodyShape:
 
     def lowest_point(self, angle: float = 0.0, origin: tuple[float, float] = (0.0, 0.0)) -> float:
         """Lowest z of the body at this pose: min z of its particles minus Δx/2 (the particles are
-        cell centres), for sinkage (DESIGN §3.8)."""
+        cell centres), for sinkage (docs/design.md §3.8)."""
         positions, _ = self.transformed(angle, origin)
         return float(positions[:, 1].min() - 0.5 * self.spacing)
 
@@ -181,7 +181,7 @@ def _common(radius: float, thickness: float, width: float, spacing: float) -> tu
 def minimum_thickness(spacing: float, h_factor: float) -> float:
     """Thinnest part that keeps grains from leaking through (m): thick enough to hold the wall
     layers that fill the kernel support 2h, i.e. ``wall_layers_needed(h_factor)·Δx`` =
-    ceil(2·h_factor)·Δx (DESIGN §3.5–3.6)."""
+    ceil(2·h_factor)·Δx (docs/design.md §3.5–3.6)."""
     dx = _positive("spacing", spacing)
     return wall_layers_needed(h_factor) * dx
 

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 __all__ = ["add_force_option", "add_numerics_option", "add_threads_option", "check_output_dir", "check_output_file",
-           "nonnegative_int", "numerics_overrides", "positive_float", "positive_int"]
+           "nonnegative_int", "numerics_overrides", "positive_float", "positive_int", "setting_value"]
 
 
 def _int_at_least(minimum: int) -> Callable[[str], int]:
@@ -62,6 +62,17 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help="replace existing output (default: refuse)")
 
 
+def setting_value(raw: str) -> bool | int | float:
+    """The value of a ``NAME=VALUE`` setting: ``true``/``false``, else an integer, else a float
+    (ValueError if none). The one parser of such values, for the command line and the benchmarks."""
+    if raw.lower() in ("true", "false"):
+        return raw.lower() == "true"
+    try:
+        return int(raw)
+    except ValueError:
+        return float(raw)
+
+
 def numerics_setting(text: str) -> tuple[str, bool | int | float]:
     """argparse type: one ``NAME=VALUE`` of terrasph.Numerics (e.g. ``cfl=0.9``),
     checked against the parameter's type and range at once (the rules that link parameters are
@@ -72,17 +83,10 @@ def numerics_setting(text: str) -> tuple[str, bool | int | float]:
     allowed = sorted(f.name for f in dataclasses.fields(Numerics) if f.name != "spacing")
     if not sep or name not in allowed:
         raise argparse.ArgumentTypeError(f"expected NAME=VALUE with NAME one of {', '.join(allowed)}; got {text!r}")
-    value: bool | int | float
-    if raw.lower() in ("true", "false"):
-        value = raw.lower() == "true"
-    else:
-        try:
-            value = int(raw)
-        except ValueError:
-            try:
-                value = float(raw)
-            except ValueError:
-                raise argparse.ArgumentTypeError(f"{name}: expected a number or true/false, got {raw!r}") from None
+    try:
+        value = setting_value(raw)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name}: expected a number or true/false, got {raw!r}") from None
     entry = parameter(f"numerics.{name}")
     try:
         value = entry.coerce(value)

@@ -1,7 +1,7 @@
 """Particle geometry: granular blocks on a lattice and wall-particle layers along polylines.
 
 Walls are fixed ghost (dummy) particles in ``layers`` rows behind the wall line, enough to fill
-the kernel support 2h (DESIGN §3.5). A polyline's granular side is on the *left* of its direction
+the kernel support 2h (docs/design.md §3.5). A polyline's granular side is on the *left* of its direction
 of travel; wall layers go on the right.
 """
 

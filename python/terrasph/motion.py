@@ -1,10 +1,10 @@
-"""Prescribed rigid-body motion: a schedule of pieces with constant velocity and spin (DESIGN §3.6).
+"""Prescribed rigid-body motion: a schedule of pieces with constant velocity and spin (docs/design.md §3.6).
 
 A :class:`Motion` starts when its body is added to a simulation (t = 0 of the schedule) and
 holds the body still after its last piece. Within a piece the reference point moves at a
 constant velocity and the body spins at a constant rate about it, so the pose is known in closed
 form and body particles follow it exactly, whatever the time step. Spins are clockwise-positive
-in the x–z plane (DESIGN §2): a leg of a robot moving in +x sweeps with ω > 0.
+in the x–z plane (docs/design.md §2): a leg of a robot moving in +x sweeps with ω > 0.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "rft-calibrate", help="fit an RFT coefficient table to a plate-drag sweep",
         description="Least-squares fit of Li et al.'s (2013) nine Fourier coefficients and the scale zeta to the "
                     "stress per unit depth of the finished cases of a plate-drag sweep (terrasph sweep "
-                    "benchmarks/sweep_rft_calibration.yaml); writes the table as JSON with its units, the fit's "
+                    "benchmarks/studies/sweep_rft_calibration.yaml); writes the table as JSON with its units, the fit's "
                     "quality and its correlation with the generic map, for --rft-table.")
     p.add_argument("sweep", metavar="SWEEP", help="the sweep directory (its manifest.json)")
     p.add_argument("--out", required=True, help="the coefficient table to write (.json)")

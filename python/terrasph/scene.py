@@ -111,7 +111,7 @@ class Scene:
     domain_lower: tuple[float, float] | None = None
     domain_upper: tuple[float, float] | None = None
     gravity: float = GRAVITY
-    #: z of the undisturbed free surface, for the sinkage of bodies (DESIGN §3.8); None: not reported
+    #: z of the undisturbed free surface, for the sinkage of bodies (docs/design.md §3.8); None: not reported
     surface_level: float | None = None
 
     def __post_init__(self) -> None:

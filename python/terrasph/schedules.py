@@ -4,7 +4,7 @@ A schedule holds u_0 before its first knot and its last value after its last kno
 between consecutive knots; two knots at the same time make a step (u jumps to the later knot's
 value at that time). Constant inputs, steps, ramps and random piecewise inputs are all such
 knot lists (:func:`constant`, :func:`step`, :func:`ramp`, :func:`random_piecewise`); a sequence
-model learns little from constant inputs, so sweeps draw the varied kinds (issue 14).
+model learns little from constant inputs, so sweeps draw the varied kinds.
 """
 
 from __future__ import annotations

@@ -258,7 +258,7 @@ class Simulation:
         return 0.5 * float(np.dot(self.core.mass, np.einsum("ij,ij->i", v, v))) * self.width
 
     def body_state(self, name: str) -> dict[str, Any]:
-        """Pose and load of a body, loads in N and N·m for its real width (DESIGN §2).
+        """Pose and load of a body, loads in N and N·m for its real width (docs/design.md §2).
 
         Keys: ``reference`` (x, z) m, ``angle`` rad and ``omega`` rad/s (clockwise-positive),
         ``velocity`` (vx, vz) m/s, ``acceleration`` (ax, az) m/s² and ``angular_acceleration`` rad/s²
@@ -286,7 +286,7 @@ class Simulation:
                             velocity: tuple[float, float], omega: float,
                             acceleration: tuple[float, float] = (0.0, 0.0), angular_acceleration: float = 0.0) -> None:
         """Pose (m; rad, clockwise), velocity (m/s; rad/s) and acceleration (m/s²; rad/s²) of a
-        driven body at the end of the next step (DESIGN §3.6): its particles follow at that step,
+        driven body at the end of the next step (docs/design.md §3.6): its particles follow at that step,
         and the acceleration enters its walls' pressure, a_w = a_c + α J r − ω² r (Eq. 3.31)."""
         index = self._body_index(name)
         if not self.bodies[index].driven:
@@ -339,7 +339,7 @@ class Simulation:
     @property
     def leaked_particles(self) -> int:
         """Distinct granular particles that have been inside a wall or body (closer than Δx/2 to a
-        wall particle) at any step so far: the leak counter of DESIGN §3.5."""
+        wall particle) at any step so far: the leak counter of docs/design.md §3.5."""
         return int(self.core.penetrated_particles)
 
     def refresh(self) -> None:

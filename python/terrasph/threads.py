@@ -1,12 +1,11 @@
 """The OpenMP thread count and wait terrasph uses by default, chosen so a run never collapses
-when the machine's cores are shared (issue 15, item 1) and its threads keep pace when they are not
-(issue 12).
+when the machine's cores are shared and its threads keep pace when they are not.
 
 Two things make a team of OpenMP threads slow on a busy machine: threads that spin while they
 wait for long (each spin takes a core another process needs) and more threads than free cores
 (each parallel region then waits for a thread the OS has descheduled). On an idle machine the
 opposite costs: a thread that sleeps between two of a step's loops starts the next one 25–40 µs
-late on a virtual machine (benchmarks/omp_wake.cpp), as much as a small loop's work.
+late on a virtual machine (benchmarks/performance/omp_wake.cpp), as much as a small loop's work.
 :func:`idle_cores` counts the cores idle right now; :func:`threads_for` and :func:`spin_count`
 turn that into a thread count and libgomp's spin (``GOMP_SPINCOUNT``).
 
@@ -120,7 +119,7 @@ def default_threads() -> int:
     """Threads for the SPH core: the cores that are idle now (rounded), within [1, available].
 
     On an idle machine that is every available core; with another CPU-bound job on one of two
-    cores it is 1. Results do not depend on the thread count (DESIGN §7), only speed does; set
+    cores it is 1. Results do not depend on the thread count (docs/design.md §7), only speed does; set
     ``OMP_NUM_THREADS``, ``--threads`` or ``terrasph._core.set_num_threads`` to choose.
     """
     return threads_for(idle_cores())

@@ -1,7 +1,7 @@
-// Rigid bodies with prescribed planar motion (DESIGN §3.6, Eq. 3.24–3.25).
+// Rigid bodies with prescribed planar motion (docs/design.md §3.6, Eq. 3.24–3.25).
 // A body is a set of wall particles rigidly attached to a reference point (hip axle, wheel
 // centre). Motion is in the x–z plane (components 0 and D−1) with rotation about the
-// out-of-plane axis; angles and angular velocities are clockwise-positive (DESIGN §2).
+// out-of-plane axis; angles and angular velocities are clockwise-positive (docs/design.md §2).
 #pragma once
 
 #include <algorithm>
@@ -160,7 +160,7 @@ template <int D> struct LoadAccumulator {
 // body's real width. The torque is about the reference point, clockwise-positive.
 template <int D> struct RigidBody : LoadAccumulator<D> {
   // false: follows `motion`; true: driven from outside (a multibody engine sets its kinematics
-  // before every step, DESIGN §3.6)
+  // before every step, docs/design.md §3.6)
   bool driven = false;
   PrescribedMotion<D> motion;
   double motion_start = 0.0;         // simulation time at which the schedule's t = 0 falls

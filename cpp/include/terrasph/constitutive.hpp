@@ -1,4 +1,4 @@
-// Constitutive models behind one interface (DESIGN §1.1, §3.3). A model owns its parameters and
+// Constitutive models behind one interface (docs/design.md §1.1, §3.3). A model owns its parameters and
 // the per-particle state it registers, and provides:
 //   register_fields(FieldRegistry&)        the state it keeps per granular particle (or nothing)
 //   update(i, ∇v_i, ρ_i, dt, P&) → σ_i     its stress update; dt = 0 evaluates without advancing state

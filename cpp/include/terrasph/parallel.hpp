@@ -25,7 +25,7 @@ inline constexpr Index balanced_chunk = 256;
 // share of the work, so a small loop runs on fewer threads or on one. With idle threads that
 // stay awake between loops (terrasph.threads.LONG_SPIN) a join costs a few µs, and a loop of 1 000
 // walls (the rotating leg's) is worth splitting: it also keeps the second thread from sleeping
-// through it and paying a wake-up at the next loop (docs/benchmarks.md, sixth round). 2 000
+// through it and paying a wake-up at the next loop (docs/speed_history.md, sixth round). 2 000
 // while idle threads slept at once. A process-wide setting, like the OpenMP thread count it
 // refines; tests set 1 so that their small scenes still split across 2 and 3 threads.
 inline constexpr Index default_particles_per_thread = 500;

@@ -13,7 +13,7 @@
 
 namespace terrasph {
 
-// The stress model of the grains (DESIGN §3.3; docs/design_decisions.md).
+// The stress model of the grains (docs/design.md §3.3; docs/design_decisions.md).
 enum class ConstitutiveModel {
   mu_i_rate,         // Eq. 2.29 everywhere: τ = (μ(I)P + c) D′/(|D′| + ε), no stress state
   mu_i_hypoelastic,  // hypoelastic–plastic μ(I): deviatoric stress s as state (Jaumann rate),
@@ -216,7 +216,7 @@ struct NumericsParams {
   void validate() const {
     check_ranges(*this);
     // Kicked in halves with the velocity, the density and the velocity are forward Euler in the pair,
-    // held only by the damping terms: C = 0.4 moved a leg's peak loads by 13-16 % (docs/benchmarks.md,
+    // held only by the damping terms: C = 0.4 moved a leg's peak loads by 13-16 % (docs/speed_history.md,
     // eighth round). Advanced before the forces (symplectic Euler) the leg-wheel kept its outcomes
     // within 1 % up to C = 1 (eleventh round): a measured bound, resting on the damping terms.
     if (cfl > 0.5 && !symplectic_density)

@@ -39,7 +39,7 @@ class EquationOfState {
   int integer_gamma_;
 };
 
-// σ = −P I + (μ(I) P + c) D′/(|D′| + ε)  (Eq. 2.29, dense branch; DESIGN §3.3)
+// σ = −P I + (μ(I) P + c) D′/(|D′| + ε)  (Eq. 2.29, dense branch; docs/design.md §3.3)
 // μ(I) = μ1 + (μ2 − μ1)/(I0/I + 1)       (Eq. 2.31)
 // I = γ̇ d / √(P/ρ_s), γ̇ = 2|D′| = √(2 D′:D′)  (Eq. 2.32 with Jop, Forterre & Pouliquen 2006's γ̇,
 //   the rate I0 = 0.279 was fitted with; γ̇ is the shear rate du/dy of a simple shear)

@@ -1,6 +1,6 @@
 // A granular SPH simulation: the model (constants: ModelParams, kernel, constitutive model) and
 // the state (everything a step reads and writes: the two particle sets' registered fields, the
-// counters, the bodies, the wall-removal schedule). Per step (kick–drift–kick, DESIGN §3.7):
+// counters, the bodies, the wall-removal schedule). Per step (kick–drift–kick, docs/design.md §3.7):
 //   v ← v + ½dt a,  ρ ← ρ + ½dt Dρ/Dt          (kick)
 //   x ← x + dt (v + δv_XSPH)                   (drift)
 //   rates at the new positions                  (wall ghosts, ∇v and σ, wall stress, forces)
@@ -130,7 +130,7 @@ template <int D> class Simulation {
   // Returns the body's index.
   int add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
                std::vector<MotionSegment<D>> motion);
-  // Makes the particles of `wall_group` a body driven from outside (a multibody engine, DESIGN
+  // Makes the particles of `wall_group` a body driven from outside (a multibody engine, docs/design.md
   // §3.6): its kinematics are set with set_body_kinematics before each step, and they are taken
   // as the body's state at the end of that step. `reference` and `angle` describe the layout now.
   int add_driven_body(std::int32_t wall_group, const Vec<D>& reference, double angle);

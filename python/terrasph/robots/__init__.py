@@ -1,5 +1,5 @@
 """Dynamic robots on the SPH terrain: planar MJCF robots simulated by MuJoCo, two-way coupled
-with the granular bodies (DESIGN §3.6; issue 11). See docs/robots.md."""
+with the granular bodies (docs/design.md §3.6). See docs/robots.md."""
 
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import sinkage, slip

@@ -1,4 +1,4 @@
-"""Two-way coupling of a MuJoCo robot with the SPH terrain (DESIGN §3.6, dissertation Eq. 4.1–4.7).
+"""Two-way coupling of a MuJoCo robot with the SPH terrain (docs/design.md §3.6, dissertation Eq. 4.1–4.7).
 
 The coupled step from t_n to t_{n+1} = t_n + dt (docs/robots.md):
 
@@ -29,7 +29,7 @@ joint's inertia). Where kv dt > M that jump carries the speed past the servo's l
 |ω_cmd − ω| < τ_max/kv to the limit on the other side, and the servo can lock into a swing of
 ±τ_max dt/M every step: a C-leg wheel of 4 cm legs at Δx = 5 mm (kv dt/M = 6–19), commanded
 1.5 rad/s, swung between ±2.4 rad/s and barely advanced (slip 0.97 instead of 0.44) once the step
-passed C = 0.55 on the wave speed (docs/benchmarks.md, eleventh round). So a servo whose force at
+passed C = 0.55 on the wave speed (docs/speed_history.md, eleventh round). So a servo whose force at
 the step's start would be clamped takes the step as a plain force: the limit, or the smaller force
 M·(ω_cmd − ω)/dt that brings the speed to the command by the step's end (the other loads aside),
 which cannot carry it past. Within the limits it stays MuJoCo's servo, its damping implicit. The
@@ -58,14 +58,14 @@ __all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "RobotS
            "mujoco_state", "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
-#: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/bench_robot_coupling.py):
+#: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/validation/bench_robot_coupling.py):
 #: a plate set down on the bed is thrown off it at 1.5e-4 and stays at 2e-4 (Δx = 5 mm); the
 #: accepted range starts a factor 5 above that.
 MIN_MASS_RATIO = 1e-3
 #: Below this ratio (and above MIN_MASS_RATIO) the coupling warns: a driven leg-wheel turned by a
 #: constant motor torque (its spin free, not held by a servo) is stable down to 5e-4 but its mean
 #: spin departs from that of heavier wheels below 1e-2 (x5 at 1e-3; docs/robots.md,
-#: benchmarks/bench_robot_driven.py). A wheel whose spin a velocity servo holds is not affected.
+#: benchmarks/validation/bench_robot_driven.py). A wheel whose spin a velocity servo holds is not affected.
 ACCURATE_MASS_RATIO = 1e-2
 
 

@@ -1,4 +1,4 @@
-"""Robot metrics (DESIGN §3.8): slip (dissertation Eq. 4.8), the bed's undisturbed free surface
+"""Robot metrics (docs/design.md §3.8): slip (dissertation Eq. 4.8), the bed's undisturbed free surface
 and sinkage below it."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Planar robots from MJCF (DESIGN §3.6): loading, the planar check, pairing MuJoCo bodies with
+"""Planar robots from MJCF (docs/design.md §3.6): loading, the planar check, pairing MuJoCo bodies with
 terrasph body shapes, and the mass and inertia of a shape.
 
 Sign convention, verified in ``tests/test_robots.py``: MuJoCo's z is up like terrasph's, and a

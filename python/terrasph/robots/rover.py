@@ -1,4 +1,4 @@
-"""Scene ``rover`` (issue 11 item 6): the example planar rover (``terrasph.robots.ROVER``: a chassis
+"""Scene ``rover``: the example planar rover (``terrasph.robots.ROVER``: a chassis
 free in x, z and pitch, two wheels on hinges 12 cm apart, velocity-servo motors) crossing a bed of
 3 mm glass beads, both wheels the same leg-wheel (or plain wheel) shape, paused and then driven
 clockwise at ω. Masses and inertias are the MJCF's (chassis 0.3 kg, wheels 0.1 kg each)."""

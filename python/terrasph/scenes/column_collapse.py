@@ -28,7 +28,7 @@ __all__ = ["BEDS", "MATERIAL_PRESETS", "RESOLUTIONS", "ColumnCollapse", "ColumnR
 
 #: The runout front is where the deposit first becomes thinner than this many grain diameters (8 mm
 #: for the 2 mm beads; 0.1·H0 for the 8 cm column). A physical thickness, not a fraction of H0, so
-#: that tall columns' fronts are not cut into the real deposit (issue 13). The thin tail beyond it is
+#: that tall columns' fronts are not cut into the real deposit. The thin tail beyond it is
 #: not resolved: one to three particles thick, with no overburden, so P ≈ 0 and no basal friction,
 #: it runs far during the collapse as a resolution artefact (it does come to rest, by ~0.6 s on the
 #: 7 × 8 cm column) and lengthens with refinement (docs/design_decisions.md, docs/chapter2.md).

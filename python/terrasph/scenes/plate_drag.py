@@ -11,7 +11,7 @@ in the direction γ (velocity ∥ (cos γ, −sin γ): γ = π/2 straight down, 
 
 is RFT's α(β, γ) (terrasph.rft, Li et al. 2013 Eq. 1 with the sign of F_x for v_x ≥ 0); the summary
 gives their means over the last ``measure_fraction`` of the travel, where the load has built up.
-A sweep over (β, γ) (benchmarks/sweep_rft_calibration.yaml) gives the map that ``terrasph
+A sweep over (β, γ) (benchmarks/studies/sweep_rft_calibration.yaml) gives the map that ``terrasph
 rft-calibrate`` fits. Li et al. pushed a thin plate in from the surface; here the plate starts buried
 (so a stroke of any direction meets grains all round) and has three particle rows of thickness,
 which loads its edges too: both are recorded with the map (docs/rft.md).

@@ -1,4 +1,4 @@
-"""Plate intrusion: a horizontal plate pushed slowly down into a settled bed, then pulled up (issue 3).
+"""Plate intrusion: a horizontal plate pushed slowly down into a settled bed, then pulled up.
 
 A plate 4 cm long, three particle rows thick (the thinnest a body may be, bodies.minimum_thickness)
 and 2.54 cm wide starts with its underside one spacing above the free surface of a 20 cm × 10 cm
@@ -15,7 +15,7 @@ q = γ D N_q + ½ γ B N_γ, with N_q = e^{π tan φ} tan²(45° + φ/2) ≈ 9�
 Terzaghi 1943). :meth:`PlateResult.fit` gives the slope k of F_z against depth and
 :meth:`PlateResult.alpha` = k / (ρ0 g L W), the α of that scaling.
 
-**Buried start** (``buried_depth`` = H, issue 13): the plate is placed in the bed with its top face
+**Buried start** (``buried_depth`` = H): the plate is placed in the bed with its top face
 H below the surface before anything moves, so the grains above it form an intact column that
 settles on it; after ``settle_time`` it is pulled straight up by ``pull_distance`` at ``speed``.
 This is the plane-strain strip-anchor uplift test of soil mechanics, to compare with the dead

@@ -1,4 +1,4 @@
-"""Parameter sweeps of a registered scene on Dask (issue 14): ``terrasph sweep SPEC``.
+"""Parameter sweeps of a registered scene on Dask: ``terrasph sweep SPEC``.
 
 Modules:
     spec    the SPEC file (YAML or TOML): scene, fixed parameters, seeded design; validated
