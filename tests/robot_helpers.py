@@ -67,3 +67,14 @@ def run_interrupted(monkeypatch, run: Callable[[], object], stop_at: int) -> Non
     with pytest.raises(KeyboardInterrupt):
         run()
     monkeypatch.setattr(CoupledSimulation, "step", step)
+
+
+def assert_same_series(a, b) -> None:
+    """Every series of two run files (terrasph.io.RunData) bitwise equal, but the wall time."""
+    import numpy as np
+
+    assert set(a.series) == set(b.series)
+    for group in a.series:
+        for key in a.series[group]:
+            if key != "wall_time":
+                assert np.array_equal(a.series[group][key], b.series[group][key], equal_nan=True), (group, key)

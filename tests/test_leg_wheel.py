@@ -16,7 +16,7 @@ from terrasph.robots import shape_inertial
 from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
 from terrasph.simulation import checkpoint_path
 
-from robot_helpers import run_interrupted
+from robot_helpers import assert_same_series, run_interrupted
 
 TINY = ["--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04", "--bed-width", "0.2",
         "--bed-depth", "0.04", "--start-x", "0.08", "--settle-time", "0.1", "--t-end", "0.16", "--omega", "1.5",
@@ -100,11 +100,7 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
     assert main(["resume", str(stopped), "--no-progress"]) == 0
     resumed = json.loads(capsys.readouterr().out)
     a, b = read_run(tmp_path / "whole.h5"), read_run(stopped)
-    assert set(a.series) == set(b.series)
-    for group in a.series:
-        for key in a.series[group]:
-            if key != "wall_time":
-                assert np.array_equal(a.series[group][key], b.series[group][key], equal_nan=True), (group, key)
+    assert_same_series(a, b)
     assert np.array_equal(a.times, b.times) and set(a.fields) == set(b.fields)
     for name in a.fields:
         assert np.array_equal(a.fields[name], b.fields[name]), name

@@ -20,7 +20,7 @@ from terrasph.io import read_run
 from terrasph.robots.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
 from terrasph.robots.terrain_robot import terrain_robot
 
-from robot_helpers import run_interrupted
+from robot_helpers import assert_same_series, run_interrupted
 
 gymnasium = pytest.importorskip("gymnasium")
 ASSETS = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets")
@@ -190,8 +190,4 @@ def test_an_interrupted_mjcf_run_resumes_bitwise(tmp_path, monkeypatch, capsys) 
     assert main(["resume", str(stopped), "--no-progress"]) == 0
     assert json.loads(capsys.readouterr().out)["leaked_particles"] == 0
     a, b = read_run(tmp_path / "whole.h5"), read_run(stopped)
-    assert set(a.series) == set(b.series)
-    for group in a.series:
-        for key in a.series[group]:
-            if key != "wall_time":
-                assert np.array_equal(a.series[group][key], b.series[group][key], equal_nan=True), (group, key)
+    assert_same_series(a, b)

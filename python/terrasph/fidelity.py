@@ -23,8 +23,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from terrasph.config import ConfigError, Numerics, from_mapping
+from terrasph.options import option
 
-__all__ = ["DEFAULT_TIER", "TIERS", "Tier", "check_tier", "scene_numerics", "scene_tiers", "tier_help"]
+__all__ = ["DEFAULT_TIER", "TIERS", "Tier", "check_tier", "fidelity_option", "scene_numerics", "scene_tiers",
+           "tier_help"]
 
 #: The tiers, finest first; ``standard`` is every scene's default.
 TIERS: tuple[str, ...] = ("reference", "standard", "fast")
@@ -113,6 +115,12 @@ def tier_help(scene: str) -> str:
         settings = ", ".join(f"{key}={value}" for key, value in tier.numerics.items()) or "the core's defaults"
         lines.append(f"{name}: {settings} ({tier.error})")
     return "; ".join(lines)
+
+
+def fidelity_option(scene: str) -> Any:
+    """The ``fidelity`` field of a scene's configuration: the default tier, the choices and, in its
+    ``--fidelity`` help, each tier's settings and measured error for `scene`."""
+    return option(DEFAULT_TIER, choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help(scene))
 
 
 def _check_reference(values: Mapping[str, Any], overrides: Mapping[str, Any]) -> None:

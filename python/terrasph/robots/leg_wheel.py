@@ -31,7 +31,7 @@ import numpy as np
 
 from terrasph import bodies, rft
 from terrasph.config import ConfigError, Material, Numerics
-from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
+from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.options import option, shared
@@ -76,7 +76,7 @@ class WheelScene:
     t_end: float = shared("t_end", 6.0)
     series_interval: float = option(0.01, help="time between series samples", unit="s")
     frame_interval: float = shared("frame_interval", 0.05)
-    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help("leg-wheel"))
+    fidelity: str = fidelity_option("leg-wheel")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
 

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 
 from terrasph.cli_common import positive_float
 from terrasph.config import ConfigError
-from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
+from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.options import option, shared
@@ -84,7 +84,7 @@ class MjcfScene:
     freeboard: float = option(0.2, help="container wall height above the bed's surface", unit="m")
     series_interval: float = option(0.01, help="time between series samples", unit="s")
     frame_interval: float = shared("frame_interval", 0.05)
-    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help("mjcf"))
+    fidelity: str = fidelity_option("mjcf")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
     def __post_init__(self) -> None:

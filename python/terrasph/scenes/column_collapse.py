@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from terrasph.config import ConfigError, Material, Numerics, parameter
-from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
+from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import aligned_wall_layers, elliptical_arc, trough_height, wall_layers_needed
 from terrasph.io import write_results
 from terrasph.options import option, shared
@@ -83,7 +83,7 @@ class ColumnCollapse:
                                   help="bulk density of the beads: a random packing's, or Table 2.1's")
     model: str = option("mu_i_hypoelastic", choices=parameter("material.model").choices, cli="material-model",
                         help="constitutive model (material.model)")
-    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help('column-collapse'))
+    fidelity: str = fidelity_option("column-collapse")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
 
     def __post_init__(self) -> None:

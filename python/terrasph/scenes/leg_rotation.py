@@ -21,7 +21,7 @@ import numpy as np
 
 from terrasph import bodies, rft
 from terrasph.config import ConfigError, Material, Numerics
-from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
+from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import hold_then_rotate
@@ -84,7 +84,7 @@ class LegRotation:
     samples_per_radian: float = option(100.0, help="load samples per radian of the sweep", unit="1/rad")
     frame_interval: float = shared("frame_interval", 0.1)
     t_end: float | None = shared("t_end", None, default_text="the end of the sweep, settle_time + sweep angle / omega")
-    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help('leg-rotation'))
+    fidelity: str = fidelity_option("leg-rotation")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and terrasph.Numerics
     terrain: str = option("sph", choices=rft.TERRAINS, help="the SPH bed, or resistive force theory on a flat "
                                                            "surface (terrasph.rft, docs/rft.md)")

@@ -30,7 +30,7 @@ import numpy as np
 
 from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics
-from terrasph.fidelity import TIERS, check_tier, tier_help
+from terrasph.fidelity import check_tier, fidelity_option
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
@@ -66,7 +66,7 @@ class PlateDrag(PlateConfig):
     samples: int = option(30, help="load samples over the travel (each a time average)")
     measure_fraction: float = option(0.5, help="the part of the travel (its end) the summary's alpha is the mean of")
     t_end: float | None = shared("t_end", None, default_text="the end of the travel, settle_time + travel / speed")
-    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help("plate-drag"))
+    fidelity: str = fidelity_option("plate-drag")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
     def __post_init__(self) -> None:

@@ -38,7 +38,7 @@ import numpy as np
 from terrasph import bodies
 from terrasph.analysis import fit_line
 from terrasph.config import ConfigError, Material, Numerics, parameter
-from terrasph.fidelity import TIERS, check_tier, scene_numerics, tier_help
+from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
@@ -112,7 +112,7 @@ class PlateIntrusion(PlateConfig):
     frame_interval: float = shared("frame_interval", 0.1)
     model: str = option("mu_i_hypoelastic", choices=parameter("material.model").choices, cli="material-model",
                         help="constitutive model of the beads (material.model)")
-    fidelity: str = option("standard", choices=TIERS, help="numerics tier (docs/fidelity.md): " + tier_help('plate-intrusion'))
+    fidelity: str = fidelity_option("plate-intrusion")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
     buried_depth: float | None = option(
         None, unit="m", default_text="start above the surface, push in to --max-depth and pull out",
