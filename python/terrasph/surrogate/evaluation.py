@@ -154,11 +154,14 @@ def plot_learning_curve(curves: Mapping[str, Mapping[int, Mapping[str, Mapping[s
 
     fig = Figure(figsize=(3.2 * len(targets), 2.8), layout="constrained")
     axes = fig.subplots(1, len(targets), squeeze=False)[0]
+    counts = sorted({n for curve in curves.values() for n in curve})
     for ax, target in zip(axes, targets):
         for label, curve in curves.items():
-            counts = sorted(curve)
-            ax.plot(counts, [curve[n][target]["nrmse"] for n in counts], "o-", label=label)
+            ax.plot(sorted(curve), [curve[n][target]["nrmse"] for n in sorted(curve)], "o-", label=label)
         ax.set_xscale("log")
+        ax.set_xticks(counts, [str(n) for n in counts], minor=False)
+        ax.set_xticks([], minor=True)
+        ax.set_ylim(bottom=0.0)
         ax.set_xlabel("training runs")
         ax.set_title(target, fontsize=9)
     axes[0].set_ylabel("held-out RMSE / std")
