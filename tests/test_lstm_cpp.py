@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from lstm_helpers import core_lstm, inputs, make_net, model_bytes
-from terrasph.surrogate.pretrained import available
+from terrasph.surrogate.registry import available
 
 torch = pytest.importorskip("torch")
 
@@ -183,7 +183,7 @@ def test_example_program_predicts_with_a_model_found_by_name(example_program, tm
     a small one written to a models directory as the study ships one) and predicts, over a 6 s
     ramp of the commanded ω through the model's validity range, what ``pretrained(NAME)`` predicts
     in Python (float64, to 1e-12 as above)."""
-    from terrasph.surrogate.pretrained import pretrained, pretrained_path
+    from terrasph.surrogate.registry import pretrained, pretrained_path
 
     models_dir = None if shipped else tmp_path
     name = shipped or _tiny_shipped_model(tmp_path)

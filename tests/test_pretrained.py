@@ -18,9 +18,9 @@ from lstm_helpers import core_lstm, make_net
 from sweep_helpers import TINY_FIXED
 from terrasph.cli import main
 from terrasph.config import ConfigError
+from terrasph.surrogate import available, pretrained, pretrained_path
 from terrasph.surrogate.dataset import Run, write_run
 from terrasph.surrogate.export import export_model, read_model_file
-from terrasph.surrogate.pretrained import available, pretrained, pretrained_path
 from terrasph.surrogate.robot_dataset import TARGETS, features_of, leg_wheel_fields, robot_run
 from terrasph.surrogate.validity import Validity, training_validity
 

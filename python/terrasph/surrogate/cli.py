@@ -150,7 +150,7 @@ def dataset_columns(dataset_dir: Path) -> tuple[tuple[str, ...], tuple[str, ...]
 
 def _cmd_predict(args: argparse.Namespace) -> int:
     from terrasph.surrogate.inference import predict_sequences, read_inputs
-    from terrasph.surrogate.pretrained import load, resolve_model
+    from terrasph.surrogate.registry import load, resolve_model
     from terrasph.surrogate.validity import run_conditions
 
     if args.out is not None:
