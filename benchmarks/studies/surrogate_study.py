@@ -116,6 +116,8 @@ def main() -> None:
     parser.add_argument("--hidden", type=int, default=32)
     parser.add_argument("--epochs", type=int, default=400)
     parser.add_argument("--patience", type=int, default=60)
+    parser.add_argument("--lr", type=float, default=5e-3)
+    parser.add_argument("--batch-size", type=int, default=8, help="runs per optimisation step")
     parser.add_argument("--figure", type=Path, default=None, help="predicted vs SPH on held-out runs (PNG)")
     parser.add_argument("--curve-figure", type=Path, default=None, help="the learning curve (PNG)")
     parser.add_argument("--trajectory", type=float, default=6.0, help="seconds of the timed C++ trajectory")
@@ -151,7 +153,7 @@ def main() -> None:
     for cell in args.cells:
         start = time.perf_counter()
         config = TrainConfig(features=features, targets=TARGETS, cell=cell, hidden_size=args.hidden,
-                             epochs=args.epochs, patience=args.patience, lr=5e-3, batch_size=8)
+                             epochs=args.epochs, patience=args.patience, lr=args.lr, batch_size=args.batch_size)
         curves[cell] = learning_curve(runs, splits, [*args.sizes, len(splits["train"])], config)
         final = curves[cell][max(curves[cell])]
         emit(f"{cell}: {len(curves[cell])} trainings in {time.perf_counter() - start:.0f} s; on all "

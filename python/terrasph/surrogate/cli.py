@@ -150,14 +150,14 @@ def dataset_columns(dataset_dir: Path) -> tuple[tuple[str, ...], tuple[str, ...]
 
 def _cmd_predict(args: argparse.Namespace) -> int:
     from terrasph.surrogate.inference import predict_sequences, read_inputs
-    from terrasph.surrogate.registry import load, resolve_model
+    from terrasph.surrogate.registry import open_model, resolve_model
     from terrasph.surrogate.validity import run_conditions
 
     if args.out is not None:
         if args.out.suffix not in (".npy", ".csv"):
             raise ValueError(f"--out {args.out}: use a .npy or .csv file")
         check_output_file(args.out, args.force)
-    model = load(resolve_model(args.model), args.dtype)
+    model = open_model(resolve_model(args.model), args.dtype)
     validity = model.validity
     inputs = read_inputs(args.input, model.feature_names, validity.dt if validity else model.metadata.get("dt", np.nan),
                          body=args.body)

@@ -20,7 +20,7 @@ from terrasph.surrogate.export import FILE_SUFFIX
 from terrasph.surrogate.inference import load_model
 from terrasph.surrogate.validity import Validity
 
-__all__ = ["MODELS_DIR", "Pretrained", "available", "pretrained", "pretrained_path", "resolve_model"]
+__all__ = ["MODELS_DIR", "Pretrained", "available", "open_model", "pretrained", "pretrained_path", "resolve_model"]
 
 #: the package's directory of shipped models
 MODELS_DIR = Path(__file__).resolve().parent / "models"
@@ -73,7 +73,7 @@ def pretrained_path(name: str, models_dir: str | Path | None = None) -> Path:
     return (Path(models_dir) if models_dir is not None else MODELS_DIR) / f"{name}{FILE_SUFFIX}"
 
 
-def load(path: str | Path, dtype: str = "float64") -> Pretrained:
+def open_model(path: str | Path, dtype: str = "float64") -> Pretrained:
     """The model file `path` in the C++ engine (`dtype` "float64" or "float32") with its metadata."""
     engine = load_model(path, dtype)
     return Pretrained(name=Path(path).stem, path=Path(path), engine=engine, metadata=json.loads(engine.metadata or "{}"))
@@ -81,7 +81,7 @@ def load(path: str | Path, dtype: str = "float64") -> Pretrained:
 
 def pretrained(name: str, dtype: str = "float64", models_dir: str | Path | None = None) -> Pretrained:
     """The shipped model `name` (:func:`available` lists them) in the C++ engine, with its metadata."""
-    return load(pretrained_path(name, models_dir), dtype)
+    return open_model(pretrained_path(name, models_dir), dtype)
 
 
 def resolve_model(name_or_path: str | Path, models_dir: str | Path | None = None) -> Path:
