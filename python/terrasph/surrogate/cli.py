@@ -191,11 +191,10 @@ def _cmd_predict(args: argparse.Namespace) -> int:
 
 def _error_line(run: Any, predicted: np.ndarray, targets: Sequence[str]) -> str:
     """RMSE and RMSE/std of the prediction of `run` against its own (SPH) series, one line."""
-    truth = run.matrix(targets)
-    rmse = np.sqrt(np.mean((predicted - truth) ** 2, axis=0))
-    std = truth.std(axis=0)
-    parts = [f"{t} {e:.4g} ({e / s:.3f} of its std)" if s > 0 else f"{t} {e:.4g}"
-             for t, e, s in zip(targets, rmse, std)]
+    from terrasph.surrogate.evaluation import error_table
+
+    errors = error_table({"model": lambda _: predicted}, [run], targets)["model"]
+    parts = [f"{t} {errors[t]['rmse']:.4g} ({errors[t]['nrmse']:.3f} of its std)" for t in targets]
     return f"{run.name}: RMSE against its series over {run.length} steps: " + ", ".join(parts)
 
 
