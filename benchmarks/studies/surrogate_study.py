@@ -6,7 +6,7 @@ the best cell shipped into the package with its validity range and measured erro
 
     terrasph sweep SPEC --out study --workers 2
     python benchmarks/studies/surrogate_study.py study [--dt 0.02] [--train-loads 2 5.2] [--train-omega-max W]
-        [--sizes 10 20 40] [--figure F.png] [--curve-figure C.png] [--sph-wall-time S] [--report R.md]
+        [--sizes 10 20 40] [--jobs 2] [--figure F.png] [--curve-figure C.png] [--sph-wall-time S] [--report R.md]
         [--ship NAME]
 
 Prints Markdown tables (and writes them to --report); the runs used are the sweep's finished ones
@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -31,14 +33,14 @@ from terrasph.surrogate.evaluation import (
     baseline_predictors,
     error_table,
     format_table,
-    learning_curve,
+    learning_curve_splits,
     plot_learning_curve,
     plot_predictions,
 )
 from terrasph.surrogate.export import FILE_SUFFIX, export_model
 from terrasph.surrogate.inference import load_model
 from terrasph.surrogate.robot_dataset import TARGETS, build_robot_dataset, split_held_out
-from terrasph.surrogate.train import TrainConfig, TrainResult
+from terrasph.surrogate.train import TrainConfig, TrainResult, train
 from terrasph.surrogate.validity import dataset_validity
 
 CELLS = ("standard", "peephole")
@@ -113,6 +115,7 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=(10, 20, 40),
                         help="training-set sizes of the learning curve (all the training runs are added)")
     parser.add_argument("--cells", nargs="+", choices=CELLS, default=CELLS)
+    parser.add_argument("--jobs", type=int, default=1, help="trainings run at once, each in a process of its own")
     parser.add_argument("--hidden", type=int, default=32)
     parser.add_argument("--epochs", type=int, default=400)
     parser.add_argument("--patience", type=int, default=60)
@@ -148,16 +151,23 @@ def main() -> None:
          f"{runs[0].length} steps each; features {', '.join(features)}")
     emit("runs per split: " + ", ".join(f"{k} {len(v)}" for k, v in splits.items()))
 
-    curves: dict[str, dict[int, TrainResult]] = {}
+    subsets = learning_curve_splits(splits, [*args.sizes, len(splits["train"])])
+    configs = {cell: TrainConfig(features=features, targets=TARGETS, cell=cell, hidden_size=args.hidden,
+                                 epochs=args.epochs, patience=args.patience, lr=args.lr, batch_size=args.batch_size)
+               for cell in args.cells}
+    start = time.perf_counter()
+    # each training (cell × size) in a process of its own, one torch thread each; the largest first
+    with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=torch.set_num_threads, initargs=(1,)) as pool:
+        futures = {(cell, n): pool.submit(train, runs, configs[cell], False, subset)
+                   for n, subset in sorted(subsets.items(), reverse=True) for cell in args.cells}
+        curves = {cell: {n: futures[cell, n].result() for n in subsets} for cell in args.cells}
+    emit(f"{len(futures)} trainings ({args.jobs} at a time) in {time.perf_counter() - start:.0f} s")
     predictors = {}
     for cell in args.cells:
-        start = time.perf_counter()
-        config = TrainConfig(features=features, targets=TARGETS, cell=cell, hidden_size=args.hidden,
-                             epochs=args.epochs, patience=args.patience, lr=args.lr, batch_size=args.batch_size)
-        curves[cell] = learning_curve(runs, splits, [*args.sizes, len(splits["train"])], config)
-        final = curves[cell][max(curves[cell])]
-        emit(f"{cell}: {len(curves[cell])} trainings in {time.perf_counter() - start:.0f} s; on all "
-             f"{len(splits['train'])} training runs best epoch {final.best_epoch} of {len(final.history)}")
+        final = curves[cell][max(subsets)]
+        emit(f"{cell}: on all {len(splits['train'])} training runs best epoch {final.best_epoch} of "
+             f"{len(final.history)}")
         predictors[f"LSTM {cell}"] = lstm_predictor(final.net, features)
     train_runs = [runs[k] for k in splits["train"]]
     predictors.update(baseline_predictors(train_runs, features, TARGETS))

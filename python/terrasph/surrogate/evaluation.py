@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from terrasph.surrogate.train import TrainConfig, TrainResult
 
 __all__ = ["BASELINES", "INPUT_ONLY_BASELINES", "baseline_predictors", "error_table", "format_table",
-           "learning_curve", "plot_learning_curve", "plot_predictions"]
+           "learning_curve", "learning_curve_splits", "plot_learning_curve", "plot_predictions"]
 
 BASELINES = ("persistence", "persistence (one step)", "mean trajectory", "memoryless")
 #: the baselines that, like the surrogate, know only the commanded inputs and what is known before driving
@@ -131,18 +131,25 @@ def plot_predictions(runs: Sequence[Run], predictors: dict[str, Predictor], targ
     return fig
 
 
-def learning_curve(runs: Sequence[Run], splits: Mapping[str, Sequence[int]], sizes: Sequence[int],
-                   config: TrainConfig, test: str = "interpolation", seed: int = 0) -> dict[int, TrainResult]:
-    """The surrogate trained (`config`) on n training runs for each n of `sizes` (capped at the
-    training split; nested subsets: the first n of a `seed`-ed permutation of ``splits["train"]``),
-    each validated on ``splits["val"]`` and tested on ``splits[test]``: n → its TrainResult, whose
-    ``report["test"]`` is the held-out error per target (RMSE, RMSE/std)."""
-    from terrasph.surrogate.train import train
-
+def learning_curve_splits(splits: Mapping[str, Sequence[int]], sizes: Sequence[int], test: str = "interpolation",
+                          seed: int = 0) -> dict[int, tuple[list[int], list[int], list[int]]]:
+    """n → (train, validation, test) run indices for each n of `sizes` (capped at the training
+    split): the first n of a `seed`-ed permutation of ``splits["train"]`` (nested subsets), the same
+    ``splits["val"]`` and ``splits[test]`` for all."""
     order = [int(k) for k in np.random.default_rng(seed).permutation(list(splits["train"]))]
     counts = sorted({min(int(n), len(order)) for n in sizes if n >= 1})
-    return {n: train(runs, config, progress=False, splits=(sorted(order[:n]), list(splits["val"]), list(splits[test])))
-            for n in counts}
+    return {n: (sorted(order[:n]), list(splits["val"]), list(splits[test])) for n in counts}
+
+
+def learning_curve(runs: Sequence[Run], splits: Mapping[str, Sequence[int]], sizes: Sequence[int],
+                   config: TrainConfig, test: str = "interpolation", seed: int = 0) -> dict[int, TrainResult]:
+    """The surrogate trained (`config`) on n training runs for each n of `sizes`
+    (:func:`learning_curve_splits`): n → its TrainResult, whose ``report["test"]`` is the held-out
+    error per target (RMSE, RMSE/std)."""
+    from terrasph.surrogate.train import train
+
+    return {n: train(runs, config, progress=False, splits=subset)
+            for n, subset in learning_curve_splits(splits, sizes, test, seed).items()}
 
 
 def plot_learning_curve(curves: Mapping[str, Mapping[int, Mapping[str, Mapping[str, float]]]],
