@@ -37,3 +37,23 @@ def test_more_training_runs_lower_the_held_out_error(tmp_path, one_thread) -> No
     for target in DEFAULT_TARGETS:
         fall = small.report["test"][target]["nrmse"] - large.report["test"][target]["nrmse"]
         assert fall > 0.25, f"{target}: held-out RMSE/std fell by {fall:.3f} from 3 to 24 training runs"
+
+
+def test_held_out_splits_by_load_and_by_omega() -> None:
+    """split_held_out: a run whose load leaves the range is in the load extrapolation test, one whose
+    commanded ω exceeds the bound at any step in the ω test (a run outside both in both); the others
+    are split, each exactly once, into train, validation and interpolation."""
+    import numpy as np
+    from terrasph.surrogate.dataset import Run
+    from terrasph.surrogate.robot_dataset import split_held_out
+
+    time = np.linspace(0.0, 1.0, 11)
+    loads = [2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 3.5, 4.5, 2.5, 7.5]
+    peaks = [1.0, 2.0, 3.2, 1.5, 2.9, 3.5, 1.2, 2.2, 1.8, 1.1]  # ω ramps from 0.5 to these
+    runs = [Run(f"r{k}", time, {"omega_cmd": np.linspace(0.5, peak, time.size)}, {"load": load})
+            for k, (load, peak) in enumerate(zip(loads, peaks))]
+    splits = split_held_out(runs, {"load": (2.0, 6.0), "omega_cmd": (0.0, 3.0)}, seed=0)
+    assert splits["extrapolation: load"] == [5, 9]
+    assert splits["extrapolation: omega_cmd"] == [2, 5]
+    inside = splits["train"] + splits["val"] + splits["interpolation"]
+    assert sorted(inside) == [0, 1, 3, 4, 6, 7, 8] and len(set(inside)) == len(inside)

@@ -11,9 +11,10 @@ start at 0 and resampled to a stated Δt (linear interpolation of the SPH sample
 * targets: ``slip`` (Eq. 4.8, clipped to [−1, 1]: it leaves that interval only while the axle is
   pushed backwards), ``sinkage`` (m), and ``forward_speed`` v_x (m/s).
 
-Splits are by run, never by time step; :func:`split_by_range` keeps the runs whose parameter lies
-outside a range apart as the extrapolation test, and splits the rest into train, validation and
-the interpolation test.
+Splits are by run, never by time step; :func:`split_held_out` keeps the runs whose parameter (e.g.
+the load) or input series (e.g. the commanded ω at any step) leaves a range apart as extrapolation
+tests, one per range, and splits the rest into train, validation and the interpolation test
+(:func:`split_by_range`: one parameter's range).
 """
 
 from __future__ import annotations
