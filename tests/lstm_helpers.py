@@ -61,3 +61,14 @@ def inputs(seed: int, batch: int, steps: int, n_in: int = len(FEATURES)) -> np.n
     rng = np.random.default_rng(seed)
     walk = np.cumsum(rng.normal(scale=0.05, size=(batch, steps, n_in)), axis=1)
     return np.clip(walk, -3, 3) + rng.normal(scale=0.3, size=(batch, steps, n_in))
+
+
+@pytest.fixture
+def one_thread() -> Any:
+    """Train on one torch thread (fast for these small models; reproducible per thread count)."""
+    import torch
+
+    old = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(old)

@@ -1,5 +1,6 @@
 """The standalone C++ side: the header compiles warning-free without Python, the example program
-(cpp/examples/lstm_predict.cpp) reproduces the Python-module predictions, and a time step
+(cpp/examples/lstm_predict.cpp) reproduces the Python-module predictions (also for a model found
+by name, as the package ships them), and a time step
 performs no heap allocation (a counting global operator new and Eigen's EIGEN_RUNTIME_NO_MALLOC
 guard)."""
 
@@ -13,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from lstm_helpers import core_lstm, inputs, make_net, model_bytes
+from terrasph.surrogate.registry import available
 
 torch = pytest.importorskip("torch")
 
@@ -109,13 +111,20 @@ def models(tmp_path_factory) -> list[Path]:
     return out
 
 
-def test_example_program_matches_python_module(compiler, models, tmp_path) -> None:
+@pytest.fixture(scope="module")
+def example_program(compiler, tmp_path_factory) -> Path:
+    """cpp/examples/lstm_predict.cpp compiled (warning-free)."""
+    exe = tmp_path_factory.mktemp("example") / "lstm_predict"
+    _compile(compiler, ROOT / "cpp/examples/lstm_predict.cpp", exe)
+    return exe
+
+
+def test_example_program_matches_python_module(example_program, models, tmp_path) -> None:
     """lstm_predict (pure C++, streaming) == Model64/Model32.predict: float64 to 1e-12 and
     float32 to 1e-5 (same header, different optimisation flags may reorder no arithmetic
     except inside Eigen kernels); bad files give exit code 1 and a message, not a crash."""
     lstm = core_lstm()
-    exe = tmp_path / "lstm_predict"
-    _compile(compiler, ROOT / "cpp/examples/lstm_predict.cpp", exe)
+    exe = example_program
     x = inputs(3, 1, 40)[0]
     csv = tmp_path / "in.csv"
     np.savetxt(csv, x, delimiter=",", header="omega_cmd,load,soil_k,mu", comments="")
@@ -153,3 +162,45 @@ def test_step_is_allocation_free(compiler, models, tmp_path) -> None:
                           check=False)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.count(" ok ") == 4
+
+
+def _tiny_shipped_model(models_dir: Path) -> str:
+    """A model of the leg-wheel's inputs with a validity record, as the study ships one, in `models_dir`."""
+    from terrasph.surrogate.export import export_model
+    from terrasph.surrogate.validity import Validity
+
+    features = ["omega_cmd", "load", "wheel:c-leg", "wheel:wheel"]
+    validity = Validity(dt=0.02, duration=6.0, ranges={"omega_cmd": (0.5, 3.0), "load": (2.0, 8.0)},
+                        morphologies=("c-leg", "wheel"))
+    export_model(make_net("peephole", 8, 2, seed=5, n_in=4, n_out=3, normalise=True), models_dir / "tiny.tslstm",
+                 features, ["slip", "sinkage", "forward_speed"], {"validity": validity.to_json(), "dt": 0.02})
+    return "tiny"
+
+
+@pytest.mark.parametrize("shipped", [None, *available()])
+def test_example_program_predicts_with_a_model_found_by_name(example_program, tmp_path, shipped) -> None:
+    """C++ reads the file that ``pretrained_path(NAME)`` gives (each model shipped with the package, and
+    a small one written to a models directory as the study ships one) and predicts, over a 6 s
+    ramp of the commanded ω through the model's validity range, what ``pretrained(NAME)`` predicts
+    in Python (float64, to 1e-12 as above)."""
+    from terrasph.surrogate.registry import pretrained, pretrained_path
+
+    models_dir = None if shipped else tmp_path
+    name = shipped or _tiny_shipped_model(tmp_path)
+    model = pretrained(name, models_dir=models_dir)
+    validity = model.validity
+    steps = int(round(6.0 / validity.dt)) + 1
+    first = f"wheel:{validity.morphologies[0]}"
+    columns = {f: (np.linspace(*validity.ranges[f], steps) if f in validity.ranges else
+                   np.full(steps, float(f == first))) for f in model.feature_names}
+    csv = tmp_path / "inputs.csv"
+    np.savetxt(csv, np.column_stack([columns[f] for f in model.feature_names]), delimiter=",",
+               header=",".join(model.feature_names), comments="")
+    proc = subprocess.run([str(example_program), str(pretrained_path(name, models_dir)), str(csv)],
+                          capture_output=True, text=True, check=True)
+    lines = proc.stdout.strip().splitlines()
+    assert lines[0] == ",".join(model.target_names)
+    got = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+    expected = model.engine.predict(np.column_stack([columns[f] for f in model.feature_names]))
+    assert got.shape == expected.shape == (steps, len(model.target_names))
+    assert np.max(np.abs(got - expected)) <= 1e-12

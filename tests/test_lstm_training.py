@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from lstm_helpers import core_lstm
+from lstm_helpers import core_lstm, one_thread  # noqa: F401 (a fixture)
 
 torch = pytest.importorskip("torch")
 
@@ -29,15 +29,6 @@ from terrasph.surrogate.synthetic import (
     slip,
 )
 from terrasph.surrogate.train import TrainConfig, train
-
-
-@pytest.fixture
-def one_thread():
-    """Train on one torch thread (fast for these small models; reproducible per thread count)."""
-    old = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(old)
 
 
 def sigmoid(v: np.ndarray) -> np.ndarray:

@@ -101,7 +101,8 @@ def test_dataset_command_refuses_what_is_not_a_sweep_or_would_overwrite(bed_swee
 @pytest.mark.slow
 def test_sweep_dataset_train_predict_with_default_options(tmp_path: Path, capsys) -> None:
     """`terrasph sweep`, `dataset`, then `train` with no --features/--targets: the model takes the
-    dataset's own inputs and targets (its dataset.json), and `terrasph predict` runs it on the runs."""
+    dataset's own inputs and targets (its dataset.json) and records its training run's range, and
+    `terrasph predict` runs it on the runs (those outside that range with --extrapolate)."""
     pytest.importorskip("distributed")
     import yaml
 
@@ -118,6 +119,9 @@ def test_sweep_dataset_train_predict_with_default_options(tmp_path: Path, capsys
     assert list(engine.feature_names) == described["features"]
     assert list(engine.target_names) == described["targets"]
     capsys.readouterr()
-    assert main(["predict", str(model), str(data)]) == 0
+    with pytest.raises(SystemExit) as refused:  # one training run: the others' bed lies outside its range
+        main(["predict", str(model), str(data)])
+    assert refused.value.code == 2 and "outside the model's validity range" in capsys.readouterr().err
+    assert main(["predict", str(model), str(data), "--extrapolate"]) == 0
     header = capsys.readouterr().out.splitlines()[0]
     assert header == ",".join(["sequence", "step", *described["targets"]])

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -59,10 +60,13 @@ def register(subparsers: Any) -> None:
 
     p = subparsers.add_parser(
         "predict", help="predict targets for input sequences with the C++ engine",
-        description="Run an exported model (C++ engine, no PyTorch) on INPUT: an HDF5 run "
-                    "file or directory of runs, a .npy array (T, I) or (B, T, I), or a .csv "
-                    "file with one time step per row.")
-    p.add_argument("model", type=Path, help="model file (.tslstm)")
+        description="Run a model (C++ engine, no PyTorch) on INPUT: a leg-wheel run file (its driven "
+                    "phase at the model's time step, with the RMSE against its SPH series), an HDF5 "
+                    "dataset run file or directory of runs, a .npy array (T, I) or (B, T, I), or a .csv "
+                    "file with one time step per row (e.g. a new omega_cmd schedule). A run outside the "
+                    "model's validity range (docs/lstm_format.md) is refused unless --extrapolate.")
+    p.add_argument("model", metavar="MODEL",
+                   help="a model file (.tslstm) or the name of a model shipped with terrasph")
     p.add_argument("input", metavar="INPUT", type=Path)
     p.add_argument("--out", type=Path, default=None,
                    help="write predictions to .npy (B, T, O) or .csv (default: CSV on stdout)")
@@ -70,6 +74,8 @@ def register(subparsers: Any) -> None:
                    help="precision of the C++ engine (default: %(default)s)")
     p.add_argument("--body", default=None,
                    help="body group in /series/bodies for HDF5 input (default: the only one)")
+    p.add_argument("--extrapolate", action="store_true",
+                   help="predict runs outside the model's validity range too (refused by default)")
     add_force_option(p)
     p.set_defaults(handler=_cmd_predict)
 
@@ -143,36 +149,53 @@ def dataset_columns(dataset_dir: Path) -> tuple[tuple[str, ...], tuple[str, ...]
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
-    from terrasph.surrogate.inference import (
-        load_model,
-        predict_sequences,
-        read_sequences,
-    )
+    from terrasph.surrogate.inference import predict_sequences, read_inputs
+    from terrasph.surrogate.registry import open_model, resolve_model
+    from terrasph.surrogate.validity import run_conditions
 
     if args.out is not None:
         if args.out.suffix not in (".npy", ".csv"):
             raise ValueError(f"--out {args.out}: use a .npy or .csv file")
         check_output_file(args.out, args.force)
-    model = load_model(args.model, args.dtype)
-    results = predict_sequences(model, read_sequences(args.input, model.feature_names,
-                                                      body=args.body))
-    targets = list(model.target_names)
+    model = open_model(resolve_model(args.model), args.dtype)
+    validity = model.validity
+    inputs = read_inputs(args.input, model.feature_names, validity.dt if validity else model.metadata.get("dt", np.nan),
+                         body=args.body)
+    if validity is not None and not args.extrapolate:
+        for run, config in inputs:
+            validity.check(run_conditions(run, model.feature_names, config), run.name)
+    results = predict_sequences(model.engine, [(run.name, run.matrix(model.feature_names)) for run, _ in inputs])
+    targets = model.target_names
+    summary = [_error_line(run, y, targets) for (run, _), (_, y) in zip(inputs, results)
+               if all(t in run.series for t in targets)]
     if args.out is not None and args.out.suffix == ".npy":
         lengths = {y.shape[0] for _, y in results}
         if len(lengths) != 1:
             raise ValueError("--out: the sequences differ in length; use a .csv output")
         np.save(args.out, np.stack([y for _, y in results]))
-        return 0
-    lines = [",".join(["sequence", "step"] + targets)]
-    for name, y in results:
-        for t, row in enumerate(y):
-            lines.append(",".join([name, str(t)] + [repr(float(v)) for v in row]))
-    text = "\n".join(lines) + "\n"
-    if args.out is None:
-        sys.stdout.write(text)
     else:
-        args.out.write_text(text)
+        lines = [",".join(["sequence", "step"] + targets)]
+        for name, y in results:
+            for t, row in enumerate(y):
+                lines.append(",".join([name, str(t)] + [repr(float(v)) for v in row]))
+        text = "\n".join(lines) + "\n"
+        if args.out is None:
+            sys.stdout.write(text)
+        else:
+            args.out.write_text(text)
+    # the CSV on stdout stays machine-readable: the errors then go to stderr
+    for line in summary:
+        print(line, file=sys.stdout if args.out is not None else sys.stderr)
     return 0
+
+
+def _error_line(run: Any, predicted: np.ndarray, targets: Sequence[str]) -> str:
+    """RMSE and RMSE/std of the prediction of `run` against its own (SPH) series, one line."""
+    from terrasph.surrogate.evaluation import error_table
+
+    errors = error_table({"model": lambda _: predicted}, [run], targets)["model"]
+    parts = [f"{t} {errors[t]['rmse']:.4g} ({errors[t]['nrmse']:.3f} of its std)" for t in targets]
+    return f"{run.name}: RMSE against its series over {run.length} steps: " + ", ".join(parts)
 
 
 def _cmd_synthetic(args: argparse.Namespace) -> int:

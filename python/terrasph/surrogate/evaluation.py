@@ -10,21 +10,28 @@ Predictors of a target series y(t) of a held-out run, given its inputs u(t):
 * ``memoryless``: least squares y(t) ≈ β₀ + βᵀu(t) on the training runs' current inputs (no state).
 
 Per target: RMSE over all held-out steps, RMSE/std (std of the target over those steps), and the
-worst run (largest per-run RMSE).
+worst run (largest per-run RMSE). :func:`learning_curve` gives the held-out error of the LSTM against
+the number of training runs.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from terrasph.surrogate.dataset import Run
 
-__all__ = ["BASELINES", "baseline_predictors", "error_table", "format_table", "plot_predictions"]
+if TYPE_CHECKING:
+    from terrasph.surrogate.train import TrainConfig, TrainResult
+
+__all__ = ["BASELINES", "INPUT_ONLY_BASELINES", "baseline_predictors", "error_table", "format_table",
+           "learning_curve", "learning_curve_splits", "plot_learning_curve", "plot_predictions"]
 
 BASELINES = ("persistence", "persistence (one step)", "mean trajectory", "memoryless")
+#: the baselines that, like the surrogate, know only the commanded inputs and what is known before driving
+INPUT_ONLY_BASELINES = ("persistence", "mean trajectory", "memoryless")
 
 Predictor = Callable[[Run], np.ndarray]
 
@@ -118,6 +125,54 @@ def plot_predictions(runs: Sequence[Run], predictors: dict[str, Predictor], targ
     for ax in axes[-1]:
         ax.set_xlabel("t after the pause (s)")
     axes[1, 0].legend(fontsize=7)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    plt.close("all")
+    return fig
+
+
+def learning_curve_splits(splits: Mapping[str, Sequence[int]], sizes: Sequence[int], test: str = "interpolation",
+                          seed: int = 0) -> dict[int, tuple[list[int], list[int], list[int]]]:
+    """n → (train, validation, test) run indices for each n of `sizes` (capped at the training
+    split): the first n of a `seed`-ed permutation of ``splits["train"]`` (nested subsets), the same
+    ``splits["val"]`` and ``splits[test]`` for all."""
+    order = [int(k) for k in np.random.default_rng(seed).permutation(list(splits["train"]))]
+    counts = sorted({min(int(n), len(order)) for n in sizes if n >= 1})
+    return {n: (sorted(order[:n]), list(splits["val"]), list(splits[test])) for n in counts}
+
+
+def learning_curve(runs: Sequence[Run], splits: Mapping[str, Sequence[int]], sizes: Sequence[int],
+                   config: TrainConfig, test: str = "interpolation", seed: int = 0) -> dict[int, TrainResult]:
+    """The surrogate trained (`config`) on n training runs for each n of `sizes`
+    (:func:`learning_curve_splits`): n → its TrainResult, whose ``report["test"]`` is the held-out
+    error per target (RMSE, RMSE/std)."""
+    from terrasph.surrogate.train import train
+
+    return {n: train(runs, config, progress=False, splits=subset)
+            for n, subset in learning_curve_splits(splits, sizes, test, seed).items()}
+
+
+def plot_learning_curve(curves: Mapping[str, Mapping[int, Mapping[str, Mapping[str, float]]]],
+                        targets: Sequence[str], path: Any = None) -> Any:
+    """Held-out RMSE/std against the number of training runs: `curves` maps a label (e.g. the cell)
+    to n → target → {"nrmse", …}; one panel per target; saved to `path` if given; returns the figure."""
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(3.2 * len(targets), 2.8), layout="constrained")
+    axes = fig.subplots(1, len(targets), squeeze=False)[0]
+    counts = sorted({n for curve in curves.values() for n in curve})
+    for ax, target in zip(axes, targets):
+        for label, curve in curves.items():
+            ax.plot(sorted(curve), [curve[n][target]["nrmse"] for n in sorted(curve)], "o-", label=label)
+        ax.set_xscale("log")
+        ax.set_xticks(counts, [str(n) for n in counts], minor=False)
+        ax.set_xticks([], minor=True)
+        ax.set_ylim(bottom=0.0)
+        ax.set_xlabel("training runs")
+        ax.set_title(target, fontsize=9)
+    axes[0].set_ylabel("held-out RMSE / std")
+    axes[0].legend(fontsize=7)
     if path is not None:
         fig.savefig(path, dpi=110)
     plt.close("all")

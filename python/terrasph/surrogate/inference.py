@@ -9,9 +9,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from terrasph.surrogate.dataset import Run
 
 DTYPES = ("float32", "float64")
 
@@ -37,24 +40,36 @@ def load_model(path: str | Path, dtype: str = "float64") -> Any:
     return cls(str(path))
 
 
-def read_sequences(path: str | Path, feature_names: Sequence[str],
-                   body: str | None = None) -> list[tuple[str, np.ndarray]]:
-    """Read input sequences for prediction as (name, (T, I) array) pairs.
+def read_inputs(path: str | Path, feature_names: Sequence[str], dt: float = float("nan"),
+                body: str | None = None) -> list[tuple[Run, dict[str, Any] | None]]:
+    """Read the runs to predict, each with its leg-wheel configuration (None when the input does not
+    hold one).
 
-    ``path`` may be an HDF5 run file or a directory of them (features looked up by the model's
-    feature names), a ``.npy`` file holding (T, I) or (B, T, I), or a ``.csv`` file with one time
-    step per row (a header row naming the features is allowed and then used to order columns).
+    ``path`` may be a run file of the leg-wheel scene (its driven phase resampled to the model's
+    `dt`, as the robot dataset does: terrasph.surrogate.robot_dataset.robot_run, with the SPH's
+    slip, sinkage and forward speed as series), a dataset HDF5 run file or a directory of them
+    (features looked up by name), a ``.npy`` file holding (T, I) or (B, T, I), or a ``.csv`` file
+    with one time step per row (a header row naming the features is allowed and then used to order
+    columns). Rows of a .npy or .csv are taken as steps of `dt`.
     """
     from terrasph.surrogate.dataset import load_runs, read_run
+    from terrasph.surrogate.robot_dataset import BED_PARAMETERS, is_leg_wheel_run, leg_wheel_fields, robot_run
+    from terrasph.surrogate.validity import MORPHOLOGY_PREFIX
 
     path = Path(path)
     n = len(feature_names)
     if path.is_dir():
-        return [(r.name, r.matrix(feature_names)) for r in load_runs(path, body=body)]
+        return [(run, None) for run in load_runs(path, body=body)]
     suffix = path.suffix.lower()
     if suffix in (".h5", ".hdf5"):
-        run = read_run(path, body=body)
-        return [(run.name, run.matrix(feature_names))]
+        if not is_leg_wheel_run(path):
+            return [(read_run(path, body=body), None)]
+        if not dt > 0:
+            raise ValueError(f"{path}: a leg-wheel run is resampled to the model's time step, and this model "
+                             "records none (its metadata has no 'dt'); give the inputs as .csv or .npy")
+        wheels = [f.removeprefix(MORPHOLOGY_PREFIX) for f in feature_names if f.startswith(MORPHOLOGY_PREFIX)]
+        bed = [f for f in feature_names if f in BED_PARAMETERS]
+        return [(robot_run(path, dt, wheels, bed), leg_wheel_fields(path))]
     if suffix == ".npy":
         arr = np.load(path, allow_pickle=False)
         if arr.ndim == 2:
@@ -62,8 +77,7 @@ def read_sequences(path: str | Path, feature_names: Sequence[str],
         if arr.ndim != 3 or arr.shape[2] != n:
             raise ValueError(f"{path}: array must have shape (T, {n}) or (B, T, {n}), "
                              f"got {arr.shape}")
-        return [(f"{path.stem}[{b}]", np.asarray(arr[b], dtype=np.float64))
-                for b in range(arr.shape[0])]
+        return [(_input_run(f"{path.stem}[{b}]", arr[b], feature_names, dt), None) for b in range(arr.shape[0])]
     if suffix == ".csv":
         with open(path, encoding="utf-8") as fh:
             first = fh.readline().strip()
@@ -78,8 +92,17 @@ def read_sequences(path: str | Path, feature_names: Sequence[str],
         if data.shape[1] != n:
             raise ValueError(f"{path}: expected {n} columns {list(feature_names)}, "
                              f"got {data.shape[1]}")
-        return [(path.stem, data)]
+        return [(_input_run(path.stem, data, feature_names, dt), None)]
     raise ValueError(f"{path}: unsupported input (use .h5, a directory of .h5, .npy or .csv)")
+
+
+def _input_run(name: str, x: np.ndarray, feature_names: Sequence[str], dt: float) -> Run:
+    """Rows of inputs (T, I) as a run of steps `dt` (1 if the model records none)."""
+    from terrasph.surrogate.dataset import Run
+
+    step = dt if dt > 0 else 1.0
+    return Run(name=name, time=step * np.arange(len(x)), series={f: np.asarray(x[:, j], dtype=np.float64)
+                                                                 for j, f in enumerate(feature_names)}, params={})
 
 
 def _is_number(text: str) -> bool:

@@ -11,9 +11,10 @@ start at 0 and resampled to a stated Δt (linear interpolation of the SPH sample
 * targets: ``slip`` (Eq. 4.8, clipped to [−1, 1]: it leaves that interval only while the axle is
   pushed backwards), ``sinkage`` (m), and ``forward_speed`` v_x (m/s).
 
-Splits are by run, never by time step; :func:`split_by_range` keeps the runs whose parameter lies
-outside a range apart as the extrapolation test, and splits the rest into train, validation and
-the interpolation test.
+Splits are by run, never by time step; :func:`split_held_out` keeps the runs whose parameter (e.g.
+the load) or input series (e.g. the commanded ω at any step) leaves a range apart as extrapolation
+tests, one per range, and splits the rest into train, validation and the interpolation test
+(:func:`split_by_range`: one parameter's range).
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ import numpy as np
 from terrasph.schedules import evaluate
 from terrasph.surrogate.dataset import Run, split_runs, write_run
 
-__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "features_of", "robot_run", "split_by_range"]
+__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
+           "robot_run", "split_by_range", "split_held_out"]
 
 TARGETS = ("slip", "sinkage", "forward_speed")
 #: the leg-wheel's bed parameters that become inputs of a dataset whose runs differ in them
@@ -59,6 +61,35 @@ def _leg_wheel_config(saved: dict[str, Any]) -> dict[str, Any]:
     from terrasph.scenes import SCENES
 
     return SCENES["leg-wheel"].current_names(saved)
+
+
+def leg_wheel_fields(path: str | Path) -> dict[str, Any]:
+    """Every configuration field of the leg-wheel run in `path`, a run file of the scene or a file of
+    a dataset (:func:`build_robot_dataset`), under the current names with the defaults filled in."""
+    import dataclasses
+
+    import h5py
+
+    from terrasph.scenes import SCENES
+
+    with h5py.File(path, "r") as f:
+        saved = json.loads(f.attrs["config_json"])
+    if "scene" in saved:
+        if saved["scene"] != "leg-wheel":
+            raise ValueError(f"{path} is not a leg-wheel run (its scene is {saved['scene']!r})")
+        saved = saved["leg_wheel"]
+    return dataclasses.asdict(SCENES["leg-wheel"].config_from(saved))
+
+
+def is_leg_wheel_run(path: str | Path) -> bool:
+    """Whether `path` is an HDF5 run file written by the leg-wheel scene (not a dataset file)."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            return "series/robot/wheel" in f and json.loads(f.attrs.get("config_json", "{}")).get("scene") == "leg-wheel"
+    except (OSError, ValueError):
+        return False
 
 
 def _check_dt(dt: float, driven: float, where: str | Path) -> None:
@@ -133,12 +164,30 @@ def build_robot_dataset(sweep_dir: str | Path, out_dir: str | Path, dt: float = 
     return description
 
 
+def split_held_out(runs: Sequence[Run], train_ranges: dict[str, tuple[float, float]], seed: int = 0,
+                   fractions: tuple[float, float, float] = (0.7, 0.15, 0.15)) -> dict[str, list[int]]:
+    """Run indices by split. For each column (a run parameter or an input series) of `train_ranges`,
+    ``extrapolation: <column>`` holds the runs whose values leave its [low, high] (a series at any
+    step; a run outside two ranges is in both); the runs inside every range are split by run into
+    ``train``, ``val`` and ``interpolation`` (seeded `fractions`)."""
+    def outside(run: Run, column: str) -> bool:
+        values = run.column(column)
+        low, high = train_ranges[column]
+        return bool(values.min() < low or values.max() > high)
+
+    held = {column: [k for k, run in enumerate(runs) if outside(run, column)] for column in train_ranges}
+    out_any = {k for members in held.values() for k in members}
+    inside = [k for k in range(len(runs)) if k not in out_any]
+    train, val, test = split_runs(len(inside), fractions, seed)
+    return {"train": [inside[k] for k in train], "val": [inside[k] for k in val],
+            "interpolation": [inside[k] for k in test],
+            **{f"extrapolation: {column}": members for column, members in held.items()}}
+
+
 def split_by_range(runs: Sequence[Run], parameter: str, low: float, high: float, seed: int = 0,
                    fractions: tuple[float, float, float] = (0.7, 0.15, 0.15)) -> dict[str, list[int]]:
     """Run indices by split: ``extrapolation`` the runs whose `parameter` lies outside [`low`, `high`];
     the others split by run into ``train``, ``val`` and ``interpolation`` (seeded `fractions`)."""
-    inside = [k for k, run in enumerate(runs) if low <= run.params[parameter] <= high]
-    outside = [k for k in range(len(runs)) if k not in set(inside)]
-    train, val, test = split_runs(len(inside), fractions, seed)
-    return {"train": [inside[k] for k in train], "val": [inside[k] for k in val],
-            "interpolation": [inside[k] for k in test], "extrapolation": outside}
+    splits = split_held_out(runs, {parameter: (low, high)}, seed, fractions)
+    splits["extrapolation"] = splits.pop(f"extrapolation: {parameter}")
+    return splits

@@ -248,13 +248,21 @@ def format_report(report: dict[str, dict[str, dict[str, float]]]) -> str:
 
 def train_directory(dataset_dir: str | Path, out: str | Path, config: TrainConfig,
                     body: str | None = None, progress: bool = True) -> TrainResult:
-    """Load the runs of ``dataset_dir``, train, export to ``out`` and write ``out``.json report."""
+    """Load the runs of ``dataset_dir``, train, export to ``out`` and write ``out``.json report; a
+    dataset of leg-wheel runs (with its dataset.json) records the training runs' validity range
+    (terrasph.surrogate.validity) in the metadata."""
     from terrasph.surrogate.export import export_model
+
+    from terrasph.surrogate.validity import dataset_validity
 
     runs = load_runs(dataset_dir, body=body)
     result = train(runs, config, progress=progress)
     meta = result.metadata()
     meta["dataset"] = str(Path(dataset_dir).resolve())
+    if (Path(dataset_dir) / "dataset.json").is_file():  # leg-wheel runs (`terrasph dataset`): record their range
+        trained_on = set(result.split_runs["train"])
+        meta["validity"] = dataset_validity(dataset_dir, [r for r in runs if r.name in trained_on],
+                                            config.features).to_json()
     export_model(result.net, out, config.features, config.targets, meta)
     Path(str(out) + ".json").write_text(json.dumps(meta, indent=2, sort_keys=True))
     return result
