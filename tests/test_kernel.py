@@ -9,12 +9,12 @@ References and tolerances
   and by symmetry Σ V_j ∇W_ij = 0 to round-off (< 1e-12 / h).
 * With a seeded random jitter of ±0.1 Δx the measured errors are 0.093 (Σ V W) and 0.19 / h
   (Σ V ∇W); the bounds are 0.15 and 0.3 / h.
-* SPH gradient of a linear velocity field v = A x + b with the kernel's own gradient
-  (kernel_gradient_normalisation=False): the relative error max|L − A| / max|A| is 0.026 on the
-  lattice — the lattice moment s = Σ_j V_j (x_j − x_i)_z ∂W_ij/∂z_i is 0.974 at h = 1.3 Δx — and
-  0.078 with jitter (measured): bounds 0.02–0.05 and 0.2. With ∇W divided by s (the default) the
-  lattice is exact up to round-off [5e-15, bound 1e-10] and the jittered error 0.073 [bound 0.2]. With the
-  kernel gradient correction (a full moment matrix per particle) both are exact: bound 1e-10.
+* SPH gradient of a linear velocity field v = A x + b with the kernel's own gradient (the
+  default): the relative error max|L − A| / max|A| is 0.026 on the lattice — the lattice moment
+  s = Σ_j V_j (x_j − x_i)_z ∂W_ij/∂z_i is 0.974 at h = 1.3 Δx — and 0.078 with jitter (measured):
+  bounds 0.02–0.05 and 0.2. With ∇W divided by s (numerics.kernel_gradient_normalisation) the
+  lattice is exact up to round-off [5e-15, bound 1e-10] and the jittered error 0.073 [bound 0.2].
+  With the kernel gradient correction (a full moment matrix per particle) both are exact: 1e-10.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def test_kernel_compact_support_and_gradient_factor() -> None:
 
 
 def _lattice_simulation(free_block, jitter: float, correction: bool,
-                        normalisation: bool = True) -> tuple[Simulation, np.ndarray]:
+                        normalisation: bool = False) -> tuple[Simulation, np.ndarray]:
     """A wall-free, gravity-free lattice (optionally jittered by ±jitter·Δx, seeded) at ρ0."""
     scene, block = free_block(DX, N_SIDE, N_SIDE)
     if jitter:
