@@ -34,12 +34,23 @@ template <int D> const ModelParams<D>& validated(const ModelParams<D>& params) {
 // A bound on the wave alone let c0's explicit damping outrun the step (docs/design_decisions.md).
 double step_signal_speed(double c0, double wave_speed) { return std::max(c0, wave_speed); }
 
+// The scale of ∇W: 1/s with s the kernel's gradient moment Σ_j V_j (x_j − x_i)_z ∂W_ij/∂z_i on the
+// start lattice (numerics.kernel_gradient_normalisation), so that Σ_j V_j (f_j − f_i) ∇_iW_ij is the
+// exact gradient of a linear f there, in every term that uses ∇W (continuity, stress divergence,
+// Π_ij, δ-SPH, ∇v). It is the constant-matrix form (M = s I on the lattice, computed once) of the
+// kernel gradient correction of Bonet & Lok (1999), ∇W̃ = M_i⁻¹∇W: one constant keeps every pair
+// antisymmetric, so momentum stays conserved pair by pair, at no cost per step.
+template <int D> double kernel_gradient_scale(const NumericsParams& numerics) {
+  if (!numerics.kernel_gradient_normalisation) return 1.0;
+  return 1.0 / WendlandC2<D>::lattice_gradient_moment(numerics.h_factor);
+}
+
 }  // namespace
 
 template <int D>
 Simulation<D>::Simulation(const ModelParams<D>& params, GranularParticles<D> granular, WallParticles<D> walls)
     : params_(validated(params)),
-      kernel_(params.smoothing_length()),
+      kernel_(params.smoothing_length(), kernel_gradient_scale<D>(params.numerics)),
       model_(make_model(params, granular.fields)),
       sound_speed_(params.artificial_sound_speed()),
       signal_speed_(step_signal_speed(sound_speed_, std::visit([](const auto& m) { return m.wave_speed(); }, model_))),

@@ -60,19 +60,19 @@ _SCENE_TIERS: dict[str, dict[str, Tier]] = {
     },
     "leg-rotation": {
         "reference": _REFERENCE,
-        "standard": Tier({"cfl": 0.9}, "peak lift +0.6 %, peak thrust +0.5 % (coarse C-leg at 0.8 rad/s)"),
+        "standard": Tier({"cfl": 0.9}, "peak lift +0.5 %, peak thrust +0.5 % (coarse C-leg at 0.8 rad/s)"),
         "fast": Tier({"cfl": 0.9, "mass_scaling": 16.0},
-                     "slow sweeps only: peaks +1.8 %, -1.3 % at 0.2 rad/s, but +20 %, +27 % at 0.8 rad/s"),
+                     "slow sweeps only: peaks +1.8 %, -1.3 % at 0.2 rad/s, but +18 %, +33 % at 0.8 rad/s"),
     },
     "plate-drag": {
         "reference": _REFERENCE,
         "standard": Tier({}, "not measured (C = 0.5, the core's default)"),
-        "fast": Tier({"cfl": 0.9}, "not measured (the legs at C = 0.9: within 0.6 %)"),
+        "fast": Tier({"cfl": 0.9}, "not measured (the legs at C = 0.9: within 0.5 %)"),
     },
     "plate-intrusion": {
         "reference": _REFERENCE,
         "standard": Tier({}, "not measured on the plate (C = 0.5; the legs: within 0.4 %)"),
-        "fast": Tier({"cfl": 0.9}, "not measured on the plate (the legs at C = 0.9: within 0.6 %)"),
+        "fast": Tier({"cfl": 0.9}, "not measured on the plate (the legs at C = 0.9: within 0.5 %)"),
     },
     "leg-wheel": {
         "reference": _REFERENCE,
