@@ -5,9 +5,9 @@ without the SPH.
 methods, driven by :func:`terrasph.robots.run.run_coupled`). The terrain is a flat free surface at
 z = ``surface`` and keeps no state. Each step of dt:
 
-1. takes the RFT load of each coupled body (:func:`terrasph.rft.body_load`) and the force of each
+1. takes the RFT load of each coupled body (:func:`terrasph.rft.body_load`'s) and the force of each
    torque-limited velocity servo at the state of t_n, puts them in MuJoCo's ``xfrc_applied`` and the
-   actuators, and lets MuJoCo advance by dt (:func:`coupling.mujoco_step`): velocities q̇*;
+   actuators (each servo a plain force for the step), and lets MuJoCo advance by dt: velocities q̇*;
 2. makes the step backward Euler in those forces: M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)), G the
    generalised RFT loads and servo forces at the step's poses, solved by Newton's method with their
    Jacobian (:attr:`terrasph.rft.BodyLoad.jacobian`), and moves the positions by dt (q̇ − q̇*).
