@@ -314,3 +314,19 @@ def test_rft_terrain_checkpoint_continues_bit_for_bit(tmp_path):
     resumed.advance(0.1)
     assert np.array_equal(whole.robot.data.qpos, resumed.robot.data.qpos)
     assert np.array_equal(whole.body_sample("foot")["force"], resumed.body_sample("foot")["force"])
+
+
+def test_rft_terrain_calls_its_controller_at_the_control_rate():
+    """The native stepper takes many steps per call: a controller is called every
+    RFT_CONTROL_INTERVAL of simulated time (at its multiples, five 2 ms steps) and is told that its
+    commands hold for that span; the steps taken reach the end time as a call per step would."""
+    coupled = _plate_on_sand(0.3)
+    calls = []
+    taken = coupled.advance(0.1, control=lambda run: calls.append((run.time, run.control_span())))
+    interval = rft_terrain.RFT_CONTROL_INTERVAL
+    assert taken == coupled.step_count == round(0.1 / rft_terrain.RFT_TIME_STEP)
+    assert len(calls) == round(0.1 / interval)
+    assert np.allclose([t for t, _ in calls], interval * np.arange(len(calls)), rtol=0, atol=1e-12)
+    assert all(span == pytest.approx(interval) for _, span in calls)
+    with pytest.raises(ConfigError, match="control_interval"):
+        rft_terrain.RFTCoupling(coupled.robot, 0.0, G, control_interval=1e-3)

@@ -45,7 +45,7 @@ def main() -> None:
         wall, cpu = time.perf_counter() - start, time.process_time() - cpu
         print(f"| {wheel} | {summary['mean_forward_speed']:.4f} | {summary['mean_slip']:.3f} | "
               f"{100 * summary['final_sinkage']:.2f} / {100 * summary['max_sinkage']:.2f} | "
-              f"{summary['cost_of_transport']:.2f} | {wall:.1f} | {cpu:.1f} | {config.duration / cpu:.2f} |", flush=True)
+              f"{summary['cost_of_transport']:.2f} | {wall:.1f} | {cpu:.1f} | {config.t_end / cpu:.2f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from terrasph import _core
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 
@@ -113,7 +114,7 @@ class RFTCoefficients:
 
     def alpha(self, beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """(α_x, α_z) in N/m³ at the angles of the module docstring (β, γ in [−π/2, π/2])."""
-        ax, az, _, _ = _alpha_hat(self.vector, *_trig(beta, gamma))
+        ax, az = _alpha_hat(self.vector, *_trig(beta, gamma))
         return self.zeta * ax, self.zeta * az
 
 
@@ -128,7 +129,7 @@ def fourier_basis(beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[
     (..., 9) arrays, so α̂ = basis @ coefficients (the series is linear in them, so a least-squares
     fit is linear)."""
     trig = np.broadcast_arrays(*_trig(beta, gamma))
-    columns = [_alpha_hat(unit, *trig)[:2] for unit in np.eye(len(COEFFICIENT_NAMES))]
+    columns = [_alpha_hat(unit, *trig) for unit in np.eye(len(COEFFICIENT_NAMES))]
     return np.stack([x for x, _ in columns], axis=-1), np.stack([z for _, z in columns], axis=-1)
 
 
@@ -297,16 +298,14 @@ REGULARISATION_SPEED = 1e-4
 
 
 def _alpha_hat(c: np.ndarray, cos2b: np.ndarray, sin2b: np.ndarray, cosg: np.ndarray,
-               sing: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """α̂_x, α̂_z and their derivatives in γ from the coefficients `c` (COEFFICIENT_NAMES order) and the
-    trigonometric values of 2β and γ: the series of the module docstring with its sums of angles
-    expanded (sin(2β ± γ) = sin 2β cos γ ± cos 2β sin γ, ...)."""
+               sing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """α̂_x and α̂_z from the coefficients `c` (COEFFICIENT_NAMES order) and the trigonometric values
+    of 2β and γ: the series of the module docstring with its sums of angles expanded (sin(2β ± γ) =
+    sin 2β cos γ ± cos 2β sin γ, ...), for the map and its fit (the loads: cpp/src/rft.cpp)."""
     a00, a10, b11, b01, bm11, c11, c01, cm11, d10 = c
     az = a00 + a10 * cos2b + (b11 - bm11) * sin2b * cosg + (b11 + bm11) * cos2b * sing + b01 * sing
-    daz = -(b11 - bm11) * sin2b * sing + (b11 + bm11) * cos2b * cosg + b01 * cosg
     ax = (c11 + cm11) * cos2b * cosg + (cm11 - c11) * sin2b * sing + c01 * cosg + d10 * sin2b
-    dax = -(c11 + cm11) * cos2b * sing + (cm11 - c11) * sin2b * cosg - c01 * sing
-    return ax, az, dax, daz
+    return ax, az
 
 
 @dataclass(frozen=True)
@@ -323,7 +322,8 @@ def body_load(elements: SurfaceElements, angle: float, origin: tuple[float, floa
               velocity: np.ndarray, omega: float, surface: float, table: RFTCoefficients, *,
               regularisation: float = REGULARISATION_SPEED, jacobian: bool = False) -> BodyLoad:
     """RFT load on a body at pose (`angle` clockwise, `origin`) moving with `velocity` (v_x, v_z) m/s at
-    its origin and spinning at `omega` rad/s clockwise, for a flat free surface at z = `surface`.
+    its origin and spinning at `omega` rad/s clockwise, for a flat free surface at z = `surface`
+    (computed by the compiled core, cpp/src/rft.cpp, which the robot's native step also calls).
 
     Each element below the surface with outward normal n and velocity v (v + ω (r_z, −r_x) at arm r)
     takes σ ℓ w with σ of the module docstring, times min(1, n·v / `regularisation`) for n·v > 0 (0
@@ -332,48 +332,11 @@ def body_load(elements: SurfaceElements, angle: float, origin: tuple[float, floa
     body's velocity: through γ (∂γ/∂v = s (v_z, −v_x)/|v|², γ = atan2(−v_z, s v_x)) and through the
     regularisation (∂/∂v (n·v/v_ε) = n/v_ε).
     """
-    c, s_ = math.cos(angle), math.sin(angle)
-    rot = np.array([[c, s_], [-s_, c]])  # terrasph.bodies.rotation_matrix (clockwise)
-    arm = elements.centre @ rot.T
-    depth = surface - arm[:, 1] - float(origin[1])
-    below = depth > 0
-    arm, depth = arm[below], depth[below]
-    normal = elements.normal[below] @ rot.T
-    vx = float(velocity[0]) + omega * arm[:, 1]  # v + ω (r_z, −r_x)
-    vz = float(velocity[1]) - omega * arm[:, 0]
-    normal_speed = normal[:, 0] * vx + normal[:, 1] * vz
-    lead = normal_speed > 0
-    if not lead.any():
-        return BodyLoad(np.zeros(2), 0.0, np.zeros((3, 3)) if jacobian else None)
-    arm, depth, normal, vx, vz, normal_speed = (arm[lead], depth[lead], normal[lead], vx[lead], vz[lead],
-                                                normal_speed[lead])
-    sign = np.where(vx < 0, -1.0, 1.0)  # faces moving backward are mirrored x → −x
-    speed = np.hypot(vx, vz)
-    cosg, sing = sign * vx / speed, -vz / speed
-    # the leading face's tangent (n_z, −s n_x) = (cos β, sin β) up to sign; 2β is blind to the sign
-    tx, tz = normal[:, 1], -sign * normal[:, 0]
-    cos2b, sin2b = tx * tx - tz * tz, 2.0 * tx * tz
-    ax, az, dax, daz = _alpha_hat(table.vector, cos2b, sin2b, cosg, sing)
-    weight = table.zeta * depth * elements.length[below][lead] * elements.width
-    raw = np.stack([-sign * ax, az], axis=1) * weight[:, None]  # the bare map's force per element
-    fade = np.minimum(1.0, normal_speed / regularisation) if regularisation > 0 else np.ones_like(depth)
-    element_force = raw * fade[:, None]
-    force = element_force.sum(axis=0)
-    torque = float(np.sum(arm[:, 1] * element_force[:, 0] - arm[:, 0] * element_force[:, 1]))
-    if not jacobian:
-        return BodyLoad(force, torque)
-    # per element ∂F/∂v (2 × 2): the map's change with γ, then the regularisation's ramp
-    dgamma = np.column_stack([sign * vz, -sign * vx]) / (speed * speed)[:, None]
-    draw = np.stack([-sign * dax, daz], axis=1) * weight[:, None]
-    ramp = normal_speed < regularisation
-    dfade = np.where(ramp[:, None], normal / regularisation, 0.0) if regularisation > 0 else np.zeros_like(normal)
-    element_jacobian = (draw[:, :, None] * dgamma[:, None, :] * fade[:, None, None]
-                        + raw[:, :, None] * dfade[:, None, :])
-    # the element's velocity is T ξ with ξ = (v_x, v_z, ω), T = [[1, 0, r_z], [0, 1, −r_x]]
-    to_element = np.zeros((len(arm), 2, 3))
-    to_element[:, 0, 0] = to_element[:, 1, 1] = 1.0
-    to_element[:, 0, 2], to_element[:, 1, 2] = arm[:, 1], -arm[:, 0]
-    return BodyLoad(force, torque, np.einsum("eia,eij,ejb->ab", to_element, element_jacobian, to_element))
+    fx, fz, torque, derivative = _core.rft_body_load(
+        elements.centre, elements.normal, elements.length, elements.width, float(angle), float(origin[0]),
+        float(origin[1]), float(velocity[0]), float(velocity[1]), float(omega), float(surface),
+        table.vector.tolist(), table.zeta, float(regularisation), bool(jacobian))
+    return BodyLoad(np.array([fx, fz]), torque, np.reshape(derivative, (3, 3)) if jacobian else None)
 
 
 # ---------------------------------------------------------------------------------------------

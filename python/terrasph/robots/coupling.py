@@ -264,6 +264,14 @@ class RobotStepper:
     def step(self) -> float:
         raise NotImplementedError
 
+    def time_step(self) -> float:
+        raise NotImplementedError
+
+    def control_span(self) -> float:
+        """The simulated time (s) over which the commands a controller sets now are held: the next
+        step (a stepper that calls its controller less often says otherwise)."""
+        return self.time_step()
+
     def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
         """Steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the number
         taken (the last step may end past `t_end`). `control`, if given, is called with the stepper

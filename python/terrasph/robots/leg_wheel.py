@@ -271,8 +271,9 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
         if run.time >= config.settle_time:
             if math.isnan(work["start_x"]):
                 work["start_x"] = float(data.qpos[0])
-            # positive motor work, power at the step's start × dt (the motor cannot recover energy)
-            work["motor"] += max(float(np.dot(data.actuator_force, data.actuator_velocity)), 0.0) * run.time_step()
+            # positive motor work, power at the step's start × the span the command is held (the
+            # motor cannot recover energy)
+            work["motor"] += max(float(np.dot(data.actuator_force, data.actuator_velocity)), 0.0) * run.control_span()
 
     series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,

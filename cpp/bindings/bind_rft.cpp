@@ -1,0 +1,100 @@
+// Bindings of resistive force theory (cpp/include/terrasph/rft.hpp, rft_robot.hpp): the load of a
+// body's surface elements and the native step of a planar MuJoCo robot on the RFT terrain.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "terrasph/rft.hpp"
+#include "terrasph/rft_robot.hpp"
+
+namespace py = pybind11;
+namespace tr = terrasph::rft;
+
+namespace {
+
+using CArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// The elements' arrays checked: `centre` and `normal` (count, 2), `length` (count,).
+void check_elements(const CArray& centre, const CArray& normal, const CArray& length) {
+  const py::ssize_t count = length.ndim() == 1 ? length.shape(0) : -1;
+  for (const CArray* a : {&centre, &normal})
+    if (a->ndim() != 2 || a->shape(0) != count || a->shape(1) != 2)
+      throw py::value_error("RFT elements: centre and normal must be (count, 2) and length (count,)");
+}
+
+tr::Coefficients coefficients(const std::vector<double>& c, double zeta) {
+  if (c.size() != 9) throw py::value_error("RFT coefficients: nine expected");
+  tr::Coefficients out;
+  std::copy(c.begin(), c.end(), out.c.begin());
+  out.zeta = zeta;
+  return out;
+}
+
+std::vector<double> copied(const CArray& a) { return {a.data(), a.data() + a.size()}; }
+
+}  // namespace
+
+void bind_rft(py::module_& m) {
+  m.def(
+      "rft_body_load",
+      [](const CArray& centre, const CArray& normal, const CArray& length, double width, double angle, double x,
+         double z, double vx, double vz, double omega, double surface, const std::vector<double>& c, double zeta,
+         double regularisation, bool jacobian) {
+        check_elements(centre, normal, length);
+        const tr::ElementsView view{centre.data(), normal.data(), length.data(),
+                                    static_cast<std::size_t>(length.shape(0)), width};
+        const tr::BodyLoad load = tr::body_load(view, {angle, x, z, vx, vz, omega}, surface, coefficients(c, zeta),
+                                                regularisation, jacobian);
+        return std::make_tuple(load.fx, load.fz, load.torque, load.jacobian);
+      },
+      py::arg("centre"), py::arg("normal"), py::arg("length"), py::arg("width"), py::arg("angle"), py::arg("x"),
+      py::arg("z"), py::arg("vx"), py::arg("vz"), py::arg("omega"), py::arg("surface"), py::arg("coefficients"),
+      py::arg("zeta"), py::arg("regularisation"), py::arg("jacobian"),
+      "RFT load (F_x, F_z, torque, row-major 3x3 Jacobian) of body surface elements (terrasph.rft.body_load)");
+
+  py::class_<tr::PlanarRobotStepper>(m, "PlanarRobotStepper",
+                                     "A planar MuJoCo robot on the RFT terrain stepped natively "
+                                     "(terrasph.robots.rft_terrain.RFTCoupling)")
+      .def(py::init([](const std::string& library, std::uintptr_t model, std::uintptr_t data,
+                       const std::vector<std::tuple<int, CArray, CArray, CArray, double>>& bodies,
+                       const std::vector<std::tuple<int, int, double, double, double, double>>& servos,
+                       double surface, const std::vector<double>& c, double zeta, double time_step,
+                       double regularisation, int iterations, int halvings, double tolerance) {
+             std::vector<tr::RobotBody> robot_bodies;
+             for (const auto& [id, centre, normal, length, width] : bodies) {
+               check_elements(centre, normal, length);
+               robot_bodies.push_back({id, copied(centre), copied(normal), copied(length), width});
+             }
+             std::vector<tr::VelocityServo> robot_servos;
+             for (const auto& [actuator, dof, kv, gear, lower, upper] : servos)
+               robot_servos.push_back({actuator, dof, kv, gear, lower, upper});
+             return std::make_unique<tr::PlanarRobotStepper>(library, model, data, std::move(robot_bodies),
+                                                             std::move(robot_servos), surface, coefficients(c, zeta),
+                                                             time_step, regularisation,
+                                                             tr::NewtonSettings{iterations, halvings, tolerance});
+           }),
+           py::arg("library"), py::arg("model"), py::arg("data"), py::arg("bodies"), py::arg("servos"),
+           py::arg("surface"), py::arg("coefficients"), py::arg("zeta"), py::arg("time_step"),
+           py::arg("regularisation"), py::arg("iterations"), py::arg("halvings"), py::arg("tolerance"))
+      .def("step", &tr::PlanarRobotStepper::step, "one step")
+      .def("steps", &tr::PlanarRobotStepper::steps, py::arg("count"), "`count` steps")
+      .def_property(
+          "angles", [](tr::PlanarRobotStepper& s) { return s.angles(); },
+          [](tr::PlanarRobotStepper& s, const std::vector<double>& v) {
+            if (v.size() != s.angles().size()) throw py::value_error("angles: one per coupled body");
+            s.angles() = v;
+          },
+          "each coupled body's clockwise angle (rad), continuous over turns")
+      .def_property(
+          "load_sums", [](tr::PlanarRobotStepper& s) { return s.load_sums(); },
+          [](tr::PlanarRobotStepper& s, const std::vector<double>& v) {
+            if (v.size() != s.load_sums().size()) throw py::value_error("load_sums: three per coupled body");
+            s.load_sums() = v;
+          },
+          "each body's (F_x, F_z, torque) integrated over time since cleared (N s, N m s)")
+      .def_property("step_count", &tr::PlanarRobotStepper::step_count, &tr::PlanarRobotStepper::set_step_count);
+}

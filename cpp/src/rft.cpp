@@ -1,0 +1,81 @@
+// Resistive force theory in the plane: see terrasph/rft.hpp and the Python module terrasph.rft.
+#include "terrasph/rft.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace terrasph::rft {
+
+namespace {
+
+/// α̂_x, α̂_z and their derivatives in γ (Li et al. 2013, supplementary Eq. S2, with the sums of
+/// angles expanded: sin(2β ± γ) = sin 2β cos γ ± cos 2β sin γ, ...).
+struct AlphaHat {
+  double ax, az, dax, daz;
+};
+
+AlphaHat alpha_hat(const std::array<double, 9>& k, double cos2b, double sin2b, double cosg, double sing) {
+  const double a00 = k[0], a10 = k[1], b11 = k[2], b01 = k[3], bm11 = k[4];
+  const double c11 = k[5], c01 = k[6], cm11 = k[7], d10 = k[8];
+  AlphaHat out{};
+  out.az = a00 + a10 * cos2b + (b11 - bm11) * sin2b * cosg + (b11 + bm11) * cos2b * sing + b01 * sing;
+  out.daz = -(b11 - bm11) * sin2b * sing + (b11 + bm11) * cos2b * cosg + b01 * cosg;
+  out.ax = (c11 + cm11) * cos2b * cosg + (cm11 - c11) * sin2b * sing + c01 * cosg + d10 * sin2b;
+  out.dax = -(c11 + cm11) * cos2b * sing + (cm11 - c11) * sin2b * cosg - c01 * sing;
+  return out;
+}
+
+}  // namespace
+
+BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, double surface,
+                   const Coefficients& table, double regularisation, bool jacobian) {
+  BodyLoad load{};
+  const double c = std::cos(motion.angle), s = std::sin(motion.angle);  // clockwise rotation [[c, s], [−s, c]]
+  for (std::size_t e = 0; e < elements.count; ++e) {
+    const double px = elements.centre[2 * e], pz = elements.centre[2 * e + 1];
+    const double rx = c * px + s * pz, rz = -s * px + c * pz;  // the arm r from the frame origin
+    const double depth = surface - rz - motion.z;
+    if (!(depth > 0.0)) continue;
+    const double qx = elements.normal[2 * e], qz = elements.normal[2 * e + 1];
+    const double nx = c * qx + s * qz, nz = -s * qx + c * qz;
+    const double vx = motion.vx + motion.omega * rz;  // v + ω (r_z, −r_x)
+    const double vz = motion.vz - motion.omega * rx;
+    const double normal_speed = nx * vx + nz * vz;
+    if (!(normal_speed > 0.0)) continue;  // a trailing face leaves a cavity
+    const double sign = vx < 0.0 ? -1.0 : 1.0;  // a face moving backward is mirrored x → −x
+    const double speed = std::hypot(vx, vz);
+    const double cosg = sign * vx / speed, sing = -vz / speed;
+    const double tx = nz, tz = -sign * nx;  // the face's tangent (cos β, sin β) up to sign
+    const double cos2b = tx * tx - tz * tz, sin2b = 2.0 * tx * tz;
+    const AlphaHat a = alpha_hat(table.c, cos2b, sin2b, cosg, sing);
+    const double weight = table.zeta * depth * elements.length[e] * elements.width;
+    const double raw_x = -sign * a.ax * weight, raw_z = a.az * weight;  // σ ℓ w of the bare map (Li et al. Eq. 1)
+    const bool ramp = regularisation > 0.0 && normal_speed < regularisation;
+    const double fade = ramp ? normal_speed / regularisation : 1.0;
+    const double fx = raw_x * fade, fz = raw_z * fade;
+    load.fx += fx;
+    load.fz += fz;
+    load.torque += rz * fx - rx * fz;  // (r × F)_y
+    if (!jacobian) continue;
+    // ∂F/∂v of the element: through γ (∂γ/∂v = s (v_z, −v_x)/|v|²) and through the ramp (n / v_ε)
+    const double g0 = sign * vz / (speed * speed), g1 = -sign * vx / (speed * speed);
+    const double draw_x = -sign * a.dax * weight, draw_z = a.daz * weight;
+    const double f0 = ramp ? nx / regularisation : 0.0, f1 = ramp ? nz / regularisation : 0.0;
+    const double e00 = draw_x * g0 * fade + raw_x * f0, e01 = draw_x * g1 * fade + raw_x * f1;
+    const double e10 = draw_z * g0 * fade + raw_z * f0, e11 = draw_z * g1 * fade + raw_z * f1;
+    // the element's velocity is T ξ, ξ = (v_x, v_z, ω), T = [[1, 0, r_z], [0, 1, −r_x]]: J += Tᵀ E T
+    const double t[2][3] = {{1.0, 0.0, rz}, {0.0, 1.0, -rx}};
+    const double el[2][2] = {{e00, e01}, {e10, e11}};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        double sum = 0.0;
+        for (int p = 0; p < 2; ++p)
+          for (int q = 0; q < 2; ++q) sum += t[p][i] * el[p][q] * t[q][j];
+        load.jacobian[static_cast<std::size_t>(3 * i + j)] += sum;
+      }
+    }
+  }
+  return load;
+}
+
+}  // namespace terrasph::rft

@@ -1,0 +1,245 @@
+// The native step of a planar robot on the RFT terrain: see terrasph/rft_robot.hpp and the Python
+// class terrasph.robots.rft_terrain.RFTCoupling, whose docstring gives the scheme.
+#include "terrasph/rft_robot.hpp"
+
+#include <dlfcn.h>
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace terrasph::rft {
+
+namespace {
+
+/// The MuJoCo functions the step calls, looked up in the loaded library (signatures from the headers).
+struct MujocoApi {
+  decltype(&mj_step) step = nullptr;
+  decltype(&mj_jac) jac = nullptr;
+  decltype(&mj_fullM) full_mass = nullptr;
+  decltype(&mj_integratePos) integrate_positions = nullptr;
+  decltype(&mj_kinematics) kinematics = nullptr;
+  decltype(&mj_comPos) com_positions = nullptr;
+  decltype(&mj_comVel) com_velocities = nullptr;
+
+  explicit MujocoApi(const std::string& library) {
+    void* handle = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL | RTLD_NOLOAD);
+    if (handle == nullptr) handle = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (handle == nullptr) throw std::runtime_error("cannot open the MuJoCo library '" + library + "'");
+    const auto version = reinterpret_cast<decltype(&mj_version)>(dlsym(handle, "mj_version"));
+    if (version == nullptr || version() != mjVERSION_HEADER)
+      throw std::runtime_error("the MuJoCo library '" + library + "' is version " +
+                               std::to_string(version ? version() : -1) + ", terrasph's core was built with " +
+                               std::to_string(mjVERSION_HEADER) + ": rebuild terrasph against the installed mujoco");
+    find(handle, "mj_step", step);
+    find(handle, "mj_jac", jac);
+    find(handle, "mj_fullM", full_mass);
+    find(handle, "mj_integratePos", integrate_positions);
+    find(handle, "mj_kinematics", kinematics);
+    find(handle, "mj_comPos", com_positions);
+    find(handle, "mj_comVel", com_velocities);
+  }
+
+  template <typename Function>
+  static void find(void* handle, const char* name, Function& out) {
+    out = reinterpret_cast<Function>(dlsym(handle, name));
+    if (out == nullptr) throw std::runtime_error(std::string("the MuJoCo library has no ") + name);
+  }
+};
+
+using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using Vector = Eigen::VectorXd;
+
+/// The servo's force kv (command − gear q̇) within its limits and its derivative in q̇ (0 at a limit).
+std::pair<double, double> servo_force(const VelocityServo& servo, double command, const Vector& qvel) {
+  const double raw = servo.kv * (command - servo.gear * qvel[servo.dof]);
+  if (raw <= servo.lower) return {servo.lower, 0.0};
+  if (raw >= servo.upper) return {servo.upper, 0.0};
+  return {raw, -servo.kv * servo.gear};
+}
+
+double unwrapped(double previous, double wrapped) {
+  return previous + std::remainder(wrapped - previous, 2.0 * M_PI);
+}
+
+}  // namespace
+
+struct PlanarRobotStepper::Impl {
+  MujocoApi api;
+  mjModel* m;
+  mjData* d;
+  std::vector<RobotBody> bodies;
+  std::vector<VelocityServo> servos;
+  double surface, regularisation;
+  Coefficients table;
+  NewtonSettings newton;
+  int nv;
+  std::vector<Matrix> twists;  // each body's ∂(v_x, v_z, ω)/∂q̇ at the step's start (3 × nv)
+  std::vector<double> commands;
+  std::vector<BodyLoad> loads;
+  Vector generalised;
+  Matrix stiffness;
+
+  Impl(const std::string& library, std::uintptr_t model, std::uintptr_t data, std::vector<RobotBody> bodies_,
+       std::vector<VelocityServo> servos_, double surface_, Coefficients table_, double regularisation_,
+       NewtonSettings newton_)
+      : api(library), m(reinterpret_cast<mjModel*>(model)), d(reinterpret_cast<mjData*>(data)),
+        bodies(std::move(bodies_)), servos(std::move(servos_)), surface(surface_), regularisation(regularisation_),
+        table(table_), newton(newton_), nv(static_cast<int>(m->nv)), twists(bodies.size(), Matrix::Zero(3, m->nv)),
+        commands(servos.size()), loads(bodies.size()), generalised(m->nv), stiffness(m->nv, m->nv) {}
+
+  /// Each body's twist Jacobian at its frame origin (mj_jac: rows x, z of the linear part, y of the angular).
+  void take_twists() {
+    std::vector<mjtNum> linear(static_cast<std::size_t>(3 * nv)), angular(static_cast<std::size_t>(3 * nv));
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      const int id = bodies[b].body_id;
+      api.jac(m, d, linear.data(), angular.data(), d->xpos + 3 * id, id);
+      for (int j = 0; j < nv; ++j) {
+        twists[b](0, j) = linear[static_cast<std::size_t>(j)];
+        twists[b](1, j) = linear[static_cast<std::size_t>(2 * nv + j)];
+        twists[b](2, j) = angular[static_cast<std::size_t>(nv + j)];
+      }
+    }
+  }
+
+  /// The RFT loads at the step's start poses and joint velocities `qvel`, their generalised force
+  /// with the servos' (Σ Jᵀ (F, τ) + servo forces) in `generalised` and its derivative in q̇ in `stiffness`.
+  void evaluate(const std::vector<double>& angles, const Vector& qvel) {
+    generalised.setZero();
+    stiffness.setZero();
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      const int id = bodies[b].body_id;
+      const Eigen::Vector3d twist = twists[b] * qvel;
+      const PlanarMotion motion{angles[b], d->xpos[3 * id], d->xpos[3 * id + 2], twist[0], twist[1], twist[2]};
+      loads[b] = body_load(bodies[b].view(), motion, surface, table, regularisation, true);
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> jacobian(loads[b].jacobian.data());
+      generalised += twists[b].transpose() * Eigen::Vector3d(loads[b].fx, loads[b].fz, loads[b].torque);
+      stiffness += twists[b].transpose() * jacobian * twists[b];
+    }
+    for (std::size_t k = 0; k < servos.size(); ++k) {
+      const auto [force, slope] = servo_force(servos[k], commands[k], qvel);
+      generalised[servos[k].dof] += servos[k].gear * force;
+      stiffness(servos[k].dof, servos[k].dof) += servos[k].gear * slope;
+    }
+  }
+
+  /// MuJoCo's step with the loads in xfrc_applied (moved to the centre of mass) and each servo a
+  /// plain force; the model's servos and the caller's commands put back after it.
+  void mujoco_step(const Vector& start, double dt) {
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      const int id = bodies[b].body_id;
+      const double ox = d->xpos[3 * id] - d->xipos[3 * id], oz = d->xpos[3 * id + 2] - d->xipos[3 * id + 2];
+      mjtNum* applied = d->xfrc_applied + 6 * id;
+      std::fill(applied, applied + 6, 0.0);
+      applied[0] = loads[b].fx;
+      applied[2] = loads[b].fz;
+      applied[4] = loads[b].torque + oz * loads[b].fx - ox * loads[b].fz;  // τ_com = τ_ref + ((x_ref − x_com) × F)_y
+    }
+    for (std::size_t k = 0; k < servos.size(); ++k) {
+      const int a = servos[k].actuator;
+      m->actuator_gainprm[a * mjNGAIN] = 1.0;
+      m->actuator_biasprm[a * mjNBIAS + 2] = 0.0;
+      d->ctrl[a] = servo_force(servos[k], commands[k], start).first;
+    }
+    m->opt.timestep = dt;
+    api.step(m, d);
+    for (std::size_t k = 0; k < servos.size(); ++k) {
+      const int a = servos[k].actuator;
+      m->actuator_gainprm[a * mjNGAIN] = servos[k].kv;
+      m->actuator_biasprm[a * mjNBIAS + 2] = -servos[k].kv;
+      d->ctrl[a] = commands[k];
+    }
+  }
+
+  /// Backward Euler in the loads and servo forces: M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)) by Newton's
+  /// method (RFTCoupling's docstring), the positions moved by dt (q̇ − q̇*).
+  void implicit_step(const std::vector<double>& angles, const Vector& applied, double dt) {
+    Matrix mass(nv, nv);
+    api.full_mass(m, d, mass.data());  // qM is still that of the step's start
+    for (int j = 0; j < nv; ++j) mass(j, j) += dt * m->dof_damping[j];
+    const Vector explicit_qvel = Eigen::Map<const Vector>(d->qvel, nv);
+    const double scale = (mass * explicit_qvel).cwiseAbs().maxCoeff() + dt * applied.cwiseAbs().maxCoeff() + 1e-300;
+    auto residual = [&](const Vector& qvel) -> Vector {
+      evaluate(angles, qvel);
+      return mass * (qvel - explicit_qvel) - dt * (generalised - applied);
+    };
+    Vector qvel = explicit_qvel;
+    Vector r = residual(qvel);
+    std::vector<BodyLoad> best = loads;
+    Matrix best_stiffness = stiffness;
+    for (int iteration = 0; iteration < newton.iterations; ++iteration) {
+      if (r.cwiseAbs().maxCoeff() <= newton.tolerance * scale) break;
+      Vector step = Matrix(mass - dt * best_stiffness).partialPivLu().solve(r);
+      bool reduced = false;
+      Vector trial, r_trial;
+      for (int halving = 0; halving < newton.halvings; ++halving) {  // halve while the residual does not fall
+        trial = qvel - step;
+        r_trial = residual(trial);
+        if (r_trial.cwiseAbs().maxCoeff() < r.cwiseAbs().maxCoeff()) {
+          reduced = true;
+          break;
+        }
+        step *= 0.5;
+      }
+      if (!reduced) break;  // at a kink of the regularisation no step reduces it: keep the best so far
+      qvel = trial;
+      r = r_trial;
+      best = loads;
+      best_stiffness = stiffness;
+    }
+    loads = best;
+    const Vector change = qvel - explicit_qvel;
+    api.integrate_positions(m, d->qpos, change.data(), dt);
+    Eigen::Map<Vector>(d->qvel, nv) = qvel;
+  }
+};
+
+PlanarRobotStepper::PlanarRobotStepper(const std::string& library, std::uintptr_t model, std::uintptr_t data,
+                                       std::vector<RobotBody> bodies, std::vector<VelocityServo> servos,
+                                       double surface, Coefficients table, double time_step,
+                                       double regularisation, NewtonSettings newton)
+    : impl_(std::make_unique<Impl>(library, model, data, std::move(bodies), std::move(servos), surface, table,
+                                   regularisation, newton)),
+      dt_(time_step) {
+  const Impl& impl = *impl_;
+  for (const RobotBody& body : impl.bodies) {
+    const mjtNum* rotation = impl.d->xmat + 9 * body.body_id;  // row-major: [0] = R_xx, [2] = R_xz
+    angles_.push_back(std::atan2(rotation[2], rotation[0]));
+  }
+  sums_.assign(3 * impl.bodies.size(), 0.0);
+}
+
+PlanarRobotStepper::~PlanarRobotStepper() = default;
+
+void PlanarRobotStepper::step() {
+  Impl& s = *impl_;
+  s.take_twists();
+  const Vector start = Eigen::Map<const Vector>(s.d->qvel, s.nv);
+  for (std::size_t k = 0; k < s.servos.size(); ++k) s.commands[k] = s.d->ctrl[s.servos[k].actuator];
+  s.evaluate(angles_, start);
+  const Vector applied = s.generalised;
+  const bool stiff = s.stiffness.cwiseAbs().maxCoeff() > 0.0;
+  s.mujoco_step(start, dt_);
+  if (stiff) s.implicit_step(angles_, applied, dt_);
+  for (std::size_t b = 0; b < s.bodies.size(); ++b) {
+    sums_[3 * b] += s.loads[b].fx * dt_;
+    sums_[3 * b + 1] += s.loads[b].fz * dt_;
+    sums_[3 * b + 2] += s.loads[b].torque * dt_;
+  }
+  s.api.kinematics(s.m, s.d);  // mj_step leaves the derived quantities at the step's start
+  s.api.com_positions(s.m, s.d);
+  s.api.com_velocities(s.m, s.d);
+  for (std::size_t b = 0; b < s.bodies.size(); ++b) {
+    const mjtNum* rotation = s.d->xmat + 9 * s.bodies[b].body_id;
+    angles_[b] = unwrapped(angles_[b], std::atan2(rotation[2], rotation[0]));
+  }
+  ++steps_;
+}
+
+void PlanarRobotStepper::steps(long count) {
+  for (long k = 0; k < count; ++k) step();
+}
+
+}  // namespace terrasph::rft
