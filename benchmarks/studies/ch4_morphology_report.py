@@ -104,8 +104,7 @@ def draw_wheels(path: Path) -> None:
     figure = Figure(figsize=(12.0, 2.6), layout="constrained")
     axes = figure.subplots(1, len(WHEELS))
     for ax, wheel in zip(axes, WHEELS):
-        config = LegWheel(wheel=wheel, spacing=0.005 / 3)
-        shape = wheel_shape(config)
+        shape = wheel_shape(LegWheel(wheel=wheel))  # the scene's default geometry
         axle_z = -shape.lowest_point() - 0.02  # the axle with the lowest point 2 cm deep
         ax.axhspan(-12, 0, color="#e8d9b0")
         for loop in shape.transformed_outline(0.0, (0.0, axle_z)):
