@@ -21,13 +21,15 @@ from terrasph.config import ConfigError
 from terrasph.surrogate import available, pretrained, pretrained_path
 from terrasph.surrogate.dataset import Run, write_run
 from terrasph.surrogate.export import export_model, read_model_file
-from terrasph.surrogate.robot_dataset import TARGETS, features_of, leg_wheel_fields, robot_run
-from terrasph.surrogate.validity import Validity, training_validity
+from terrasph.surrogate.robot_dataset import TARGETS, commanded_phase, features_of, leg_wheel_fields, robot_run
+from terrasph.surrogate.validity import PHASE_FEATURES, Validity, training_validity
 
 pytest.importorskip("torch")
 
 DT = 0.02
-FEATURES = list(features_of(["c-leg", "wheel"]))  # omega_cmd, load, wheel:c-leg, wheel:wheel
+FEATURES = list(features_of(["c-leg", "wheel"]))  # omega_cmd, leg_phase_sin/cos, load, wheel:c-leg, wheel:wheel
+#: the inputs a user writes in a CSV: the legs' phase is derived from omega_cmd
+CSV_FEATURES = [f for f in FEATURES if f not in PHASE_FEATURES]
 SCHEDULE = ((0.0, 1.0), (0.15, 1.0), (0.15, 2.0))  # a step from 1 to 2 rad/s
 
 
@@ -152,7 +154,7 @@ def test_a_new_schedule_from_csv_is_checked_too(base, tmp_path, capsys) -> None:
     model, _ = model_for(tmp_path, [variant(base, "a", 0.5, load=2.0), variant(base, "b", 1.5, load=4.0)])
     steps = base[0].length
     omega = np.linspace(0.5, 3.0, steps)
-    header = ",".join(FEATURES)
+    header = ",".join(CSV_FEATURES)
     inside = tmp_path / "inside.csv"
     np.savetxt(inside, np.column_stack([omega, np.full(steps, 3.0), np.ones(steps), np.zeros(steps)]),
                delimiter=",", header=header, comments="")
@@ -166,6 +168,38 @@ def test_a_new_schedule_from_csv_is_checked_too(base, tmp_path, capsys) -> None:
     np.savetxt(mixed, np.column_stack([omega, np.full(steps, 3.0), np.ones(steps), np.ones(steps)]),
                delimiter=",", header=header, comments="")
     assert "must be one-hot" in refusal(capsys, ["predict", str(model), str(mixed)])
+
+
+def test_the_legs_phase_is_the_integral_of_the_commanded_spin(base) -> None:
+    """legs·θ with θ = ∫ω_cmd dt: for a constant ω the unwrapped phase is legs·ω·t exactly; for the run's
+    step from 1 to 2 rad/s at 0.15 s (between samples) it ends within the trapezoid's error
+    legs·Δω·dt/2 of the exact legs·(1·0.15 + 2·(T − 0.15)), and both columns lie on the unit circle."""
+    t = np.arange(50) * DT
+    phase = commanded_phase(np.full(50, 1.7), DT, 3)
+    np.testing.assert_allclose(np.unwrap(np.arctan2(phase["leg_phase_sin"], phase["leg_phase_cos"])),
+                               3 * 1.7 * t, atol=1e-12)
+    run, config = base
+    assert config["legs"] == 3
+    sin, cos = run.series["leg_phase_sin"], run.series["leg_phase_cos"]
+    np.testing.assert_allclose(sin ** 2 + cos ** 2, 1.0, atol=1e-12)
+    end = run.time[-1]
+    exact = 3 * (1.0 * 0.15 + 2.0 * (end - 0.15))
+    got = np.unwrap(np.arctan2(sin, cos))[-1]
+    assert abs(got - exact) <= 3 * 1.0 * DT / 2 + 1e-12
+
+
+def test_a_csv_without_the_phase_predicts_as_the_run_file(base, run_file, tmp_path, capsys) -> None:
+    """The run's own inputs written as CSV without the phase columns: `terrasph predict` derives them
+    from omega_cmd and predicts bit for bit what it predicts from the run file."""
+    model, _ = model_for(tmp_path, [variant(base, "a", 0.5, load=2.0), variant(base, "b", 1.5, load=4.0)])
+    from_run, from_csv = tmp_path / "run.csv", tmp_path / "schedule.csv"
+    assert main(["predict", str(model), str(run_file), "--out", str(from_run)]) == 0
+    csv = tmp_path / "inputs.csv"
+    np.savetxt(csv, base[0].matrix(CSV_FEATURES), delimiter=",", header=",".join(CSV_FEATURES), comments="")
+    assert main(["predict", str(model), str(csv), "--out", str(from_csv)]) == 0
+    capsys.readouterr()
+    np.testing.assert_array_equal(np.loadtxt(from_run, delimiter=",", skiprows=1, usecols=(2, 3, 4)),
+                                  np.loadtxt(from_csv, delimiter=",", skiprows=1, usecols=(2, 3, 4)))
 
 
 def test_pretrained_by_name(base, run_file, tmp_path, capsys) -> None:

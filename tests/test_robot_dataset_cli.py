@@ -14,6 +14,7 @@ import pytest
 from sweep_helpers import TINY_FIXED
 from terrasph.cli import main
 from terrasph.surrogate.dataset import load_runs
+from terrasph.surrogate.validity import PHASE_FEATURES
 from terrasph.sweeps.spec import parse_spec
 
 BED = ("mu1_deg", "mu2_deg", "water_content")
@@ -59,14 +60,14 @@ def test_dataset_command_writes_the_bed_parameters_as_inputs(bed_sweep: Path, tm
     assert main(["dataset", str(bed_sweep), "--out", str(out), "--dt", "0.02"]) == 0
     assert "wrote 2 runs" in capsys.readouterr().out
     description = json.loads((out / "dataset.json").read_text())
-    assert description["features"] == ["omega_cmd", "load", *BED, "wheel:c-leg"]
+    assert description["features"] == ["omega_cmd", *PHASE_FEATURES, "load", *BED, "wheel:c-leg"]
     cases = {c["case_id"]: c for c in json.loads((bed_sweep / "manifest.json").read_text())["cases"]}
     runs = load_runs(out)
     assert sorted(run.name for run in runs) == sorted(cases)
     for run in runs:
         assert {name: run.params[name] for name in BED} == {name: cases[run.name]["config"][name] for name in BED}
         np.testing.assert_allclose(run.time, np.arange(6) * 0.02, atol=1e-12)  # 0.1 s driven phase at Δt
-        assert run.matrix(description["features"]).shape == (6, 6)
+        assert run.matrix(description["features"]).shape == (6, 8)
 
 
 @pytest.mark.parametrize(("args", "message"), [

@@ -160,7 +160,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     model = open_model(resolve_model(args.model), args.dtype)
     validity = model.validity
     inputs = read_inputs(args.input, model.feature_names, validity.dt if validity else model.metadata.get("dt", np.nan),
-                         body=args.body)
+                         body=args.body, legs=validity.fixed.get("legs") if validity else None)
     if validity is not None and not args.extrapolate:
         for run, config in inputs:
             validity.check(run_conditions(run, model.feature_names, config), run.name)

@@ -41,7 +41,7 @@ def load_model(path: str | Path, dtype: str = "float64") -> Any:
 
 
 def read_inputs(path: str | Path, feature_names: Sequence[str], dt: float = float("nan"),
-                body: str | None = None) -> list[tuple[Run, dict[str, Any] | None]]:
+                body: str | None = None, legs: int | None = None) -> list[tuple[Run, dict[str, Any] | None]]:
     """Read the runs to predict, each with its leg-wheel configuration (None when the input does not
     hold one).
 
@@ -50,7 +50,9 @@ def read_inputs(path: str | Path, feature_names: Sequence[str], dt: float = floa
     slip, sinkage and forward speed as series), a dataset HDF5 run file or a directory of them
     (features looked up by name), a ``.npy`` file holding (T, I) or (B, T, I), or a ``.csv`` file
     with one time step per row (a header row naming the features is allowed and then used to order
-    columns). Rows of a .npy or .csv are taken as steps of `dt`.
+    columns). Rows of a .npy or .csv are taken as steps of `dt`. A CSV header may leave out the
+    legs' phase columns (terrasph.surrogate.validity.PHASE_FEATURES): they are then derived from its
+    ``omega_cmd`` for a robot of `legs` legs, as the robot dataset derives them.
     """
     from terrasph.surrogate.dataset import load_runs, read_run
     from terrasph.surrogate.robot_dataset import BED_PARAMETERS, is_leg_wheel_run, leg_wheel_fields, robot_run
@@ -84,6 +86,8 @@ def read_inputs(path: str | Path, feature_names: Sequence[str], dt: float = floa
         cells = [c.strip() for c in first.split(",")]
         has_header = any(not _is_number(c) for c in cells)
         data = np.loadtxt(path, delimiter=",", skiprows=1 if has_header else 0, ndmin=2)
+        if has_header and _derives_phase(feature_names, cells, dt, legs):
+            data, cells = _with_phase(data, cells, dt, legs)
         if has_header:
             missing = [f for f in feature_names if f not in cells]
             if missing:
@@ -94,6 +98,25 @@ def read_inputs(path: str | Path, feature_names: Sequence[str], dt: float = floa
                              f"got {data.shape[1]}")
         return [(_input_run(path.stem, data, feature_names, dt), None)]
     raise ValueError(f"{path}: unsupported input (use .h5, a directory of .h5, .npy or .csv)")
+
+
+def _derives_phase(feature_names: Sequence[str], cells: Sequence[str], dt: float, legs: int | None) -> bool:
+    """Whether the model takes the legs' phase and a CSV header (`cells`) leaves it to be derived."""
+    from terrasph.surrogate.validity import PHASE_FEATURES
+
+    wanted = all(f in feature_names for f in PHASE_FEATURES) and not any(f in cells for f in PHASE_FEATURES)
+    if wanted and not (dt > 0 and legs and "omega_cmd" in cells):
+        raise ValueError("the legs' phase columns are derived from an omega_cmd column at the model's dt "
+                         "for its number of legs, and this model or input lacks one of them")
+    return wanted
+
+
+def _with_phase(data: np.ndarray, cells: list[str], dt: float, legs: int | None) -> tuple[np.ndarray, list[str]]:
+    """The CSV rows with the phase columns derived from their omega_cmd appended."""
+    from terrasph.surrogate.robot_dataset import commanded_phase
+
+    phase = commanded_phase(data[:, cells.index("omega_cmd")], dt, int(legs or 0))
+    return np.column_stack([data, *phase.values()]), [*cells, *phase]
 
 
 def _input_run(name: str, x: np.ndarray, feature_names: Sequence[str], dt: float) -> Run:

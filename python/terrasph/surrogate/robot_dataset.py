@@ -5,7 +5,8 @@ configuration (``config_json``), over the driven phase t ∈ [settle_time, durat
 start at 0 and resampled to a stated Δt (linear interpolation of the SPH samples):
 
 * inputs: ``omega_cmd`` the commanded spin ω(t) (rad/s, the schedule itself, not the measured
-  spin), and the run's fixed parameters: ``load`` (N), the bed's ``mu1_deg``, ``mu2_deg`` (friction
+  spin), the legs' commanded phase ``leg_phase_sin``, ``leg_phase_cos`` (:func:`commanded_phase`:
+  where the legs strike, which ω alone cannot tell; docs/surrogate.md §8), and the run's fixed parameters: ``load`` (N), the bed's ``mu1_deg``, ``mu2_deg`` (friction
   angles, degrees) and ``water_content`` when the sweep varies them, and one indicator
   ``wheel:<morphology>`` per morphology of the sweep (1 for the run's own, else 0);
 * targets: ``slip`` (Eq. 4.8, clipped to [−1, 1]: it leaves that interval only while the axle is
@@ -28,20 +29,30 @@ import numpy as np
 
 from terrasph.schedules import evaluate
 from terrasph.surrogate.dataset import Run, split_runs, write_run
+from terrasph.surrogate.validity import PHASE_FEATURES
 
-__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
+__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "commanded_phase", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
            "robot_run", "split_by_range", "split_held_out"]
 
 TARGETS = ("slip", "sinkage", "forward_speed")
 #: the leg-wheel's bed parameters that become inputs of a dataset whose runs differ in them
 BED_PARAMETERS = ("mu1_deg", "mu2_deg", "water_content")
-_UNITS = {"omega_cmd": "rad/s", "slip": "1", "sinkage": "m", "forward_speed": "m/s"}
+_UNITS = {"omega_cmd": "rad/s", "leg_phase_sin": "1", "leg_phase_cos": "1", "slip": "1", "sinkage": "m", "forward_speed": "m/s"}
 
 
 def features_of(wheels: Sequence[str], bed: Sequence[str] = ()) -> tuple[str, ...]:
     """Input columns of a dataset whose runs use the morphologies `wheels` and differ in the bed
     parameters `bed` (of BED_PARAMETERS)."""
-    return ("omega_cmd", "load", *bed, *(f"wheel:{w}" for w in sorted(wheels)))
+    return ("omega_cmd", *PHASE_FEATURES, "load", *bed, *(f"wheel:{w}" for w in sorted(wheels)))
+
+
+def commanded_phase(omega_cmd: np.ndarray, dt: float, legs: int) -> dict[str, np.ndarray]:
+    """The legs' commanded phase at the samples `omega_cmd` (rad/s, steps of `dt` from the end of
+    the pause): sin and cos of legs·θ, θ = ∫₀ᵗ ω_cmd dt′ (trapezoidal on the samples, so a run file
+    and a CSV of the same samples give the same columns); legs·θ repeats at every leg strike."""
+    omega = np.asarray(omega_cmd, dtype=np.float64)
+    theta = np.concatenate([[0.0], np.cumsum(0.5 * dt * (omega[1:] + omega[:-1]))])
+    return dict(zip(PHASE_FEATURES, (np.sin(legs * theta), np.cos(legs * theta))))
 
 
 def _bed_value(config: dict[str, Any], name: str) -> float:
@@ -117,6 +128,7 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str], bed: Sequence[
     grid = np.arange(0.0, duration - settle + 1e-9 * dt, dt)
     schedule = tuple(tuple(k) for k in config.get("omega_schedule") or ()) or ((0.0, float(config["omega"])),)
     series = {"omega_cmd": evaluate(schedule, grid)}
+    series.update(commanded_phase(series["omega_cmd"], dt, int(config["legs"])))
     for name, values in sampled.items():
         finite = np.isfinite(values)
         series[name] = np.interp(grid + settle, time[finite], values[finite])

@@ -29,7 +29,7 @@ import numpy as np
 from terrasph.config import ConfigError
 from terrasph.surrogate.dataset import Run, common_time_step
 
-__all__ = ["CONDITION_FIELDS", "MORPHOLOGY_PREFIX", "Validity", "dataset_validity", "run_conditions", "training_validity"]
+__all__ = ["CONDITION_FIELDS", "MORPHOLOGY_PREFIX", "PHASE_FEATURES", "Validity", "dataset_validity", "run_conditions", "training_validity"]
 
 #: the leg-wheel configuration fields that set a run's physics besides the model's inputs (the load,
 #: the commanded ω(t), the morphology): geometry, resolution, fidelity, the bed, the motor and the pause
@@ -38,6 +38,9 @@ CONDITION_FIELDS = ("legs", "leg_length", "thickness", "width", "foot_ratio", "s
                     "motor_gain", "motor_torque", "mu1_deg", "mu2_deg", "water_content")
 #: input columns that are one-hot indicators of the morphology (terrasph.surrogate.robot_dataset)
 MORPHOLOGY_PREFIX = "wheel:"
+#: the legs' commanded phase, sin and cos of legs·θ with θ = ∫ω_cmd dt (terrasph.surrogate.robot_dataset.
+#: commanded_phase): derived from omega_cmd, whose range is checked, so they have no range of their own
+PHASE_FEATURES = ("leg_phase_sin", "leg_phase_cos")
 _RTOL = 1e-9  # values equal to a bound up to rounding are inside
 
 
@@ -152,7 +155,7 @@ def run_conditions(run: Run, features: Sequence[str], config: Mapping[str, Any] 
     conditions: dict[str, Any] = {"duration": float(run.time[-1] - run.time[0])}
     indicators = [name for name in features if name.startswith(MORPHOLOGY_PREFIX)]
     for name in features:
-        if name in indicators:
+        if name in indicators or name in PHASE_FEATURES:
             continue
         if name in run.series:
             values = run.series[name]
