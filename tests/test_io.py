@@ -101,6 +101,25 @@ def test_frame_mismatch_names_the_field(tmp_path: pathlib.Path) -> None:
         assert writer.n_frames == 1  # the rejected frames wrote nothing
 
 
+def test_rows_in_one_batch_are_the_rows_one_by_one(tmp_path: pathlib.Path) -> None:
+    """append_series_rows writes what as many append_series calls write (scalars and vectors, after
+    earlier rows); a batch with one bad row is refused naming the entry and writes none of its rows."""
+    rng = np.random.default_rng(3)
+    rows = [{"time": 0.01 * k, "force": rng.normal(size=2), "step": k} for k in range(7)]
+    with io.RunWriter(tmp_path / "one.h5", CONFIG) as one, io.RunWriter(tmp_path / "batch.h5", CONFIG) as batch:
+        for row in rows:
+            one.append_series("bodies/leg", row)
+        batch.append_series("bodies/leg", rows[0])
+        batch.append_series_rows("bodies/leg", rows[1:])
+        bad = [rows[0], {**rows[1], "force": np.ones(3)}]
+        with pytest.raises(ValueError, match="'force'"):
+            batch.append_series_rows("bodies/leg", bad)
+    with h5py.File(tmp_path / "one.h5") as a, h5py.File(tmp_path / "batch.h5") as b:
+        for name in ("time", "force", "step"):
+            np.testing.assert_array_equal(a[f"series/bodies/leg/{name}"][()], b[f"series/bodies/leg/{name}"][()])
+        assert b["series/bodies/leg/force"].shape == (7, 2)
+
+
 def test_bad_arguments_are_rejected(tmp_path: pathlib.Path) -> None:
     with pytest.raises(ValueError, match="compression"):
         io.RunWriter(tmp_path / "a.h5", CONFIG, compression="zip")

@@ -24,7 +24,7 @@ import math
 import os
 import pathlib
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any
@@ -280,38 +280,54 @@ class RunWriter:
                 raise ValueError(f"frame field {name!r} has dtype {data.dtype}, expected {dtype}")
 
     def append_series(self, group: str, values: Mapping[str, float | np.ndarray]) -> None:
-        """Append one row to the time series ``/series/<group>/<name>`` for each entry, then flush.
+        """Append one row to the time series ``/series/<group>/<name>`` for each entry, then flush
+        (:meth:`append_series_rows` of one row)."""
+        self.append_series_rows(group, [values])
+
+    def append_series_rows(self, group: str, rows: Sequence[Mapping[str, float | np.ndarray]]) -> None:
+        """Append `rows` to the time series ``/series/<group>/<name>``, one resize per dataset and
+        one flush for all of them.
 
         Scalars make 1-D datasets, vectors of shape (k,) make (n_rows, k) datasets. The first row
-        of a group fixes its names and shapes; later rows must match (``ValueError`` otherwise).
-        Example groups: ``"diagnostics"`` (time, step, dt, kinetic_energy, …) and
-        ``"bodies/<name>"`` (time, position, force, torque, slip, sinkage, …).
+        of a group fixes its names and shapes; later rows must match (``ValueError`` naming the
+        entry otherwise, before anything of `rows` is written). Example groups: ``"diagnostics"``
+        (time, step, dt, kinetic_energy, …) and ``"bodies/<name>"`` (time, position, force, torque,
+        slip, sinkage, …).
         """
         file = self._open_file()
         if not group or group.startswith("/"):
             raise ValueError(f"group must be a non-empty relative path like 'diagnostics', got {group!r}")
-        rows = {name: np.asarray(value) for name, value in values.items()}
-        if not rows:
+        arrays = [{name: np.asarray(value) for name, value in row.items()} for row in rows]
+        if not arrays:
+            return
+        if any(not row for row in arrays):
             raise ValueError(f"values for series group {group!r} must hold at least one entry")
         if group not in self._series_shapes:
-            self._series_shapes[group] = self._create_series(file["series"], group, rows)
+            self._series_shapes[group] = self._create_series(file["series"], group, arrays[0])
         expected = self._series_shapes[group]
-        for name in sorted(set(expected) ^ set(rows)):
-            raise ValueError(f"series {group!r}: entry {name!r} does not match the first row's entries {sorted(expected)}")
+        for row in arrays:
+            self._check_series_row(group, expected, row)
         series = file["series"][group]
-        for name, data in rows.items():
+        for name in expected:
+            dataset = series[name]
+            index = dataset.shape[0]
+            dataset.resize(index + len(arrays), axis=0)
+            dataset[index:] = np.stack([row[name] for row in arrays])
+        file.flush()
+
+    @staticmethod
+    def _check_series_row(group: str, expected: Mapping[str, tuple[tuple[int, ...], np.dtype]],
+                          row: Mapping[str, np.ndarray]) -> None:
+        """Raise ``ValueError`` naming the first entry of `row` that differs from the group's first row."""
+        for name in sorted(set(expected) ^ set(row)):
+            raise ValueError(f"series {group!r}: entry {name!r} does not match the first row's entries {sorted(expected)}")
+        for name, data in row.items():
             shape, dtype = expected[name]
             if data.shape != shape or not np.can_cast(data.dtype, dtype, casting="same_kind"):
                 raise ValueError(
                     f"series {group!r}: entry {name!r} has shape {data.shape} dtype {data.dtype}, "
                     f"expected shape {shape} dtype {dtype}"
                 )
-        for name, data in rows.items():
-            dataset = series[name]
-            index = dataset.shape[0]
-            dataset.resize(index + 1, axis=0)
-            dataset[index] = data
-        file.flush()
 
     @staticmethod
     def _create_series(

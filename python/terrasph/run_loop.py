@@ -233,12 +233,22 @@ class RunLoop:
             next_frame = stepper.time + self.frame_interval
             next_sample = stepper.time + self.sample_interval if sampled else math.inf
 
+        unwritten: dict[str, list[dict[str, Any]]] = {}  # rows since the last frame, written in one batch
+
         def append(group: str, row: dict[str, Any]) -> None:
             for key, value in row.items():
                 series.setdefault(group, {}).setdefault(key, []).append(value)
             if writer:
-                writer.append_series(group, row)
+                unwritten.setdefault(group, []).append(row)
                 series_rows[group] = series_rows.get(group, 0) + 1
+
+        def write_rows() -> None:
+            """The rows appended since the last call into the file (each group one resize, one flush):
+            on every frame, before every checkpoint and at the end, so series_rows is what is written."""
+            if writer:
+                for group, rows in unwritten.items():
+                    writer.append_series_rows(group, rows)
+            unwritten.clear()
 
         def record_frame() -> dict[str, float]:
             nonlocal frames
@@ -248,6 +258,7 @@ class RunLoop:
                 writer.write_frame(stepper.time, stepper.step_count, fields)
                 frames += 1
             append("diagnostics", row)
+            write_rows()
             if self.on_frame:
                 self.on_frame()
             return row
@@ -258,6 +269,7 @@ class RunLoop:
                     append(group, row)
 
         def save_checkpoint() -> None:
+            write_rows()
             if writer:
                 stepper.checkpoint(checkpoint_path(self.output), {
                     "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
@@ -269,6 +281,7 @@ class RunLoop:
 
             if not writer:
                 return
+            write_rows()
             writer.set_attrs("/run", {"status": status, "wall_time": wallclock.perf_counter() - start,
                                       "steps": stepper.step_count, "time": stepper.time,
                                       **stepper.run_attributes(), **extra})

@@ -304,9 +304,8 @@ def _run_rft_leg_rotation(config: LegRotation, output: str | os.PathLike | None,
         describe = {"scene": "leg-rotation", "leg_rotation": dataclasses.asdict(config),
                     "rft": {"elements": len(elements), "source": table.source, "zeta": table.zeta}}
         with RunWriter(output, describe, versions=versions()) as writer:
-            for k in range(count):
-                writer.append_series("bodies/leg", {"time": times[k], "angle": theta[k], "force": force[k],
-                                                    "torque": torque[k]})
+            writer.append_series_rows("bodies/leg", [{"time": times[k], "angle": theta[k], "force": force[k],
+                                                      "torque": torque[k]} for k in range(count)])
             writer.set_attrs("/run", {"status": "completed", "time": config.duration, "steps": count,
                                       "wall_time": time.perf_counter() - start})
     run = RunResult(time=config.duration, steps=count, wall_time=wall, frames=0,
