@@ -108,7 +108,7 @@ def test_training_on_a_robot_dataset_records_its_validity(base, tmp_path, capsys
 
 @pytest.mark.parametrize("changes, named", [
     ({"load": 5.0}, "parameter 'load' = 3 is outside the model's validity range [5, 6]"),
-    ({"omega_scale": 0.5}, "input 'omega_cmd' reaches 2 is outside the model's validity range [0.5, 1]"),
+    ({"omega_scale": 0.5}, "input 'omega_cmd' reaches 2, outside the model's validity range [0.5, 1]"),
     ({"spacing": 0.005}, "parameter 'spacing' = 0.01 differs from the model's 0.005"),
     ({"wheel": "wheel"}, "parameter 'wheel' = 'c-leg' is outside the model's morphologies wheel"),
     ({"mu1_deg": 20.0}, "parameter 'mu1_deg' = 23 differs from the model's 20"),

@@ -121,8 +121,8 @@ class Validity:
             tol = _RTOL * max(abs(lo), abs(hi), 1.0)
             if low < lo - tol or high > hi + tol:
                 shown = _fmt(low if low < lo - tol else high)
-                what = f"parameter '{name}' = {shown}" if _is_number(value) else f"input '{name}' reaches {shown}"
-                out.append(f"{what} is outside the model's validity range [{_fmt(lo)}, {_fmt(hi)}]")
+                what = f"parameter '{name}' = {shown} is" if _is_number(value) else f"input '{name}' reaches {shown},"
+                out.append(f"{what} outside the model's validity range [{_fmt(lo)}, {_fmt(hi)}]")
         morphology = conditions.get("wheel")
         if self.morphologies and morphology is not None and morphology not in self.morphologies:
             out.append(f"parameter 'wheel' = {morphology!r} is outside the model's morphologies "
