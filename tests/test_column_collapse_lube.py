@@ -6,8 +6,8 @@ with the area of the dissertation's 7 × 8 cm column at the "fit" resolution (~1
 friction μ_w = μ1 and the default numerics (benchmarks/validation/column_runout_lube.py). L* at the deposit
 front (four grain diameters thick) must lie within ±25 % of the quasi-2D fits of Lube, Huppert,
 Sparks & Freundt (2005, Phys. Rev. E 72, 041301): 1.2a for a ≤ 1.8, 1.9a^(2/3) for a ≥ 2.8, linear
-in between [measured ratios 0.86 / 0.98 / 0.88; with the kernel gradient normalised
-(numerics.kernel_gradient_normalisation) 0.86 / 0.98 / 0.96, with the former artificial viscosity α_Π = 0.1 0.68 / 0.89 / 0.92,
+in between [measured ratios 0.86 / 0.98 / 0.96 (the kernel gradient normalised, the default); with
+the kernel's own gradient 0.86 / 0.98 / 0.88, with the former artificial viscosity α_Π = 0.1 0.68 / 0.89 / 0.92,
 and with Table 2.1's density 0.83 / 0.91 / 0.91; docs/fidelity.md].
 
 Toe: the 7 × 8 cm column at the fit level, with and without wall friction: the five front-most

@@ -63,6 +63,8 @@ def bed_variants() -> dict[str, tuple[Material, Numerics]]:
                                                  symmetric_pairs=False)),
         "strain+wall-friction": (Material(model="mu_i_strain"), Numerics(spacing=SPACING,
                                                                          wall_friction_coefficient=0.4)),
+        # the kernel's own ∇W, the default before the normalisation: its digest is that default's
+        "own-gradient": (Material(), Numerics(spacing=SPACING, kernel_gradient_normalisation=False)),
     }
 
 

