@@ -306,7 +306,9 @@ class RunLoop:
                 last_checkpoint = wallclock.perf_counter()
                 while stepper.time < t_end * (1 - 1e-14):
                     target = min(next_frame, next_sample, t_end)
-                    if target == t_end and not final_stretch_saved:
+                    # the stretch that reaches the end: a frame or sample time summed to within rounding
+                    # of t_end ends the run as t_end itself does (at_end below)
+                    if target >= t_end * (1 - 1e-14) and not final_stretch_saved:
                         save_checkpoint()  # the last state on the path of a longer run (module docstring)
                         final_stretch_saved = True
                     load_watch.follow()
