@@ -183,8 +183,11 @@ class RFTCoupling(RobotStepper):
                 "robot": self.robot_description()}
 
     def static_arrays(self) -> dict[str, np.ndarray]:
-        """Each coupled body's RFT surface elements in its own frame (``/static/rft/<body>/...``)."""
-        arrays = {}
+        """Each coupled body's RFT surface elements in its own frame (``/static/rft/<body>/...``) and
+        the body of each row of the frames' body fields (``/static/bodies/index``: its place in the
+        robot's coupled bodies)."""
+        arrays = {"bodies/index": np.concatenate([np.full(len(b.shape.position), k, dtype=np.int32)
+                                                  for k, b in enumerate(self.robot.coupled)])}
         for name, elements in self._elements.items():
             arrays.update({f"rft/{name}/centre": elements.centre, f"rft/{name}/normal": elements.normal,
                            f"rft/{name}/length": elements.length})
@@ -226,9 +229,20 @@ class RFTCoupling(RobotStepper):
         """The counts of the run file's ``/run``: no grains, none leaked."""
         return {"granular_particles": 0, "wall_particles": 0, "leaked_particles": 0}
 
-    def frame_fields(self) -> dict[str, np.ndarray] | None:
-        """No frames: the terrain has no particles (the robot's path is in its series)."""
-        return None
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        """A frame of the coupled bodies only (the terrain has no grains): ``body_position`` and
+        ``body_velocity`` (m, m/s) of each body's particles (:attr:`terrasph.bodies.BodyShape.position`,
+        the robot's own drawing) at its pose now, bodies in the robot's order."""
+        positions, velocities = [], []
+        for body in self.robot.coupled:
+            reference = self.robot.reference(body)
+            points, _ = body.shape.transformed(self._angle[body.name], tuple(reference))
+            velocity, omega = self.robot.velocity(body)
+            arm = points - reference
+            # a clockwise spin ω moves a point at arm (x, z) from the reference by ω (z, −x)
+            velocities.append(np.asarray(velocity) + omega * np.column_stack([arm[:, 1], -arm[:, 0]]))
+            positions.append(points)
+        return {"body_position": np.concatenate(positions), "body_velocity": np.concatenate(velocities)}
 
     # -- checkpoints ---------------------------------------------------------------------------
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
