@@ -2,8 +2,8 @@
 SPH and MuJoCo-coupled alike, on the SPH terrain and on resistive force theory's (docs/rft.md),
 since all go through one run loop (terrasph.run_loop.RunLoop).
 
-For each scene of :data:`terrasph.scenes.SCENES`, and the leg-wheel on the RFT terrain (frames of the
-robot's bodies, no grains), at a tiny size:
+For each scene of :data:`terrasph.scenes.SCENES`, and the leg-wheel and the leg rotation on the RFT
+terrain (frames of the bodies, no grains), at a tiny size:
 
 * a completed run's file says ``completed`` with the time, steps, leak counter, particle counts
   and wall time reached; ``/results`` holds the scene's summary; the XDMF sidecar, the PNG and a
@@ -13,7 +13,7 @@ robot's bodies, no grains), at a tiny size:
   every series but the wall time — to a run straight to T2 (the reference: the uninterrupted run);
 * a run that blows up says ``unstable`` with its message, readable, with its sidecar (on the RFT
   terrain: a robot state MuJoCo cannot integrate; the RFT step is fixed, there is no SPH step to
-  push past its bound).
+  push past its bound, and a leg's prescribed sweep cannot blow up).
 
 The command line's safe output: a second run into a file another run is writing refuses in one
 line (exit 2) and leaves the first run's file whole; bad time options end in one line or work.
@@ -64,9 +64,12 @@ CASES = {
     # the leg-wheel on the RFT terrain (docs/rft.md): its frames hold the robot's bodies, no grains
     "leg-wheel on rft": (LegWheel(terrain="rft", settle_time=0.02, t_end=0.1, series_interval=0.01,
                                   frame_interval=0.02), 0.1, 0.2),
+    # the leg's prescribed sweep on the RFT terrain: nothing in it can become unstable
+    "leg-rotation on rft": (LegRotation(terrain="rft", omega=6.0, settle_time=0.005, end_angle=-0.55,
+                                        frame_interval=0.01), 0.02, 0.035),
 }
 #: the cases whose runs have no SPH step to make unstable (test_unstable_run_is_recorded)
-RFT_CASES = ("leg-wheel on rft",)
+RFT_CASES = ("leg-wheel on rft", "leg-rotation on rft")
 
 
 def scene_of(case: str) -> str:
@@ -187,8 +190,10 @@ def test_interrupted_run_continues_bitwise(scene, tmp_path, references, monkeypa
 @pytest.mark.parametrize("scene", [case for case in CASES if case not in RFT_CASES])
 def test_unstable_run_is_recorded(scene, tmp_path) -> None:
     """A fixed step far past the stable bound blows up at the first step: the file says so. (Not on
-    the RFT terrain, whose step is fixed and has no stability bound: there a run is unstable when
-    MuJoCo cannot integrate the robot, test_a_coupled_run_whose_robot_diverges_is_unstable.)"""
+    the RFT terrain, whose step is fixed and has no stability bound: there a robot's run is unstable
+    when MuJoCo cannot integrate the robot, test_a_coupled_run_whose_robot_diverges_is_unstable, and
+    a leg's prescribed sweep, a closed-form pose and a load that is a finite function of it, has
+    nothing that can blow up.)"""
     out = tmp_path / "run.h5"
     with pytest.raises(InstabilityError):
         run(scene, out, numerics={**CASES[scene][0].numerics, "fixed_dt": 0.01})
