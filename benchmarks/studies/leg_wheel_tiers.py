@@ -17,7 +17,9 @@ wheel and tier: the series' mean over the driven phase, its difference from the 
 RMSE of the series against the SPH's. Cost per simulated second: the SPH's wall time (the run
 file's ``/run`` wall_time, 1.8 s simulated), the RFT run's CPU time (the whole ``run_leg_wheel``
 without an output file: building the robot, stepping, recording; 1.8 s simulated), the LSTM's
-wall time for the 1.5 s driven phase (the median of repeated predictions in the C++ engine).
+wall time for the 1.5 s driven phase (the median of repeated predictions in the C++ engine in
+float32, as docs/surrogate.md times it; the predictions shown are float64's, ``terrasph predict``'s
+default, and the largest difference between the two is printed).
 
 A second table gives the robot summary's means for SPH and RFT (``mean_slip`` is Eq. 4.8 of the
 mean speed and spin over the samples after the pause where the spin has reached half the command;
@@ -140,21 +142,25 @@ def rft_tier(config: LegWheel, table: str, dt: float) -> tuple[Tier, dict[str, A
     return Tier({t: run.series[t] for t in TARGETS}, cpu / rft.t_end), result.summary()
 
 
-def lstm_tier(model: Pretrained, sph_path: Path) -> tuple[Tier, Tier]:
-    """The LSTM's prediction of the SPH run in `sph_path` from its inputs (checked against the model's
-    validity range, as ``terrasph predict`` does) and the SPH's own dataset series."""
+def lstm_tier(model: Pretrained, fast: Pretrained, sph_path: Path) -> tuple[Tier, Tier, float]:
+    """The LSTM's prediction (`model`, float64) of the SPH run in `sph_path` from its inputs (checked
+    against the model's validity range, as ``terrasph predict`` does), timed with `fast` (the same
+    model in float32); the SPH's own dataset series; the largest difference of the two predictions."""
     validity = model.validity
     (run, config), = read_inputs(sph_path, model.feature_names, validity.dt, legs=validity.fixed.get("legs"))
     validity.check(run_conditions(run, model.feature_names, config), run.name)
     x = run.matrix(model.feature_names)
+    y = model.engine.predict(x)
+    x32 = x.astype(np.float32)
     times = []
     for _ in range(LSTM_REPEATS):
         start = time.perf_counter()
-        y = model.engine.predict(x)
+        y32 = fast.engine.predict(x32)
         times.append(time.perf_counter() - start)
     driven = float(run.time[-1] - run.time[0])
     predicted = {t: y[:, j] for j, t in enumerate(model.target_names)}
-    return Tier(predicted, statistics.median(times) / driven), Tier({t: run.series[t] for t in TARGETS}, 0.0)
+    return (Tier(predicted, statistics.median(times) / driven), Tier({t: run.series[t] for t in TARGETS}, 0.0),
+            float(np.abs(y32 - y).max()))
 
 
 def main() -> None:
@@ -165,14 +171,16 @@ def main() -> None:
     parser.add_argument("--wheels", nargs="+", default=list(WHEELS), choices=WHEELS)
     args = parser.parse_args()
     args.runs_dir.mkdir(parents=True, exist_ok=True)
-    model = pretrained(MODEL)
+    model, fast = pretrained(MODEL), pretrained(MODEL, dtype="float32")
     dt = model.validity.dt
     results: dict[str, dict[str, Tier]] = {}
     summaries = []
+    float32_difference = 0.0
     for wheel in args.wheels:
         config = sph_config(wheel, args.load, args.omega)
         path = sph_run(config, args.runs_dir)
-        lstm, sph = lstm_tier(model, path)
+        lstm, sph, difference = lstm_tier(model, fast, path)
+        float32_difference = max(float32_difference, difference)
         with h5py.File(path, "r") as file:
             wall = float(file["run"].attrs["wall_time"])
             summaries.append((wheel, "SPH", {k: file["results"].attrs[k] for k in
@@ -187,6 +195,7 @@ def main() -> None:
     print(f"\nload {args.load} N, ω = {args.omega} rad/s after the pause; the dataset series ({MODEL}'s "
           f"targets, Δt = {dt:.3g} s) over the driven phase: mean, mean − SPH's, RMSE against the SPH's\n")
     print(tier_table(results))
+    print(f"\nLSTM in float32 against float64: largest difference {float32_difference:.2g} (any target, SI units)")
     print("\nthe robot summary: mean slip (Eq. 4.8) / mean sinkage (mm) / mean v_x (mm/s)\n")
     print("| wheel | tier | summary |\n|---|---|---|")
     for wheel, name, summary in summaries:
