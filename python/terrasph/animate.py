@@ -362,8 +362,6 @@ def _typical_spacing(position: np.ndarray) -> float:
 def _lattice_spacing(points: np.ndarray, samples: int = 64) -> float:
     """Δx of particles on a lattice (a body's, at any pose): the median distance from up to `samples`
     of them, spread over the array, to their nearest neighbour."""
-    if len(points) < 2:
-        return 1e-3
     chosen = points[np.linspace(0, len(points) - 1, min(samples, len(points))).astype(int)]
     distance = np.linalg.norm(chosen[:, None, :] - points[None, :, :], axis=-1)
     distance[distance == 0] = np.inf
