@@ -100,6 +100,28 @@ def test_a_removed_wall_is_not_drawn_after_its_removal(tmp_path: Path) -> None:
         assert animate.fixed_walls(file, 0, 0.5).tolist() == [[0.0, 0.0], [1.0, 0.0]]
 
 
+SAND = np.array([0xE3, 0xC9, 0x8F])  # the flat surface of a terrain without grains
+
+
+def test_a_run_on_the_rft_terrain_shows_its_robot_over_the_flat_sand(tmp_path: Path) -> None:
+    """An RFT run's frames hold the robot's bodies only: one picture per frame, the wheel in its body
+    colour over the sand below the surface, and the wheel moves (its pixels differ between the first
+    picture and the last)."""
+    from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+
+    run = tmp_path / "lw.h5"
+    run_leg_wheel(LegWheel(terrain="rft", settle_time=0.05, t_end=0.45, frame_interval=0.1), run, plot=False)
+    with h5py.File(run) as file:
+        frames = file["frames/time"].shape[0]
+        assert "frames/position" not in file and frames == 6  # every 0.1 s and the end
+    movie = pictures(animate.animate_run(run, tmp_path / "lw.gif", fps=5))
+    assert len(movie) == frames
+    for picture in movie:
+        assert pixels_near(picture, BODY_RED) > 500 and pixels_near(picture, SAND) > 10_000
+    first, last = (np.linalg.norm(movie[k].astype(float) - BODY_RED, axis=-1) < 30 for k in (0, -1))
+    assert (first != last).sum() > 100
+
+
 @pytest.fixture(scope="module")
 def bad_files(run_file: Path, tmp_path_factory) -> dict[str, Path]:
     root = tmp_path_factory.mktemp("animate_bad")

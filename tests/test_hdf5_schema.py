@@ -114,3 +114,30 @@ def test_plate_summary_fit_is_the_documented_one(files) -> None:
     slope, intercept, r_squared = result.fit(attrs["fit_from"])
     assert (attrs["slope"], attrs["intercept"], attrs["r_squared"]) == pytest.approx((slope, intercept, r_squared))
     assert attrs["alpha"] == pytest.approx(result.alpha(attrs["fit_from"]))
+
+
+@pytest.mark.parametrize("scene", ["leg-wheel", "leg-rotation"])
+def test_a_run_on_the_rft_terrain(tmp_path, scene: str) -> None:
+    """The leg-wheel and the leg rotation on the RFT terrain: their /static and frame fields are the
+    documented ones (the body, "wheel" or "leg", for <body>), no grains, and their diagnostics and
+    the leg's series the ones the page names."""
+    from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+
+    path = tmp_path / "run.h5"
+    if scene == "leg-wheel":
+        run_leg_wheel(LegWheel(terrain="rft", settle_time=0.02, t_end=0.1, frame_interval=0.05), path, plot=False)
+        body = "wheel"
+    else:
+        run_leg_rotation(LegRotation(terrain="rft", omega=6.0, settle_time=0.01, end_angle=-0.5, frame_interval=0.01),
+                         output=path, progress=False, plot=False)
+        body = "leg"
+    with h5py.File(path, "r") as f:
+        static = set()
+        f["static"].visititems(lambda name, item: static.add(f"static/{name}".replace(f"/{body}/", "/<body>/"))
+                               if isinstance(item, h5py.Dataset) else None)
+        frames = set(f["frames"]) - {"time", "step"}
+        assert static | frames == documented("### A terrain without grains (RFT)")
+        assert set(f["series/diagnostics"]) == {"time", "step", "dt", "leaked_particles", "wall_time"}
+        assert {f["run"].attrs[k] for k in ("granular_particles", "wall_particles", "leaked_particles")} == {0}
+        if scene == "leg-rotation":
+            assert set(f["series/bodies/leg"]) == {"time", "angle", "force", "torque"}

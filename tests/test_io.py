@@ -243,3 +243,22 @@ def test_xdmf_shows_bodies_with_their_index_and_the_walls(tmp_path: pathlib.Path
         grains = step.find("Grid[@Name='grains']")
         assert "body_index" not in {a.get("Name") for a in grains.findall("Attribute")}
         assert step.find("Grid[@Name='walls']/Geometry/DataItem").text.endswith(":/static/walls/position")
+
+
+def test_frames_of_bodies_only_are_written_read_and_shown(tmp_path: pathlib.Path) -> None:
+    """A terrain without grains (RFT) writes frames of its bodies only: the file reads back with
+    those frames, and the sidecar holds a bodies grid per frame and no grains grid."""
+    path = tmp_path / "run.h5"
+    with io.RunWriter(path, {"terrain": {"kind": "rft", "surface": 0.0}}) as writer:
+        writer.write_static("bodies/index", np.zeros(3, dtype=np.int32))
+        for k in range(2):
+            writer.write_frame(0.1 * k, k, {"body_position": np.full((3, 2), float(k)), "body_velocity": np.ones((3, 2))})
+    run = io.read_run(path)
+    assert run.n_frames == 2 and set(run.fields) == {"body_position", "body_velocity"}
+    assert run.frame(1)["body_position"].tolist() == [[1.0, 1.0]] * 3
+    root = ET.parse(io.write_xdmf(path)).getroot()
+    steps = root.findall("./Domain/Grid/Grid")
+    assert len(steps) == 2
+    for step in steps:
+        assert [grid.get("Name") for grid in step.findall("Grid")] == ["bodies"]
+    assert path.with_suffix(".bodies.xdmf").is_file() and not path.with_suffix(".grains.xdmf").exists()

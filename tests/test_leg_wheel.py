@@ -146,3 +146,23 @@ def test_the_surrogate_dataset_reads_a_leg_wheel_run(tmp_path) -> None:
         f.attrs["config_json"] = json.dumps({"scene": "column-collapse"})
     with pytest.raises(ValueError, match="not a leg-wheel run"):
         robot_run(tmp_path / "column.h5", dt=0.01, wheels=("c-leg",))
+
+
+def test_the_dataset_series_of_a_run_in_memory_are_those_of_its_file(tmp_path) -> None:
+    """driven_phase_run of the series run_leg_wheel returns (no file needed: how the tiers of
+    docs/rft.md compare the RFT terrain with the SPH and the LSTM) is robot_run of the run's file,
+    bit for bit (here on the RFT terrain, a driven phase with a ramp of ω)."""
+    import dataclasses
+
+    from terrasph.surrogate.robot_dataset import driven_phase_run, robot_run
+
+    config = LegWheel(terrain="rft", settle_time=0.1, t_end=0.5, omega_schedule=((0.0, 1.0), (0.4, 2.0)))
+    result = run_leg_wheel(config, tmp_path / "lw.h5", plot=False)
+    from_file = robot_run(tmp_path / "lw.h5", dt=0.02, wheels=("c-leg", "wheel"), bed=("mu1_deg",))
+    in_memory = driven_phase_run("lw", dataclasses.asdict(config), result.series["robot/wheel"], 0.02,
+                                 ("c-leg", "wheel"), ("mu1_deg",))
+    assert np.array_equal(from_file.time, in_memory.time) and from_file.params == in_memory.params
+    assert set(from_file.series) == set(in_memory.series)
+    for name, values in from_file.series.items():
+        assert np.array_equal(values, in_memory.series[name]), name
+    assert in_memory.series["forward_speed"].std() > 0 and in_memory.series["omega_cmd"][-1] == 2.0

@@ -1,7 +1,9 @@
 """The output contract of a run (docs/hdf5_schema.md), the same for every registered scene, plain
-SPH and MuJoCo-coupled alike, since all go through one run loop (terrasph.run_loop.RunLoop).
+SPH and MuJoCo-coupled alike, on the SPH terrain and on resistive force theory's (docs/rft.md),
+since all go through one run loop (terrasph.run_loop.RunLoop).
 
-For each scene of :data:`terrasph.scenes.SCENES`, at a tiny size:
+For each scene of :data:`terrasph.scenes.SCENES`, and the leg-wheel and the leg rotation on the RFT
+terrain (frames of the bodies, no grains), at a tiny size:
 
 * a completed run's file says ``completed`` with the time, steps, leak counter, particle counts
   and wall time reached; ``/results`` holds the scene's summary; the XDMF sidecar, the PNG and a
@@ -9,7 +11,9 @@ For each scene of :data:`terrasph.scenes.SCENES`, at a tiny size:
 * ``terrasph resume RUN.h5 --until T2`` continues the completed run, and an interrupted one (a
   stop requested at a step boundary, as Ctrl-C does), into files bitwise equal — every frame and
   every series but the wall time — to a run straight to T2 (the reference: the uninterrupted run);
-* a run that blows up says ``unstable`` with its message, readable, with its sidecar.
+* a run that blows up says ``unstable`` with its message, readable, with its sidecar (on the RFT
+  terrain: a robot state MuJoCo cannot integrate; the RFT step is fixed, there is no SPH step to
+  push past its bound, and a leg's prescribed sweep cannot blow up).
 
 The command line's safe output: a second run into a file another run is writing refuses in one
 line (exit 2) and leaves the first run's file whole; bad time options end in one line or work.
@@ -57,19 +61,32 @@ CASES = {
                        bed_width=0.8, bed_depth=0.06, spacing=0.02, settle_time=0.01, t_end=0.03,
                        ctrl=tuple(f"{joint}=hold:2000,100" for joint in ("thigh_joint", "leg_joint", "foot_joint")),
                        series_interval=0.005, frame_interval=0.01), 0.03, 0.05),
+    # the leg-wheel on the RFT terrain (docs/rft.md): its frames hold the robot's bodies, no grains
+    "leg-wheel on rft": (LegWheel(terrain="rft", settle_time=0.02, t_end=0.1, series_interval=0.01,
+                                  frame_interval=0.02), 0.1, 0.2),
+    # the leg's prescribed sweep on the RFT terrain: nothing in it can become unstable
+    "leg-rotation on rft": (LegRotation(terrain="rft", omega=6.0, settle_time=0.005, end_angle=-0.55,
+                                        frame_interval=0.01), 0.02, 0.035),
 }
+#: the cases whose runs have no SPH step to make unstable (test_unstable_run_is_recorded)
+RFT_CASES = ("leg-wheel on rft", "leg-rotation on rft")
+
+
+def scene_of(case: str) -> str:
+    """The registered scene of a case: its name, or what precedes " on <terrain>"."""
+    return case.split(" on ")[0]
 
 
 def test_every_registered_scene_has_a_case() -> None:
-    assert set(CASES) == set(SCENES)
+    assert {scene_of(case) for case in CASES} == set(SCENES)
 
 
-def run(scene: str, out, until: float | None = None, **changes):
-    """The scene's tiny case, run into `out` (to `until` if given)."""
-    config, t1, _ = CASES[scene]
+def run(case: str, out, until: float | None = None, **changes):
+    """The tiny case, run into `out` (to `until` if given)."""
+    config, t1, _ = CASES[case]
     if changes:
         config = dataclasses.replace(config, **changes)
-    return SCENES[scene].run(config, output=out, progress=False, until=t1 if until is None else until)
+    return SCENES[scene_of(case)].run(config, output=out, progress=False, until=t1 if until is None else until)
 
 
 def assert_same_run(path, reference) -> None:
@@ -134,7 +151,10 @@ def test_completed_run_keeps_its_contract_and_continues_bitwise(scene, tmp_path,
     assert status["status"] == "completed"
     assert status["time"] >= t1 * (1 - 1e-12) and status["time"] == pytest.approx(data.times[-1])
     assert status["steps"] == data.steps[-1] > 0 and status["wall_time"] > 0
-    assert status["leaked_particles"] >= 0 and status["granular_particles"] == data.fields["position"].shape[1]
+    grains = data.fields["position"].shape[1] if "position" in data.fields else 0
+    assert status["leaked_particles"] >= 0 and status["granular_particles"] == grains
+    if scene in RFT_CASES:  # no grains: the frames are the robot's, moving
+        assert grains == 0 and data.n_frames >= 2 and not np.array_equal(*data.fields["body_position"][[0, -1]])
     assert status["checkpoint"] == checkpoint_path(out).name and checkpoint_path(out).is_file()
     results = data.group_attrs["/results"]
     assert results and all(not isinstance(v, float) or math.isfinite(v) for v in results.values())
@@ -167,9 +187,13 @@ def test_interrupted_run_continues_bitwise(scene, tmp_path, references, monkeypa
     assert_same_run(out, references(scene))
 
 
-@pytest.mark.parametrize("scene", list(CASES))
+@pytest.mark.parametrize("scene", [case for case in CASES if case not in RFT_CASES])
 def test_unstable_run_is_recorded(scene, tmp_path) -> None:
-    """A fixed step far past the stable bound blows up at the first step: the file says so."""
+    """A fixed step far past the stable bound blows up at the first step: the file says so. (Not on
+    the RFT terrain, whose step is fixed and has no stability bound: there a robot's run is unstable
+    when MuJoCo cannot integrate the robot, test_a_coupled_run_whose_robot_diverges_is_unstable, and
+    a leg's prescribed sweep, a closed-form pose and a load that is a finite function of it, has
+    nothing that can blow up.)"""
     out = tmp_path / "run.h5"
     with pytest.raises(InstabilityError):
         run(scene, out, numerics={**CASES[scene][0].numerics, "fixed_dt": 0.01})
@@ -277,15 +301,17 @@ def test_a_run_stopped_inside_a_step_names_no_checkpoint_it_has_not_got(tmp_path
     assert not checkpoint_path(out).exists() and data.n_frames == 1
 
 
-def test_a_coupled_run_whose_robot_diverges_is_unstable(tmp_path, monkeypatch) -> None:
+@pytest.mark.parametrize("case", ["leg-wheel", "leg-wheel on rft"])
+def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypatch) -> None:
     """MuJoCo does not fail on a state it cannot integrate: it resets the robot to its initial pose
-    and counts a warning. The coupled step turns that into an InstabilityError, which the run loop
-    records as ``unstable`` (here the robot's speed is made non-finite after 0.01 s)."""
+    and counts a warning. The coupled step, on the SPH terrain and on RFT's, turns that into an
+    InstabilityError, which the run loop records as ``unstable`` with the frames so far (here the
+    robot's speed is made non-finite after 0.01 s)."""
     from terrasph.robots.leg_wheel import build_leg_wheel
     from terrasph.robots.run import run_coupled
 
     monkeypatch.chdir(tmp_path)  # MuJoCo logs its warning to MUJOCO_LOG.TXT in the working directory
-    coupled = build_leg_wheel(CASES["leg-wheel"][0])
+    coupled = build_leg_wheel(CASES[case][0])
 
     def spoil(run) -> None:
         if run.time >= 0.01:
@@ -294,9 +320,11 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(tmp_path, monkeypatch) -
     out = tmp_path / "run.h5"
     with pytest.raises(InstabilityError, match="MuJoCo could not integrate"):
         run_coupled(coupled, 0.03, output=out, control=spoil)
-    status = read_run(out).group_attrs["/run"]
+    data = read_run(out)
+    status = data.group_attrs["/run"]
     assert status["status"] == "unstable" and status["particle"] == -1
     assert status["time"] == pytest.approx(0.01, abs=0.002) and "checkpoint" not in status
+    assert data.n_frames >= 1 and out.with_suffix(".xdmf").is_file()
 
 
 def test_ctrl_c_on_a_sweep_says_how_to_go_on(tmp_path, monkeypatch, capsys) -> None:

@@ -247,6 +247,32 @@ def test_leg_rotation_on_rft_and_its_bad_input():
                          progress=False, plot=False)
 
 
+def test_leg_rotation_on_rft_samples_the_load_as_the_sph_does():
+    """The RFT sweep goes through the run loop with the SPH's sampling: a sample every
+    1/(samples_per_radian ω) s, its force the mean load over its interval. Checked against an
+    independent quadrature of the load over each interval (the mean of 41 points: the sweep's loads
+    differ from it by the midpoint rule's O(Δθ²) only), and against the pose at the sample's time."""
+    config = LegRotation(leg="c-leg", terrain="rft", settle_time=0.5, omega=1.0, samples_per_radian=20.0)
+    result = run_leg_rotation(config, progress=False, plot=False)
+    series = result.run.bodies["leg"]
+    interval = 1.0 / (config.samples_per_radian * config.omega)
+    spans = np.diff(series["time"])  # the last one ends at the end of the sweep
+    np.testing.assert_allclose(spans[:-1], interval, rtol=0, atol=1e-9)
+    assert 0 < spans[-1] <= interval + 1e-9
+    elements = rft.SurfaceElements.from_shape(config.shape(), width=config.width)
+    hip = (0.0, config.hip_height)
+    turning = series["time"] > config.settle_time + 1e-9
+    peak = np.abs(result.lift).max()
+    assert result.theta.size == math.ceil((config.end_angle - config.start_angle) / (config.omega * interval) - 1e-9)
+    for t, span, theta, lift in zip(series["time"][turning], spans[turning[1:]], result.theta, result.lift):
+        assert theta == pytest.approx(config.start_angle + config.omega * (t - config.settle_time), abs=1e-12)
+        angles = theta - config.omega * span * np.linspace(0.0, 1.0, 41)
+        loads = [rft.body_load(elements, a, hip, np.zeros(2), config.omega, 0.0, G).force[1] for a in angles]
+        mean = np.trapezoid(loads, dx=1.0) / 40.0
+        assert lift == pytest.approx(mean, abs=0.01 * peak)
+    assert not series["force"][~turning].any()  # a leg at rest takes no RFT load
+
+
 # -- calibration ------------------------------------------------------------------------------------
 
 def _sampled(table: rft.RFTCoefficients, rng: np.random.Generator, points: int = 49, noise: float = 0.0):

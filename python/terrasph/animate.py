@@ -3,7 +3,9 @@
 Grains are coloured by their speed |v| or their pressure on one colour scale for the whole movie,
 fixed walls are grey, and the particles of each body (leg, plate, leg-wheel, rover wheel) are drawn
 in a colour of their own by body index; for a coupled robot run, each coupled body's reference
-point (the axle) is marked from ``/series/robot/<body>/reference``. Each picture is a matplotlib
+point (the axle) is marked from ``/series/robot/<body>/reference``. A run on a terrain without
+grains (resistive force theory, docs/rft.md) has frames of its bodies only: its flat free surface
+(``config_json``'s ``terrain.surface``) is drawn as sand below that level. Each picture is a matplotlib
 figure (no pyplot) rendered with Agg and encoded by imageio: MP4 through imageio-ffmpeg (which
 ships the ffmpeg encoder on PyPI), GIF through imageio's pillow plugin.
 """
@@ -33,6 +35,7 @@ COLOURINGS = {"velocity": "speed |v| (m/s)", "pressure": "pressure (Pa)"}
 #: output suffixes and the imageio plugin that writes each
 FORMATS = {".mp4": "FFMPEG", ".gif": "GIF"}
 _WALL_COLOUR = "0.6"
+_SAND_COLOUR = "#e3c98f"
 _BODY_COLOURS = ("tab:red", "tab:orange", "tab:purple", "tab:brown", "tab:pink", "tab:cyan")
 _AXES_WIDTH_PX = 780
 _MIN_AXES_HEIGHT_PX = 160
@@ -57,7 +60,7 @@ class Picture:
 # -- reading a run file ------------------------------------------------------------------------
 
 def open_run(path: str | os.PathLike[str]) -> h5py.File:
-    """The run file at `path`, checked to hold at least one frame of grain positions.
+    """The run file at `path`, checked to hold at least one frame of grain or body positions.
 
     Raises FileNotFoundError, OSError (not HDF5) or ValueError (no frames), each naming the file.
     """
@@ -68,10 +71,11 @@ def open_run(path: str | os.PathLike[str]) -> h5py.File:
         file = h5py.File(path, "r")
     except OSError as error:
         raise OSError(f"{path}: not a readable terrasph run file ({error})") from None
-    position = file.get("frames/position")
+    position = file.get("frames/position", file.get("frames/body_position"))
     if "config_json" not in file.attrs or position is None or position.shape[0] == 0:
         file.close()
-        raise ValueError(f"{path}: no frames to animate (a run file with frames has /frames/position)")
+        raise ValueError(f"{path}: no frames to animate (a run file with frames has /frames/position "
+                         "or /frames/body_position)")
     return file
 
 
@@ -80,8 +84,15 @@ def frame_count(file: h5py.File) -> int:
     return min(dataset.shape[0] for dataset in file["frames"].values())
 
 
+def has_grains(file: h5py.File) -> bool:
+    """Whether the frames hold grains (a terrain without them, RFT, writes its bodies only)."""
+    return "frames/position" in file
+
+
 def colour_values(file: h5py.File, k: int, colouring: str) -> np.ndarray:
-    """Per-grain colour values of frame `k`: |v| (m/s) or pressure (Pa)."""
+    """Per-grain colour values of frame `k`: |v| (m/s) or pressure (Pa); none without grains."""
+    if not has_grains(file):
+        return np.zeros(0)
     if colouring == "velocity":
         return np.linalg.norm(file["frames/velocity"][k], axis=1)
     return np.asarray(file["frames/pressure"][k], dtype=float)
@@ -90,6 +101,8 @@ def colour_values(file: h5py.File, k: int, colouring: str) -> np.ndarray:
 def colour_limits(file: h5py.File, colouring: str) -> tuple[float, float]:
     """One colour scale for the whole movie: 0 to the largest 99th percentile over the frames (so a
     few fast splashes do not wash out the bed)."""
+    if not has_grains(file):
+        return 0.0, 1.0
     top = max(float(np.percentile(colour_values(file, k, colouring), 99)) for k in range(frame_count(file)))
     return 0.0, top if top > 0 else 1.0
 
@@ -160,14 +173,29 @@ def picture(file: h5py.File, k: int, colouring: str) -> Picture:
     """Everything drawn for frame `k`."""
     time = float(file["frames/time"][k])
     bodies = file["frames/body_position"][k] if "frames/body_position" in file else np.zeros((0, 2))
-    return Picture(time=time, grains=file["frames/position"][k], values=colour_values(file, k, colouring),
+    grains = file["frames/position"][k] if has_grains(file) else np.zeros((0, 2))
+    return Picture(time=time, grains=grains, values=colour_values(file, k, colouring),
                    walls=fixed_walls(file, k, time), bodies=bodies, axles=robot_axles(file, time))
 
 
-def view_box(first: Picture, spacing: float) -> tuple[float, float, float, float]:
-    """x and z limits that hold the first frame's walls, grains and bodies, with a margin of 3 Δx
-    and 10 % headroom above for grains and bodies that rise (splashes, a climbing wheel)."""
-    points = np.concatenate([first.grains, first.walls, first.bodies])
+def flat_surface(file: h5py.File) -> float | None:
+    """The free surface z (m) of a run on a terrain without grains (``config_json``'s
+    ``terrain.surface`` of an RFT run); None for a run whose grains are the terrain."""
+    terrain = _config(file).get("terrain")
+    return float(terrain["surface"]) if isinstance(terrain, dict) and terrain.get("kind") == "rft" else None
+
+
+def view_points(file: h5py.File, first: Picture) -> np.ndarray:
+    """The points the view must hold: the first frame's walls, grains and bodies; without grains (the
+    bed does not frame the picture) the bodies of every frame, so a travelling robot stays in view."""
+    if has_grains(file) or "frames/body_position" not in file:
+        return np.concatenate([first.grains, first.walls, first.bodies])
+    return np.concatenate([first.walls, *file["frames/body_position"][:frame_count(file)]])
+
+
+def view_box(points: np.ndarray, spacing: float) -> tuple[float, float, float, float]:
+    """x and z limits that hold `points` (:func:`view_points`), with a margin of 3 Δx and 10 %
+    headroom above for grains and bodies that rise (splashes, a climbing wheel)."""
     low, high = points.min(axis=0) - 3 * spacing, points.max(axis=0) + 3 * spacing
     headroom = 0.1 * (high[1] - low[1])
     return float(low[0]), float(high[0]), float(low[1]), float(high[1] + headroom)
@@ -179,7 +207,7 @@ class Canvas:
     """A figure whose artists are updated frame by frame and rendered to RGB arrays."""
 
     def __init__(self, box: tuple[float, float, float, float], spacing: float, colouring: str,
-                 limits: tuple[float, float], body_index: np.ndarray) -> None:
+                 limits: tuple[float, float], body_index: np.ndarray, surface: float | None = None) -> None:
         (x0, x1, z0, z1), (width_px, height_px), axes_frame = layout(box)
         self.figure = Figure(figsize=(width_px / _DPI, height_px / _DPI), dpi=_DPI)
         FigureCanvasAgg(self.figure)
@@ -190,6 +218,9 @@ class Canvas:
         axes.set_ylabel("z (m)")
         size = marker_area(spacing, x1 - x0, width_px * axes_frame[2])
         empty = np.zeros((0, 2))
+        if surface is not None:  # a terrain without grains: its flat sand, the same in every picture
+            axes.axhspan(z0, surface, color=_SAND_COLOUR, linewidth=0)
+            axes.axhline(surface, color="k", linewidth=0.8)
         self.walls = axes.scatter(*empty.T, s=size, c=_WALL_COLOUR, marker="s", linewidths=0)
         self.grains = axes.scatter(*empty.T, s=size, c=[], cmap="viridis", vmin=limits[0], vmax=limits[1],
                                    linewidths=0)
@@ -197,9 +228,10 @@ class Canvas:
         self.bodies = axes.scatter(*np.zeros((len(body_index), 2)).T, s=size, c=body_colours or "tab:red",
                                    marker="s", linewidths=0)
         self.axles = axes.scatter(*empty.T, s=80, c="k", marker="+", linewidths=1.5)
-        bar_frame = (axes_frame[0] + axes_frame[2] + 16 / width_px, axes_frame[1], 16 / width_px, axes_frame[3])
-        self.figure.colorbar(self.grains, cax=self.figure.add_axes(bar_frame),
-                             label=COLOURINGS[colouring])
+        if surface is None:
+            bar_frame = (axes_frame[0] + axes_frame[2] + 16 / width_px, axes_frame[1], 16 / width_px, axes_frame[3])
+            self.figure.colorbar(self.grains, cax=self.figure.add_axes(bar_frame),
+                                 label=COLOURINGS[colouring])
         self.stamp = axes.set_title("")
         self.axes = axes
         # blitting: axes, ticks, labels and colour bar are drawn once; each frame only the particles
@@ -301,12 +333,13 @@ def animate_run(run: str | os.PathLike[str], out: str | os.PathLike[str] | None 
     out = check_output(Path(run).with_suffix(".mp4") if out is None else out, force)
     with open_run(run) as file:
         field = "frames/velocity" if colouring == "velocity" else "frames/pressure"
-        if field not in file:
+        if has_grains(file) and field not in file:
             raise ValueError(f"{run}: no {field} to colour by {colouring}")
         first = picture(file, 0, colouring)
-        spacing = float(_config(file).get("spacing") or _typical_spacing(first.grains))
-        canvas = Canvas(view_box(first, spacing), spacing, colouring, colour_limits(file, colouring),
-                        body_index(file))
+        spacing = float(_config(file).get("spacing")
+                        or (_typical_spacing(first.grains) if has_grains(file) else _lattice_spacing(first.bodies)))
+        canvas = Canvas(view_box(view_points(file, first), spacing), spacing, colouring,
+                        colour_limits(file, colouring), body_index(file), flat_surface(file))
         from tqdm.auto import tqdm
 
         try:
@@ -324,6 +357,15 @@ def _typical_spacing(position: np.ndarray) -> float:
     """Δx estimated from the grains' bounding box and count (for files whose config lacks it)."""
     extent = np.ptp(position, axis=0)
     return float(np.sqrt(max(extent[0] * extent[1], 1e-12) / len(position)))
+
+
+def _lattice_spacing(points: np.ndarray, samples: int = 64) -> float:
+    """Δx of particles on a lattice (a body's, at any pose): the median distance from up to `samples`
+    of them, spread over the array, to their nearest neighbour."""
+    chosen = points[np.linspace(0, len(points) - 1, min(samples, len(points))).astype(int)]
+    distance = np.linalg.norm(chosen[:, None, :] - points[None, :, :], axis=-1)
+    distance[distance == 0] = np.inf
+    return float(np.median(distance.min(axis=1)))
 
 
 # -- command line ------------------------------------------------------------------------------

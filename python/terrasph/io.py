@@ -558,8 +558,9 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
     """Write an XDMF 3 sidecar so ParaView can open the frames of a run file; return its path.
 
     The sidecar is a Temporal collection with one Spatial collection per frame holding up to three
-    Polyvertex grids: ``grains`` (geometry a hyperslab of ``/frames/position``), ``bodies`` (of
-    ``/frames/body_position``, in scenes with bodies, with their ``body_index``) and ``walls`` (the
+    Polyvertex grids: ``grains`` (geometry a hyperslab of ``/frames/position``; none on a terrain
+    without grains), ``bodies`` (of ``/frames/body_position``, in scenes with bodies, with their
+    ``body_index``) and ``walls`` (the
     fixed walls of ``/static/walls/position``, the same at every time). 2D positions are exposed as
     XY, so the simulation's z (up) is ParaView's Y. Every other numeric per-particle field of a set
     becomes node-centred scalars: scalar fields as themselves, vector and tensor fields one scalar
@@ -577,16 +578,17 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
     )
     with h5py.File(h5_path, "r") as file:
         frames = file["frames"]
-        if "position" not in frames:
-            raise ValueError(f"{h5_path} has no /frames/position; write frames with a 'position' field first")
-        position = frames["position"]
-        if position.ndim != 3 or position.shape[2] != 2:
-            raise ValueError(f"/frames/position must be shaped (n_frames, N, 2), got {position.shape}")
+        sets = []
+        for name, geometry, prefix in (("grains", "position", ""), ("bodies", "body_position", "body_")):
+            if geometry in frames:
+                data = frames[geometry]
+                if data.ndim != 3 or data.shape[2] != 2:
+                    raise ValueError(f"/frames/{geometry} must be shaped (n_frames, N, 2), got {data.shape}")
+                sets.append((name, data, _set_fields(frames, data, prefix=prefix)))
+        if not sets:
+            raise ValueError(f"{h5_path} has neither /frames/position nor /frames/body_position; write frames "
+                             "with grains or bodies first")
         n_frames = min(dataset.shape[0] for dataset in frames.values())
-        sets = [("grains", position, _set_fields(frames, position, prefix=""))]
-        if "body_position" in frames:
-            body_position = frames["body_position"]
-            sets.append(("bodies", body_position, _set_fields(frames, body_position, prefix="body_")))
         static = file.get("static")
         walls = static["walls/position"] if static is not None and "walls/position" in static else None
         times = frames["time"][:n_frames]

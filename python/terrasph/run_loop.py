@@ -11,8 +11,8 @@ The stepper protocol (:class:`Stepper`) is what a terrain model gives the loop â
   responsive); a blow-up raises :class:`terrasph.InstabilityError`;
 * ``checkpoint(path, progress)`` and ``restore(path) -> progress``: the whole state, bit for bit,
   with the loop's `progress` (plain data) beside it;
-* ``frame_fields()`` (None: a terrain without particles writes no frames), ``static_arrays()``: the
-  per-particle arrays of each frame and those written
+* ``frame_fields()``, ``static_arrays()``: the per-particle arrays of each frame (a terrain without
+  grains, RFT's, gives its bodies' only) and those written
   once (``/frames``, ``/static``); ``diagnostics()``: one row of ``/series/diagnostics`` (the loop
   adds ``wall_time``); ``run_attributes()``: the particle counts and leak counter for ``/run``.
 
@@ -72,7 +72,7 @@ class Stepper(Protocol):
 
     def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]: ...
 
-    def frame_fields(self) -> dict[str, np.ndarray] | None: ...
+    def frame_fields(self) -> dict[str, np.ndarray]: ...
 
     def static_arrays(self) -> dict[str, np.ndarray]: ...
 
@@ -253,9 +253,8 @@ class RunLoop:
         def record_frame() -> dict[str, float]:
             nonlocal frames
             row = {"time": stepper.time, **stepper.diagnostics(), "wall_time": wallclock.perf_counter() - start}
-            fields = stepper.frame_fields()
-            if writer and fields is not None:
-                writer.write_frame(stepper.time, stepper.step_count, fields)
+            if writer:
+                writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
                 frames += 1
             append("diagnostics", row)
             write_rows()
@@ -306,7 +305,9 @@ class RunLoop:
                 last_checkpoint = wallclock.perf_counter()
                 while stepper.time < t_end * (1 - 1e-14):
                     target = min(next_frame, next_sample, t_end)
-                    if target == t_end and not final_stretch_saved:
+                    # the stretch that reaches the end: a frame or sample time summed to within rounding
+                    # of t_end ends the run as t_end itself does (at_end below)
+                    if target >= t_end * (1 - 1e-14) and not final_stretch_saved:
                         save_checkpoint()  # the last state on the path of a longer run (module docstring)
                         final_stretch_saved = True
                     load_watch.follow()
@@ -341,10 +342,8 @@ class RunLoop:
             bar.close()
             if writer and at_step_boundary:
                 save_checkpoint()  # before the extra frame below, which a resumed run drops
-                fields = stepper.frame_fields()
-                if fields is not None:
-                    writer.write_frame(stepper.time, stepper.step_count, fields)
-                    frames += 1
+                writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
+                frames += 1
             # stopped inside a step, the run continues from its last checkpoint, if it has one
             resumable = writer is not None and checkpoint_path(self.output).is_file()
             record_end("interrupted", **({"checkpoint": checkpoint_path(self.output).name} if resumable else {}))

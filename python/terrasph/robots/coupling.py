@@ -54,7 +54,8 @@ from terrasph.config import ConfigError
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "RobotStepper", "displaced_grain_mass", "mujoco_derived",
+__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "RobotStepper", "displaced_grain_mass", "divergences",
+           "mujoco_derived",
            "mujoco_state", "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
@@ -75,7 +76,7 @@ _DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWA
                         mujoco.mjtWarning.mjWARN_BADQVEL)
 
 
-def _divergences(data: mujoco.MjData) -> int:
+def divergences(data: mujoco.MjData) -> int:
     """How many times MuJoCo has reset `data` after a state it could not integrate."""
     return sum(int(data.warning[warning].number) for warning in _DIVERGENCE_WARNINGS)
 
@@ -317,7 +318,7 @@ class CoupledSimulation(RobotStepper):
         self.robot.data.time = sim.time
         self._angle = {b.name: robot.wrapped_angle(b) for b in robot.coupled}
         self._velocity = {b.name: robot.velocity(b) for b in robot.coupled}
-        self._divergences = _divergences(robot.data)
+        self._divergences = divergences(robot.data)
 
     @property
     def time(self) -> float:
@@ -337,7 +338,7 @@ class CoupledSimulation(RobotStepper):
             force, torque = self.granular_load(body)
             robot.apply_load(body, force, torque)
         mujoco_step(robot, self._servos, dt)
-        if _divergences(robot.data) > self._divergences:
+        if divergences(robot.data) > self._divergences:
             raise self._diverged()
         for body in robot.coupled:
             self._drive(body, dt)
@@ -443,6 +444,6 @@ class CoupledSimulation(RobotStepper):
     def restore_state(self, saved: dict[str, Any]) -> None:
         """Puts back a :meth:`state` (after :meth:`Simulation.restore` of the same checkpoint)."""
         restore_mujoco_state(self.robot, saved)
-        self._divergences = _divergences(self.robot.data)
+        self._divergences = divergences(self.robot.data)
         self._angle = {k: float(v) for k, v in saved["angle"].items()}
         self._velocity = {k: (np.array(v), float(w)) for k, (v, w) in saved["velocity"].items()}

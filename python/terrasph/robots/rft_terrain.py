@@ -18,7 +18,9 @@ chattered at ±14 rad/s with an explicit 2 ms step — and a servo given its lim
 (the SPH coupling's rule) jumps past its command. Solved with the step's end velocities, a resting
 body rests (creeping below :data:`terrasph.rft.REGULARISATION_SPEED`) and a stalled wheel turns once
 its motor beats the sand. The loads are taken at the step's start pose (first order in dt).
-:data:`RFT_TIME_STEP` is the measured step (docs/rft.md).
+:data:`RFT_TIME_STEP` is the measured step (docs/rft.md). A state MuJoCo cannot integrate (it then
+resets the robot) raises :class:`terrasph.InstabilityError`, as on the SPH terrain, so the run
+records it as unstable.
 
 The step runs in the compiled core (``terrasph._core.PlanarRobotStepper``, cpp/src/rft_robot.cpp),
 which calls the MuJoCo library of the ``mujoco`` package on the robot's own ``model`` and ``data``:
@@ -39,9 +41,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph import _core, rft
+from terrasph import InstabilityError, _core, rft
 from terrasph.config import ConfigError
-from terrasph.robots.coupling import RobotStepper, mujoco_state, restore_mujoco_state, velocity_servos
+from terrasph.robots.coupling import RobotStepper, divergences, mujoco_state, restore_mujoco_state, velocity_servos
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
 __all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "mujoco_library"]
@@ -107,6 +109,7 @@ class RFTCoupling(RobotStepper):
             NEWTON_ITERATIONS, NEWTON_HALVINGS, NEWTON_TOLERANCE)
         self._span = self._dt
         self._since = float(robot.data.time)
+        self._divergences = divergences(robot.data)
 
     @property
     def time(self) -> float:
@@ -135,8 +138,20 @@ class RFTCoupling(RobotStepper):
 
     def step(self) -> float:
         """One step (module docstring); returns its dt."""
+        time, steps = self.time, self.step_count
         self._native.step()
+        self._check_integrated(time, steps)
         return self._dt
+
+    def _check_integrated(self, time: float, steps: int) -> None:
+        """Raises :class:`terrasph.InstabilityError` if MuJoCo met a state it could not integrate (and
+        reset the robot: its time back to 0) in the steps taken since `time` (s), step `steps`, as the
+        SPH coupling does; the error's time and step are those of the start of that call."""
+        if divergences(self.robot.data) > self._divergences:
+            error = InstabilityError(f"MuJoCo could not integrate the robot's state (bad qacc, qpos or qvel) within "
+                                     f"steps {steps}–{self.step_count} from t = {time:.6g} s, and reset it")
+            error.step, error.time, error.particle, error.reason = steps, time, -1, "robot"
+            raise error
 
     def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
         """Steps until `t_end` (s) is reached or passed, at most `max_steps`, many steps per call of the
@@ -152,7 +167,9 @@ class RFTCoupling(RobotStepper):
             if control:
                 self._span = count * self._dt
                 control(self)
+            time, steps = self.time, self.step_count
             self._native.steps(count)
+            self._check_integrated(time, steps)
             taken += count
         return taken
 
@@ -166,8 +183,11 @@ class RFTCoupling(RobotStepper):
                 "robot": self.robot_description()}
 
     def static_arrays(self) -> dict[str, np.ndarray]:
-        """Each coupled body's RFT surface elements in its own frame (``/static/rft/<body>/...``)."""
-        arrays = {}
+        """Each coupled body's RFT surface elements in its own frame (``/static/rft/<body>/...``) and
+        the body of each row of the frames' body fields (``/static/bodies/index``: its place in the
+        robot's coupled bodies)."""
+        arrays = {"bodies/index": np.concatenate([np.full(len(b.shape.position), k, dtype=np.int32)
+                                                  for k, b in enumerate(self.robot.coupled)])}
         for name, elements in self._elements.items():
             arrays.update({f"rft/{name}/centre": elements.centre, f"rft/{name}/normal": elements.normal,
                            f"rft/{name}/length": elements.length})
@@ -209,9 +229,20 @@ class RFTCoupling(RobotStepper):
         """The counts of the run file's ``/run``: no grains, none leaked."""
         return {"granular_particles": 0, "wall_particles": 0, "leaked_particles": 0}
 
-    def frame_fields(self) -> dict[str, np.ndarray] | None:
-        """No frames: the terrain has no particles (the robot's path is in its series)."""
-        return None
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        """A frame of the coupled bodies only (the terrain has no grains): ``body_position`` and
+        ``body_velocity`` (m, m/s) of each body's particles (:attr:`terrasph.bodies.BodyShape.position`,
+        the robot's own drawing) at its pose now, bodies in the robot's order."""
+        positions, velocities = [], []
+        for body in self.robot.coupled:
+            reference = self.robot.reference(body)
+            points, _ = body.shape.transformed(self._angle[body.name], tuple(reference))
+            velocity, omega = self.robot.velocity(body)
+            arm = points - reference
+            # a clockwise spin ω moves a point at arm (x, z) from the reference by ω (z, −x)
+            velocities.append(np.asarray(velocity) + omega * np.column_stack([arm[:, 1], -arm[:, 0]]))
+            positions.append(points)
+        return {"body_position": np.concatenate(positions), "body_velocity": np.concatenate(velocities)}
 
     # -- checkpoints ---------------------------------------------------------------------------
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
@@ -244,6 +275,7 @@ class RFTCoupling(RobotStepper):
     def restore_state(self, saved: dict[str, Any]) -> None:
         """Puts back a :meth:`state`."""
         restore_mujoco_state(self.robot, saved)
+        self._divergences = divergences(self.robot.data)
         self._native.angles = [float(saved["angle"][k]) for k in self._elements]
         self._native.load_sums = [float(v) for k in self._elements
                                   for v in (*saved["sums"][k][0], saved["sums"][k][1])]

@@ -2,7 +2,8 @@
 (:class:`ControlledRun`) and the robot's series as a recorder (:class:`RobotLoads`).
 
 Layout of the file (terrasph.io.RunWriter, docs/hdf5_schema.md): frames, ``/static``,
-``/series/diagnostics`` and ``/run`` as for any run, the frames with ``wall_position`` added;
+``/series/diagnostics`` and ``/run`` as for any run, the frames with ``wall_position`` added (on the
+RFT terrain, which has no grains, the frames hold the coupled bodies only);
 ``/series/robot/<body>`` per coupled body (time,
 reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s, force (F_x, F_z)
 N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
@@ -115,7 +116,7 @@ class ControlledRun:
         self.memory.update(progress.pop("memory", {}))
         return progress
 
-    def frame_fields(self) -> dict[str, np.ndarray] | None:
+    def frame_fields(self) -> dict[str, np.ndarray]:
         return self.coupled.frame_fields()
 
     def static_arrays(self) -> dict[str, np.ndarray]:
@@ -148,9 +149,9 @@ def run_coupled(coupled: RobotStepper, t_end: float, *, output: str | os.PathLik
                 progress: bool = False, memory: dict[str, Any] | None = None,
                 checkpoint_every: float | None = 600.0, resume: bool = False) -> dict[str, dict[str, np.ndarray]]:
     """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`RobotStepper`, e.g. the RFT terrain's
-    :class:`terrasph.robots.rft_terrain.RFTCoupling`) to `t_end` (s); writes frames (if the stepper
-    has any) every `frame_interval` and robot samples every `series_interval` (s) to `output` (HDF5)
-    if given. `control`, if given, is called before each
+    :class:`terrasph.robots.rft_terrain.RFTCoupling`) to `t_end` (s); writes frames (the grains and
+    bodies; on the RFT terrain the bodies only) every `frame_interval` and robot samples every
+    `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
     `memory` (plain data), which is checkpointed with the run. Returns the run's series by group
     name (``robot/…``, ``diagnostics``, ``walls/…``; the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of

@@ -12,7 +12,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,8 +29,8 @@ from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
 
-__all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "LegResult", "LegRotation", "build_leg_rotation", "glass_beads",
-           "run_leg_rotation"]
+__all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "LegResult", "LegRotation", "RFTLegSweep", "build_leg_rotation",
+           "glass_beads", "run_leg_rotation"]
 
 #: Leg shapes by name (bodies.py documents each reading of the dissertation's figures).
 LEGS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
@@ -245,7 +244,7 @@ def run_leg_rotation(config: LegRotation = LegRotation(), *, output: str | os.Pa
     time (see :meth:`terrasph.simulation.Simulation.run`).
     """
     if config.terrain == "rft":
-        return _run_rft_leg_rotation(config, output, plot)
+        return _run_rft_leg_rotation(config, output, plot, progress, resume, until)
     scene, material, numerics = build_leg_rotation(config)
     sim = Simulation(scene, material, numerics, width=config.width)
     interval = 1.0 / (config.samples_per_radian * config.omega)
@@ -274,44 +273,152 @@ def _finish(result: LegResult, output: str | os.PathLike | None, plot: bool, tit
         result.plot = os.fspath(png)
 
 
-def _run_rft_leg_rotation(config: LegRotation, output: str | os.PathLike | None, plot: bool) -> LegResult:
-    """The sweep on the RFT terrain (terrasph.rft): the hip ``hip_height`` above a flat surface at z = 0,
-    the load at the middle of each sample interval of the prescribed rotation (RFT is quasi-static: no
-    settling, no state). The run file holds the same ``/series/bodies/leg`` as the SPH's."""
-    from terrasph.io import RunWriter
+def _run_rft_leg_rotation(config: LegRotation, output: str | os.PathLike | None, plot: bool, progress: bool,
+                          resume: bool, until: float | None) -> LegResult:
+    """The sweep on the RFT terrain (terrasph.rft; :class:`RFTLegSweep`) through the run loop, sampled as
+    the SPH's; the run file holds the same ``/series/bodies/leg`` (time, angle, force, torque) and
+    frames of the leg."""
+    from terrasph.run_loop import RunLoop
     from terrasph.simulation import versions
 
-    start = time.perf_counter()
-    try:
-        elements = rft.SurfaceElements.from_shape(config.shape(), width=config.width)
-    except ValueError as error:
-        raise ConfigError(f"leg geometry: {error}") from None
-    table = rft.coefficient_table(config.rft_table)
-    sweep = config.end_angle - config.start_angle
-    count = max(1, round(config.samples_per_radian * sweep))
-    theta = config.start_angle + (np.arange(count) + 0.5) * sweep / count
-    hip = (0.0, config.hip_height)
-    reach = min(float((elements.centre @ bodies.rotation_matrix(a).T)[:, 1].min()) for a in theta) + config.hip_height
-    if reach >= 0:
-        raise ConfigError(f"parameter 'hip_height' = {config.hip_height!r} is invalid for the RFT terrain: no element "
-                          "of the leg's surface goes below the free surface during the sweep")
-    loads = [rft.body_load(elements, a, hip, np.zeros(2), config.omega, 0.0, table) for a in theta]
-    force = np.array([load.force for load in loads])
-    torque = np.array([load.torque for load in loads])
-    times = config.settle_time + (theta - config.start_angle) / config.omega
-    wall = time.perf_counter() - start
-    if output is not None:
-        describe = {"scene": "leg-rotation", "leg_rotation": dataclasses.asdict(config),
-                    "rft": {"elements": len(elements), "source": table.source, "zeta": table.zeta}}
-        with RunWriter(output, describe, versions=versions()) as writer:
-            writer.append_series_rows("bodies/leg", [{"time": times[k], "angle": theta[k], "force": force[k],
-                                                      "torque": torque[k]} for k in range(count)])
-            writer.set_attrs("/run", {"status": "completed", "time": config.duration, "steps": count,
-                                      "wall_time": time.perf_counter() - start})
-    run = RunResult(time=config.duration, steps=count, wall_time=wall, frames=0,
-                    output=None if output is None else os.fspath(output), status="completed",
-                    bodies={"leg": {"time": times, "angle": theta, "force": force, "torque": torque}})
-    result = LegResult(theta, force[:, 1], force[:, 0], torque, config, 0, 0, run)
+    sweep = RFTLegSweep(config)
+    loop = RunLoop(sweep, output, config.frame_interval, sweep.interval, [sweep],
+                   {"scene": "leg-rotation", "leg_rotation": dataclasses.asdict(config), **sweep.describe()},
+                   versions(), progress=progress)
+    done = loop.run(config.end_time if until is None else until, resume)
+    series = done.series["bodies/leg"]
+    run = RunResult(done.time, done.steps, done.wall_time, done.frames, None if output is None else os.fspath(output),
+                    done.status, bodies={"leg": series})
+    turning = series["time"] > config.settle_time + 1e-9
+    result = LegResult(series["angle"][turning], series["force"][turning, 1], series["force"][turning, 0],
+                       series["torque"][turning], config, 0, 0, run)
+    table = sweep.table
     _finish(result, output, plot, f"RFT ({table.source or config.rft_table}, ζ = {table.zeta:.3g} N/m³), "
                                   f"ω = {config.omega:g} rad/s")
     return result
+
+
+class RFTLegSweep:
+    """The leg's prescribed sweep on the RFT terrain, a stepper of the run loop
+    (:class:`terrasph.run_loop.Stepper`) and its recorder of ``bodies/leg``.
+
+    The hip is ``hip_height`` above a flat surface at z = 0; the leg rests for the pause, then turns at
+    ω from ``start_angle`` to ``end_angle`` (as the SPH's :func:`terrasph.motion.hold_then_rotate`).
+    RFT is quasi-static and stateless, so a step of at most :attr:`interval` (the SPH's load sampling
+    interval, ending at the pause's end and the sweep's end) takes the load at its middle; a sample's
+    force and torque are their means over the steps since the previous sample (the SPH's body
+    series' averages), its angle that of the sample's time. Frames hold the leg's particles.
+    """
+
+    def __init__(self, config: LegRotation) -> None:
+        self.shape = config.shape()
+        try:
+            self.elements = rft.SurfaceElements.from_shape(self.shape, width=config.width)
+        except ValueError as error:
+            raise ConfigError(f"leg geometry: {error}") from None
+        self.config = config
+        self.table = rft.coefficient_table(config.rft_table)
+        self.hip = np.array([0.0, config.hip_height])
+        #: the SPH's load sampling interval (run_leg_rotation), one step at most
+        self.interval = 1.0 / (config.samples_per_radian * config.omega)
+        self._turn = (config.settle_time, config.duration)
+        angles = np.linspace(config.start_angle, config.end_angle, 64)
+        reach = min(float((self.elements.centre @ bodies.rotation_matrix(a).T)[:, 1].min()) for a in angles)
+        if reach + config.hip_height >= 0:
+            raise ConfigError(f"parameter 'hip_height' = {config.hip_height!r} is invalid for the RFT terrain: no "
+                              "element of the leg's surface goes below the free surface during the sweep")
+        self._time, self._steps, self._since = 0.0, 0, 0.0
+        self._impulse = np.zeros(3)  # ∫ (F_x, F_z, τ) dt since the last sample
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return self._time
+
+    @property
+    def step_count(self) -> int:
+        """Steps taken so far."""
+        return self._steps
+
+    def angle(self, t: float) -> float:
+        """The leg's clockwise angle (rad) at time `t` (s)."""
+        start, end = self._turn
+        return self.config.start_angle + self.config.omega * (min(max(t, start), end) - start)
+
+    def spin(self, t: float) -> float:
+        """The leg's clockwise spin (rad/s) at time `t` (s)."""
+        return self.config.omega if self._turn[0] <= t < self._turn[1] else 0.0
+
+    def advance(self, t_end: float, max_steps: int = 2**62) -> int:
+        """Steps toward `t_end` (s), at most `max_steps`, each of at most :attr:`interval` and none across
+        the start or end of the turn; returns the number taken."""
+        taken = 0
+        while taken < max_steps and self._time < t_end * (1 - 1e-14):
+            t1 = min(self._time + self.interval, t_end, *(b for b in self._turn if b > self._time))
+            middle = 0.5 * (self._time + t1)
+            load = rft.body_load(self.elements, self.angle(middle), self.hip, np.zeros(2), self.spin(middle), 0.0,
+                                 self.table)
+            self._impulse += (t1 - self._time) * np.array([*load.force, load.torque])
+            self._time = t1
+            self._steps += 1
+            taken += 1
+        return taken
+
+    def rows(self) -> dict[str, dict[str, Any]]:
+        """The recorder's sample ``bodies/leg``: time, angle, and the force and torque averaged since the
+        previous sample (then restarted)."""
+        span = self._time - self._since
+        mean = self._impulse / span if span > 0 else np.zeros(3)
+        self._impulse, self._since = np.zeros(3), self._time
+        return {"bodies/leg": {"time": self._time, "angle": self.angle(self._time), "force": mean[:2],
+                               "torque": float(mean[2])}}
+
+    def describe(self) -> dict[str, Any]:
+        """The terrain, for the run file (a flat surface at z = 0, as the robots' RFT terrain)."""
+        return {"terrain": {"kind": "rft", "surface": 0.0, "zeta": self.table.zeta,
+                            "coefficients": dict(zip(rft.COEFFICIENT_NAMES, self.table.vector.tolist())),
+                            "source": self.table.source, "elements": {"leg": len(self.elements)}}}
+
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        """The leg's particles (``body_position``, m) and their velocities (``body_velocity``, m/s) now."""
+        points, _ = self.shape.transformed(self.angle(self._time), tuple(self.hip))
+        arm = points - self.hip
+        return {"body_position": points,
+                "body_velocity": self.spin(self._time) * np.column_stack([arm[:, 1], -arm[:, 0]])}
+
+    def static_arrays(self) -> dict[str, np.ndarray]:
+        """The leg's body index per particle and its RFT surface elements (its own frame)."""
+        return {"bodies/index": np.zeros(len(self.shape.position), dtype=np.int32),
+                "rft/leg/centre": self.elements.centre, "rft/leg/normal": self.elements.normal,
+                "rft/leg/length": self.elements.length}
+
+    def diagnostics(self) -> dict[str, float]:
+        """A diagnostics row: the step count and the sampling interval (s); no grains to leak."""
+        return {"step": self._steps, "dt": self.interval, "leaked_particles": 0}
+
+    def run_attributes(self) -> dict[str, int]:
+        """The counts of the run file's ``/run``: no grains."""
+        return {"granular_particles": 0, "wall_particles": 0, "leaked_particles": 0}
+
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> Path:
+        """Writes the sweep's time, step count and running load sums with the run loop's `progress`."""
+        from terrasph.checkpoint import write_checkpoint
+
+        state = {"granular": {}, "walls": {}, "counters": {"steps": self._steps}, "bodies": [], "removals": [],
+                 "wall_loads": {"tracked": False}}
+        sweep = {"time": self._time, "since": self._since, "impulse": self._impulse.tolist()}
+        return write_checkpoint(path, state, self.describe(), {**(progress or {}), "sweep": sweep})
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        """Continues from a :meth:`checkpoint` of the same sweep; returns the rest of its progress."""
+        from terrasph.checkpoint import CheckpointError, configuration_differences, read_checkpoint
+
+        state, saved, progress = read_checkpoint(path)
+        differences = configuration_differences(saved, self.describe())
+        if differences or "sweep" not in progress:
+            raise CheckpointError(f"checkpoint {path} belongs to another RFT run: {', '.join(differences) or 'no sweep'}")
+        sweep = progress.pop("sweep")
+        self._steps = int(state["counters"]["steps"])
+        self._time, self._since = float(sweep["time"]), float(sweep["since"])
+        self._impulse = np.array(sweep["impulse"], dtype=float)
+        return progress

@@ -31,7 +31,7 @@ from terrasph.schedules import evaluate
 from terrasph.surrogate.dataset import Run, split_runs, write_run
 from terrasph.surrogate.validity import PHASE_FEATURES
 
-__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "commanded_phase", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
+__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "commanded_phase", "driven_phase_run", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
            "robot_run", "split_by_range", "split_held_out"]
 
 TARGETS = ("slip", "sinkage", "forward_speed")
@@ -120,22 +120,32 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str], bed: Sequence[
             raise ValueError(f"{path} is not a leg-wheel run (its scene is {saved.get('scene')!r})")
         config = _leg_wheel_config(saved["leg_wheel"])  # the scene's own (terrasph.scenes.SCENES' config_key)
         group = f["series/robot/wheel"]
-        time = group["time"][()]
-        sampled = {"slip": group["slip"][()], "sinkage": group["sinkage"][()],
-                   "forward_speed": group["velocity"][()][:, 0]}
+        wheel = {name: group[name][()] for name in ("time", "slip", "sinkage", "velocity")}
+    return driven_phase_run(Path(path).stem, config, wheel, dt, wheels, bed, where=path)
+
+
+def driven_phase_run(name: str, config: dict[str, Any], wheel: dict[str, np.ndarray], dt: float,
+                     wheels: Sequence[str], bed: Sequence[str] = (), where: str | Path = "the run") -> Run:
+    """The driven phase of a leg-wheel run resampled to `dt` (module docstring): `config` its
+    configuration (a saved one or ``dataclasses.asdict`` of a :class:`terrasph.robots.leg_wheel.LegWheel`),
+    `wheel` its ``robot/wheel`` series (at least time, slip, sinkage, velocity; a run file's or
+    :func:`terrasph.robots.leg_wheel.run_leg_wheel`'s), `where` named in the message of a bad `dt`."""
     settle, duration = float(config["settle_time"]), float(config["t_end"])
-    _check_dt(dt, duration - settle, path)
+    _check_dt(dt, duration - settle, where)
     grid = np.arange(0.0, duration - settle + 1e-9 * dt, dt)
     schedule = tuple(tuple(k) for k in config.get("omega_schedule") or ()) or ((0.0, float(config["omega"])),)
     series = {"omega_cmd": evaluate(schedule, grid)}
     series.update(commanded_phase(series["omega_cmd"], dt, int(config["legs"])))
-    for name, values in sampled.items():
+    time = np.asarray(wheel["time"])
+    sampled = {"slip": wheel["slip"], "sinkage": wheel["sinkage"], "forward_speed": np.asarray(wheel["velocity"])[:, 0]}
+    for target, values in sampled.items():
+        values = np.asarray(values)
         finite = np.isfinite(values)
-        series[name] = np.interp(grid + settle, time[finite], values[finite])
+        series[target] = np.interp(grid + settle, time[finite], values[finite])
     series["slip"] = np.clip(series["slip"], -1.0, 1.0)
-    params = {"load": float(config["load"]), **{name: _bed_value(config, name) for name in bed},
+    params = {"load": float(config["load"]), **{b: _bed_value(config, b) for b in bed},
               **{f"wheel:{w}": float(config["wheel"] == w) for w in wheels}}
-    return Run(name=Path(path).stem, time=grid, series=series, params=params, units=dict(_UNITS))
+    return Run(name=name, time=grid, series=series, params=params, units=dict(_UNITS))
 
 
 def build_robot_dataset(sweep_dir: str | Path, out_dir: str | Path, dt: float = 0.02,
