@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 
 namespace terrasph::rft {
 
@@ -43,28 +42,6 @@ BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, dou
     const double vz = motion.vz - motion.omega * rx;
     const double normal_speed = nx * vx + nz * vz;
     if (!(normal_speed > 0.0)) continue;  // a trailing face leaves a cavity
-    static const bool proto = std::getenv("TERRASPH_RFT_OCCLUSION_PROTO") != nullptr;
-    if (proto) {  // PROTOTYPE (not for merge): hard ray test along the body-frame velocity
-      const double bvx = c * vx - s * vz, bvz = s * vx + c * vz;
-      const double bn = std::hypot(bvx, bvz);
-      const double dx = bvx / bn, dz = bvz / bn;
-      bool hit = false;
-      for (std::size_t j = 0; j < elements.count && !hit; ++j) {
-        if (j == e) continue;
-        const double half = 0.5 * elements.length[j];
-        const double tx = -elements.normal[2 * j + 1] * half, tz = elements.normal[2 * j] * half;
-        const double ax = elements.centre[2 * j] - tx, az = elements.centre[2 * j + 1] - tz;
-        const double ex = 2 * tx, ez = 2 * tz;
-        const double wx = ax - px, wz = az - pz;
-        const double den = dx * ez - dz * ex;
-        if (std::abs(den) < 1e-14) continue;
-        const double t = (wx * ez - wz * ex) / den, u = (wx * dz - wz * dx) / den;
-        if (!(t > 1e-9 && u >= 0.0 && u <= 1.0)) continue;
-        const double hx = px + t * dx, hz = pz + t * dz;
-        if (surface - (-s * hx + c * hz) - motion.z > 0.0) hit = true;  // the part it meets is in the sand
-      }
-      if (hit) continue;
-    }
     const double sign = vx < 0.0 ? -1.0 : 1.0;  // a face moving backward is mirrored x → −x
     const double speed = std::hypot(vx, vz);
     const double cosg = sign * vx / speed, sing = -vz / speed;
