@@ -119,6 +119,13 @@ BAD_INPUT = [
                                                           "--out", "{root}/r.h5"], "'numerics.active_radius'"),
     ("run-rover-numerics-spacing", ["run", "rover", "--numerics", "spacing=0.01", "--out", "{root}/r.h5"],
      "one of active_radius"),
+    # the SPH bed's own settings on the RFT terrain, which has no use for them
+    ("run-leg-wheel-rft-with-a-bed-friction", ["run", "leg-wheel", "--terrain", "rft", "--mu1-deg", "19",
+                                               "--out", "{root}/r.h5"], "'mu1_deg'"),
+    ("run-leg-wheel-rft-with-a-fidelity", ["run", "leg-wheel", "--terrain", "rft", "--fidelity", "reference",
+                                           "--out", "{root}/r.h5"], "'fidelity'"),
+    ("run-leg-rotation-rft-with-numerics", ["run", "leg-rotation", "--terrain", "rft", "--numerics", "cfl=0.3",
+                                            "--out", "{root}/r.h5"], "'numerics'"),
     # info and plot
     ("info-missing-file", ["info", "{root}/nothing.h5"], "nothing.h5"),
     ("info-text-file", ["info", "{text}"], "notes.txt"),

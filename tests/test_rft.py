@@ -242,6 +242,13 @@ def test_leg_rotation_on_rft_and_its_bad_input():
         LegRotation(terrain="dem")
     with pytest.raises(ConfigError, match="rft_table"):
         LegWheel(terrain="rft", rft_table="nowhere")
+    # a setting of the SPH bed only is refused on RFT, never ignored; at its default it is fine
+    for name, value in (("water_content", 0.005), ("mu2_deg", 35.0), ("bed_depth", 0.2)):
+        with pytest.raises(ConfigError, match=f"'{name}' = .* on the RFT terrain"):
+            LegWheel(terrain="rft", **{name: value})
+        LegWheel(terrain="sph", **{name: value})
+    with pytest.raises(ConfigError, match="'bed_depth' = .* on the RFT terrain"):
+        LegRotation(terrain="rft", bed_depth=0.08)
     with pytest.raises(ConfigError, match="no element"):
         run_leg_rotation(LegRotation(terrain="rft", hip_height=0.06, start_angle=-1.2, end_angle=-1.1),
                          progress=False, plot=False)

@@ -133,8 +133,11 @@ def sph_run(config: LegWheel, runs_dir: Path) -> Path:
 
 def rft_tier(config: LegWheel, table: str, dt: float) -> tuple[Tier, dict[str, Any]]:
     """`config` on the RFT terrain with the coefficient map `table`: its dataset series, its cost and
-    the robot summary."""
-    rft = dataclasses.replace(config, terrain="rft", rft_table=table)
+    the robot summary. The SPH bed's own settings (the tier, LegWheel.SPH_ONLY_FIELDS) go back to their
+    defaults, which the RFT terrain requires: they have no meaning there."""
+    defaults = {f.name: f.default for f in dataclasses.fields(LegWheel) if f.name in LegWheel.SPH_ONLY_FIELDS
+                and f.default is not dataclasses.MISSING}
+    rft = dataclasses.replace(config, terrain="rft", rft_table=table, **defaults)
     cpu = time.process_time()
     result = run_leg_wheel(rft, plot=False)
     cpu = time.process_time() - cpu

@@ -48,6 +48,7 @@ import json
 import math
 import os
 import pathlib
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,8 +59,8 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 
 __all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "REGULARISATION_SPEED", "TABLE_FORMAT", "TERRAINS",
-           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "coefficient_table", "fit_coefficients",
-           "fourier_basis", "load_coefficients", "map_correlation", "save_coefficients"]
+           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "check_terrain", "coefficient_table",
+           "fit_coefficients", "fourier_basis", "load_coefficients", "map_correlation", "save_coefficients"]
 
 #: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
 TERRAINS = ("sph", "rft")
@@ -173,6 +174,27 @@ def load_coefficients(path: str | os.PathLike[str]) -> RFTCoefficients:
                                source=str(document.get("source", path)))
     except ConfigError as error:
         raise ConfigError(f"RFT coefficient table '{path}': {error}") from None
+
+
+def check_terrain(config: Any, sph_only: tuple[str, ...]) -> None:
+    """Checks a scene configuration's `terrain` and, on RFT, its coefficient map and that none of its
+    `sph_only` fields (the bed's material, depth, numerics, fidelity: settings the RFT terrain has no
+    use for) differs from its default; ConfigError in one line naming the parameter otherwise, so a
+    setting is never ignored without a word."""
+    if config.terrain not in TERRAINS:
+        raise ConfigError(f"parameter 'terrain' = {config.terrain!r} is invalid: allowed one of {', '.join(TERRAINS)}")
+    if config.terrain != "rft":
+        return
+    coefficient_table(config.rft_table)  # an unknown name or a malformed file, before any work
+    for item in dataclasses.fields(config):
+        if item.name not in sph_only:
+            continue
+        default = item.default if item.default_factory is dataclasses.MISSING else item.default_factory()
+        value = getattr(config, item.name)
+        if value != default:
+            raise ConfigError(f"parameter '{item.name}' = {value!r} is invalid on the RFT terrain: allowed only its "
+                              f"default {default!r} there (it sets the SPH bed; RFT's sand is its coefficient map, "
+                              "rft_table)")
 
 
 def coefficient_table(name: str | RFTCoefficients, zeta: float | None = None) -> RFTCoefficients:

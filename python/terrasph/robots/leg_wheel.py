@@ -84,6 +84,10 @@ class WheelScene:
 class LegWheel(WheelScene):
     """Configuration of a leg-wheel run: a WheelScene with its load, motor and bed material."""
 
+    #: the settings of the SPH bed only, refused on the RFT terrain unless at their defaults
+    SPH_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("mu1_deg", "mu2_deg", "water_content", "bed_depth", "fidelity",
+                                                  "numerics")
+
     #: if given, the commanded spin after the pause instead of `omega`: knots (t − settle_time, ω) of a
     #: piecewise-linear schedule (terrasph.schedules; a repeated time is a step), ω ≥ 0
     omega_schedule: tuple[tuple[float, float], ...] = ()
@@ -102,10 +106,7 @@ class LegWheel(WheelScene):
 
     def __post_init__(self) -> None:
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
-        if self.terrain not in rft.TERRAINS:
-            raise ConfigError(f"parameter 'terrain' = {self.terrain!r} is invalid: allowed one of {', '.join(rft.TERRAINS)}")
-        if self.terrain == "rft":
-            rft.coefficient_table(self.rft_table)  # an unknown name or a malformed file, before any work
+        rft.check_terrain(self, self.SPH_ONLY_FIELDS)
         object.__setattr__(self, "omega_schedule", check_knots("omega_schedule", self.omega_schedule, lower=0.0))
         if not self.leg_length < self.start_x < self.bed_width - self.leg_length:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between leg_length and "

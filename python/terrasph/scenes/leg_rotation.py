@@ -14,7 +14,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -61,6 +61,9 @@ def glass_beads() -> Material:
 @dataclass(frozen=True)
 class LegRotation:
     """Configuration of a leg-rotation run. Lengths in m, times in s, angles in rad (clockwise)."""
+
+    #: the settings of the SPH bed only, refused on the RFT terrain unless at their defaults
+    SPH_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "bed_depth", "fidelity", "numerics")
 
     leg: str = option("c-leg", choices=LEGS, help="leg shape")
     omega: float = option(0.2, help="angular velocity of the sweep, clockwise", unit="rad/s")
@@ -118,10 +121,7 @@ class LegRotation:
         if not (math.isfinite(self.hip_height) and -self.bed_depth < self.hip_height < self.leg_length):
             raise ConfigError(f"parameter 'hip_height' = {self.hip_height!r} is invalid: allowed between "
                               f"-bed_depth and leg_length (the leg must reach the sand)")
-        if self.terrain not in rft.TERRAINS:
-            raise ConfigError(f"parameter 'terrain' = {self.terrain!r} is invalid: allowed one of {', '.join(rft.TERRAINS)}")
-        if self.terrain == "rft":
-            rft.coefficient_table(self.rft_table)  # an unknown name or a malformed file, before any work
+        rft.check_terrain(self, self.SPH_ONLY_FIELDS)
 
     @property
     def grid_spacing(self) -> float:
