@@ -30,8 +30,8 @@ import numpy as np
 from terrasph.bodies import BodyShape, _merge_indices, nearest_edge_normals
 from terrasph.config import ConfigError
 
-__all__ = ["CONVERTIBLE", "SUPPORT_DIRECTIONS", "body_shape", "geom_extent_y", "geom_loop", "geom_support",
-           "geom_thickness", "is_collision_geom", "shape_from_loops"]
+__all__ = ["CONVERTIBLE", "SUPPORT_DIRECTIONS", "body_shape", "body_surface", "geom_extent_y", "geom_loop",
+           "geom_support", "geom_surface", "geom_thickness", "inside_geom", "is_collision_geom", "shape_from_loops"]
 
 #: the geom types that become terrain shapes
 CONVERTIBLE = {mujoco.mjtGeom.mjGEOM_SPHERE: "sphere", mujoco.mjtGeom.mjGEOM_CAPSULE: "capsule",
@@ -80,11 +80,17 @@ def geom_support(model: mujoco.MjModel, geom: int, centre: np.ndarray, rotation:
         vertices = np.asarray(model.mesh_vert[start:start + count], dtype=float)
         point = vertices[np.argmax(local @ vertices.T, axis=1)]
     else:
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom) or f"#{geom}"
-        raise ConfigError(f"geom '{name}' is a {_type_name(kind)}, which cannot become a terrain body: allowed "
-                          f"{', '.join(CONVERTIBLE.values())} (switch its contacts off, contype=conaffinity=0, "
-                          "or leave its body out of the coupled bodies)")
+        raise _not_convertible(model, geom)
     return centre + point @ rotation.T
+
+
+def _not_convertible(model: mujoco.MjModel, geom: int) -> ConfigError:
+    """The error for a collision geom of a type that cannot become a terrain body (a plane, height
+    field, SDF), naming it and the allowed types."""
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom) or f"#{geom}"
+    return ConfigError(f"geom '{name}' is a {_type_name(int(model.geom_type[geom]))}, which cannot become a terrain "
+                       f"body: allowed {', '.join(CONVERTIBLE.values())} (switch its contacts off, "
+                       "contype=conaffinity=0, or leave its body out of the coupled bodies)")
 
 
 def _in_body_frame(model: mujoco.MjModel, geom: int) -> tuple[np.ndarray, np.ndarray]:
@@ -239,3 +245,181 @@ def body_shape(model: mujoco.MjModel, body: int, spacing: float, width: float | 
         extents = np.array([geom_extent_y(model, g) for g in geoms])
         width = float(extents[:, 1].max() - extents[:, 0].min())
     return shape_from_loops(name, loops, spacing, width, min(geom_thickness(model, g) for g in geoms))
+
+
+# ---------------------------------------------------------------------------------------------
+# the geoms' surfaces in 3D: the elements of 3D resistive force theory (terrasph.rft3d)
+
+def _zone(radius: float, z_low: float, z_high: float, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """Patches of the sphere of `radius` between heights z_low·r and z_high·r (−1 ≤ z_low < z_high ≤ 1):
+    bands equal in height, so equal in area (Archimedes), each cut into equal sectors about `length`
+    long; each patch's point on the sphere (at its band's mean height and its sector's middle) and
+    area. The points over the radius are the outward normals."""
+    arc = radius * (math.acos(z_low) - math.acos(z_high))
+    bands = max(1, math.ceil(arc / length))
+    edges = np.linspace(z_low, z_high, bands + 1)
+    points, areas = [], []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        z = 0.5 * (lo + hi)
+        ring = math.sqrt(max(0.0, 1.0 - z * z))
+        sectors = max(3, math.ceil(2 * math.pi * radius * ring / length))
+        phi = 2 * math.pi * (np.arange(sectors) + 0.5) / sectors
+        points.append(radius * np.column_stack([ring * np.cos(phi), ring * np.sin(phi), np.full(sectors, z)]))
+        areas.append(np.full(sectors, 2 * math.pi * radius * radius * (hi - lo) / sectors))
+    return np.concatenate(points), np.concatenate(areas)
+
+
+def _disc(radius: float, z: float, up: bool, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The disc of `radius` at height `z` facing +z (`up`) or −z, as rings about `length` wide cut
+    into sectors about `length` long: points, normals and areas."""
+    rings = max(1, math.ceil(radius / length))
+    edges = np.linspace(0.0, radius, rings + 1)
+    points, areas = [], []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        middle = math.sqrt(0.5 * (lo * lo + hi * hi))  # halves the ring's area
+        sectors = max(3, math.ceil(2 * math.pi * middle / length))
+        phi = 2 * math.pi * (np.arange(sectors) + 0.5) / sectors
+        points.append(np.column_stack([middle * np.cos(phi), middle * np.sin(phi), np.full(sectors, z)]))
+        areas.append(np.full(sectors, math.pi * (hi * hi - lo * lo) / sectors))
+    point = np.concatenate(points)
+    normal = np.zeros_like(point)
+    normal[:, 2] = 1.0 if up else -1.0
+    return point, normal, np.concatenate(areas)
+
+
+def _tube(radius: float, half: float, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The side of a cylinder of `radius` along z over [−half, half]: points, normals and areas."""
+    sectors = max(8, math.ceil(2 * math.pi * radius / length))
+    rows = max(1, math.ceil(2 * half / length))
+    phi = 2 * math.pi * (np.arange(sectors) + 0.5) / sectors
+    z = -half + 2 * half * (np.arange(rows) + 0.5) / rows
+    p, h = np.meshgrid(phi, z, indexing="ij")
+    normal = np.column_stack([np.cos(p.ravel()), np.sin(p.ravel()), np.zeros(p.size)])
+    point = radius * normal + np.column_stack([np.zeros(p.size), np.zeros(p.size), h.ravel()])
+    return point, normal, np.full(p.size, 2 * math.pi * radius * 2 * half / p.size)
+
+
+def _triangles(vertices: np.ndarray, faces: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A triangle mesh (counter-clockwise faces seen from outside) with every triangle split in four
+    at its edges' middles until its longest edge is at most `length`: centroids, normals, areas."""
+    tri = vertices[faces]  # (F, 3 corners, 3)
+    done = []
+    while len(tri):
+        longest = np.max(np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2), axis=1)
+        small = longest <= length
+        done.append(tri[small])
+        big = tri[~small]
+        a, b, c = big[:, 0], big[:, 1], big[:, 2]
+        ab, bc, ca = 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)
+        tri = np.concatenate([np.stack(t, axis=1) for t in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))])
+    tri = np.concatenate(done)
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    twice = np.linalg.norm(cross, axis=1)
+    keep = twice > 0
+    return tri[keep].mean(axis=1), cross[keep] / twice[keep, None], 0.5 * twice[keep]
+
+
+def _mesh(model: mujoco.MjModel, geom: int) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices and faces of a mesh geom, in the geom's frame."""
+    mesh = int(model.geom_dataid[geom])
+    start, count = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
+    first, faces = int(model.mesh_faceadr[mesh]), int(model.mesh_facenum[mesh])
+    return (np.asarray(model.mesh_vert[start:start + count], dtype=float),
+            np.asarray(model.mesh_face[first:first + faces], dtype=int))
+
+
+def geom_surface(model: mujoco.MjModel, geom: int, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The geom's surface as patches about `length` (m) across, in its body's frame: centres (K, 3) on
+    the surface, unit outward normals (K, 3) and areas (K,) summing to the geom's surface area (a
+    sphere, capsule, cylinder, ellipsoid or box exactly; a mesh is its triangles, split until
+    each is at most `length` long). ConfigError for a plane, height field or SDF (naming it)."""
+    kind = int(model.geom_type[geom])
+    size = np.asarray(model.geom_size[geom], dtype=float)
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        point, area = _zone(size[0], -1.0, 1.0, length)
+        normal = point / size[0]
+    elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        r, h = size[0], size[1]
+        top, top_area = _zone(r, 0.0, 1.0, length)
+        bottom, bottom_area = _zone(r, -1.0, 0.0, length)
+        side = _tube(r, h, length)
+        point = np.concatenate([top + [0, 0, h], bottom - [0, 0, h], side[0]])
+        normal = np.concatenate([top / r, bottom / r, side[1]])
+        area = np.concatenate([top_area, bottom_area, side[2]])
+    elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        parts = [_tube(size[0], size[1], length), _disc(size[0], size[1], True, length),
+                 _disc(size[0], -size[1], False, length)]
+        point, normal, area = (np.concatenate(column) for column in zip(*parts))
+    elif kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:  # the unit sphere stretched by S = diag(semi-axes)
+        unit, unit_area = _zone(1.0, -1.0, 1.0, length / float(size[:3].max()))
+        point = unit * size[:3]
+        inverse = unit / size[:3]  # S⁻¹ n: the stretched normal and the area's scale det(S)·|S⁻¹ n|
+        scale = np.linalg.norm(inverse, axis=1)
+        normal, area = inverse / scale[:, None], unit_area * float(np.prod(size[:3])) * scale
+    elif kind == mujoco.mjtGeom.mjGEOM_BOX:
+        parts = []
+        for axis in range(3):
+            u, v = [k for k in range(3) if k != axis]
+            nu, nv = (max(1, math.ceil(2 * size[k] / length)) for k in (u, v))
+            a, b = np.meshgrid(size[u] * (2 * (np.arange(nu) + 0.5) / nu - 1),
+                               size[v] * (2 * (np.arange(nv) + 0.5) / nv - 1), indexing="ij")
+            for sign in (-1.0, 1.0):
+                point = np.zeros((a.size, 3))
+                point[:, u], point[:, v], point[:, axis] = a.ravel(), b.ravel(), sign * size[axis]
+                normal = np.zeros_like(point)
+                normal[:, axis] = sign
+                parts.append((point, normal, np.full(a.size, 4 * size[u] * size[v] / a.size)))
+        point, normal, area = (np.concatenate(column) for column in zip(*parts))
+    elif kind == mujoco.mjtGeom.mjGEOM_MESH:
+        point, normal, area = _triangles(*_mesh(model, geom), length)
+    else:
+        raise _not_convertible(model, geom)
+    centre, rotation = _in_body_frame(model, geom)
+    return centre + point @ rotation.T, normal @ rotation.T, area
+
+
+def inside_geom(model: mujoco.MjModel, geom: int, points: np.ndarray) -> np.ndarray:
+    """Which `points` (K, 3, in the geom's body frame) lie strictly inside the solid geom (a mesh
+    taken as convex, MuJoCo's collision hull of it)."""
+    centre, rotation = _in_body_frame(model, geom)
+    local = (points - centre) @ rotation
+    kind = int(model.geom_type[geom])
+    size = np.asarray(model.geom_size[geom], dtype=float)
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return np.linalg.norm(local, axis=1) < size[0]
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        axis = np.clip(local[:, 2], -size[1], size[1])
+        return np.hypot(np.hypot(local[:, 0], local[:, 1]), local[:, 2] - axis) < size[0]
+    if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        return (np.hypot(local[:, 0], local[:, 1]) < size[0]) & (np.abs(local[:, 2]) < size[1])
+    if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        return np.sum((local / size[:3]) ** 2, axis=1) < 1.0
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        return np.all(np.abs(local) < size[:3], axis=1)
+    if kind == mujoco.mjtGeom.mjGEOM_MESH:
+        vertices, faces = _mesh(model, geom)
+        tri = vertices[faces]
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        return np.all(np.einsum("kfi,fi->kf", local[:, None, :] - tri[None, :, 0], normal) < 0, axis=1)
+    raise _not_convertible(model, geom)
+
+
+def body_surface(model: mujoco.MjModel, body: int, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The outer surface of MuJoCo body `body`'s collision geoms (the same geoms as
+    :func:`body_shape`'s) in its frame: patches about `length` (m) across (:func:`geom_surface`),
+    without those just outside which lies another of its geoms (the union's inside); centres,
+    outward normals, areas."""
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+    geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body and is_collision_geom(model, g)]
+    if not geoms:
+        raise ConfigError(f"body '{name}' has no collision geom to meet the terrain with")
+    parts = [geom_surface(model, g, length) for g in geoms]
+    kept = []
+    for k, (point, normal, _) in enumerate(parts):
+        probe = point + 1e-3 * length * normal
+        outer = np.ones(len(point), bool)
+        for j, other in enumerate(geoms):
+            if j != k:
+                outer &= ~inside_geom(model, other, probe)
+        kept.append(outer)
+    return tuple(np.concatenate([part[i][keep] for part, keep in zip(parts, kept)]) for i in range(3))  # type: ignore[return-value]

@@ -30,7 +30,7 @@ from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
 from terrasph.robots.mjcf import Coupling, PlanarRobot, load_model, coupled_body_id
 
 __all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "BedCrossings", "floor_geoms", "lowest_points", "switch_off_floor",
-           "terrain_robot"]
+           "terrain_model", "terrain_robot"]
 
 LOG = logging.getLogger(__name__)
 
@@ -91,15 +91,13 @@ def lowest_points(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, float
     return lowest
 
 
-def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float, surface: float, x: float, *,
-                  bodies: Sequence[str] = (), couple_below: float = COUPLE_BELOW,
-                  widths: Mapping[str, float] | None = None, gravity: float = 9.81) -> PlanarRobot:
-    """A :class:`PlanarRobot` of the MJCF model with its floor replaced by a bed whose free surface is
-    at z = `surface` and its centre of mass at `x` (module docstring); coupled bodies `bodies` (by
-    name) or, if none are named, those with a collision geom lower than `couple_below` (m) above
-    the floor at start; each body's shape from its collision geoms at `spacing` Δx, its width from
-    them unless `widths` gives it (m, by body name). The remaining checks (planar joints, gravity,
-    mass) are :class:`PlanarRobot`'s and :class:`CoupledSimulation`'s."""
+def terrain_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence[str] = (),
+                  couple_below: float = COUPLE_BELOW) -> tuple[mujoco.MjModel, mujoco.MjData, float, list[int]]:
+    """The MJCF model with its floor switched off (module docstring), its data at the start pose,
+    the floor's height (m) and the ids of the bodies that meet the terrain: `bodies` (by name) or,
+    if none are named, those with a collision geom lower than `couple_below` (m) above the floor.
+    Both terrains start here: the SPH's :func:`terrain_robot` and the 3D RFT's
+    (:func:`terrasph.robots.rft3d_terrain.rft_robot`)."""
     if not (isinstance(couple_below, (int, float)) and math.isfinite(couple_below) and couple_below > 0):
         raise ConfigError(f"parameter 'couple_below' = {couple_below!r} is invalid: allowed a finite number > 0 (m)")
     model = load_model(mjcf)
@@ -114,6 +112,19 @@ def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float,
         if not chosen:
             raise ConfigError(f"no body of the model has a collision geom lower than couple_below = {couple_below:g} m "
                               "above the floor; raise it or name the bodies that meet the terrain")
+    return model, data, level, chosen
+
+
+def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float, surface: float, x: float, *,
+                  bodies: Sequence[str] = (), couple_below: float = COUPLE_BELOW,
+                  widths: Mapping[str, float] | None = None, gravity: float = 9.81) -> PlanarRobot:
+    """A :class:`PlanarRobot` of the MJCF model with its floor replaced by a bed whose free surface is
+    at z = `surface` and its centre of mass at `x` (module docstring); coupled bodies `bodies` (by
+    name) or, if none are named, those with a collision geom lower than `couple_below` (m) above
+    the floor at start (:func:`terrain_model`); each body's shape from its collision geoms at
+    `spacing` Δx, its width from them unless `widths` gives it (m, by body name). The remaining
+    checks (planar joints, gravity, mass) are :class:`PlanarRobot`'s and :class:`CoupledSimulation`'s."""
+    model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below)
     widths = dict(widths or {})
     couplings = {}
     for body in chosen:
