@@ -35,7 +35,7 @@ def test_the_floor_is_replaced_by_the_bed_and_the_bodies_near_it_coupled(caplog)
     surface, x = 0.1, 0.4
     with caplog.at_level(logging.WARNING):
         robot = terrain_robot(HOPPER, DX, surface, x)
-    assert "floor (geom 'floor') is replaced by the granular bed" in caplog.text
+    assert "floor (geom 'floor') is replaced by the terrain" in caplog.text
     floor = mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     assert robot.model.geom_contype[floor] == 0 and robot.model.geom_conaffinity[floor] == 0
     # hopper.xml: the foot capsule (radius 0.06) at z = 0.1 and the leg (0.04, half-length 0.25) at

@@ -76,8 +76,8 @@ def switch_off_floor(model: mujoco.MjModel, geoms: Sequence[int]) -> None:
         model.geom_conaffinity[g] = 0
     if geoms:
         names = ", ".join(f"'{_geom_name(model, g)}'" for g in geoms)
-        LOG.warning("terrasph: the model's floor (geom %s) is replaced by the granular bed; its MuJoCo contacts "
-                    "are switched off", names)
+        LOG.warning("terrasph: the model's floor (geom %s) is replaced by the terrain (the SPH bed or RFT's "
+                    "sand); its MuJoCo contacts are switched off", names)
 
 
 def lowest_points(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, float]:
