@@ -65,6 +65,13 @@ def _digest(arrays: Mapping[str, np.ndarray], texts: Mapping[str, str]) -> str:
     return h.hexdigest()
 
 
+def grain_free_state(steps: int) -> dict[str, Any]:
+    """The core ``state()`` of a terrain without grains (RFT): no particles, walls, bodies or removals,
+    only the step counter, so that its checkpoints share the SPH's format."""
+    return {"granular": {}, "walls": {}, "counters": {"steps": int(steps)}, "bodies": [], "removals": [],
+            "wall_loads": {"tracked": False}}
+
+
 def write_checkpoint(path: str | os.PathLike[str], state: Mapping[str, Any], config: Mapping[str, Any],
                      progress: Mapping[str, Any] | None = None) -> pathlib.Path:
     """Writes a core ``state()`` with the configuration it belongs to and the run loop's

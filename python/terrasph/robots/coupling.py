@@ -81,6 +81,16 @@ def divergences(data: mujoco.MjData) -> int:
     return sum(int(data.warning[warning].number) for warning in _DIVERGENCE_WARNINGS)
 
 
+def divergence_error(steps: str, step: int, time: float, hint: str = "") -> InstabilityError:
+    """The error of MuJoCo steps that could not be integrated (MuJoCo reset the robot's data): the run
+    is unstable, as an SPH blow-up is (particle -1: no grain is at fault). `steps` says which steps
+    ("at step 12", "within steps 3–9"), `step` and `time` (s) are the error's."""
+    error = InstabilityError(f"MuJoCo could not integrate the robot's state (bad qacc, qpos or qvel) {steps}, "
+                             f"t = {time:.6g} s, and reset it{hint}")
+    error.step, error.time, error.particle, error.reason = step, time, -1, "robot"
+    return error
+
+
 def unwrapped(previous: float, wrapped: float) -> float:
     """The angle equal to `wrapped` modulo 2π nearest to `previous` (a step turns far less than π)."""
     return previous + math.remainder(wrapped - previous, 2.0 * math.pi)
@@ -351,11 +361,8 @@ class CoupledSimulation(RobotStepper):
     def _diverged(self) -> InstabilityError:
         """The error of a MuJoCo step that could not be integrated (it reset the robot's data):
         the coupled run is unstable, as an SPH blow-up is (particle -1: no grain is at fault)."""
-        error = InstabilityError(f"MuJoCo could not integrate the robot's state (bad qacc, qpos or qvel) at step "
-                                 f"{self.sim.step_count}, t = {self.sim.time:.6g} s, and reset it; a smaller step "
-                                 "(numerics.cfl) or a heavier body may help")
-        error.step, error.time, error.particle, error.reason = self.sim.step_count, self.sim.time, -1, "robot"
-        return error
+        return divergence_error(f"at step {self.sim.step_count}", self.sim.step_count, self.sim.time,
+                                "; a smaller step (numerics.cfl) or a heavier body may help")
 
     def granular_load(self, body: CoupledBody) -> tuple[np.ndarray, float]:
         """Force (N) and clockwise torque (N·m, about the body origin) of the grains on `body` from the

@@ -32,10 +32,10 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph import InstabilityError, rft
+from terrasph import rft
 from terrasph.config import ConfigError
 from terrasph.rft3d import BodyElements, element_forces
-from terrasph.robots.coupling import _velocity_servos, divergences, mujoco_state, restore_mujoco_state
+from terrasph.robots.coupling import _velocity_servos, divergence_error, divergences, mujoco_state, restore_mujoco_state
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = ["DIFFERENCE_SPEED", "RFT3D_TIME_STEP", "RFT3DCoupling", "Robot3D", "RobotLoads3D", "rft_robot"]
@@ -280,10 +280,7 @@ class RFT3DCoupling:
         for i, k in enumerate(owners):
             self._sums[k] += wrench[i] * self._dt
         if divergences(self.robot.data) > self._divergences:
-            error = InstabilityError(f"MuJoCo could not integrate the robot's state (bad qacc, qpos or qvel) at step "
-                                     f"{steps}, t = {time:.6g} s, and reset it")
-            error.step, error.time, error.particle, error.reason = steps, time, -1, "robot"
-            raise error
+            raise divergence_error(f"at step {steps}", steps, time)
 
     def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
         """Steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the number taken.
@@ -374,10 +371,9 @@ class RFT3DCoupling:
     # -- checkpoints ---------------------------------------------------------------------------
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
         """Writes MuJoCo's state and the stepper's memory (under ``progress["robot"]``) to `path`."""
-        from terrasph.checkpoint import write_checkpoint
+        from terrasph.checkpoint import grain_free_state, write_checkpoint
 
-        state = {"granular": {}, "walls": {}, "counters": {"steps": self._steps}, "bodies": [], "removals": [],
-                 "wall_loads": {"tracked": False}}
+        state = grain_free_state(self._steps)
         saved = {**mujoco_state(self.robot), "sums": self._sums.tolist(), "since": self._since}
         return write_checkpoint(path, state, self.describe(), {**(progress or {}), "robot": saved})
 

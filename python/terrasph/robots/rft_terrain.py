@@ -41,9 +41,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph import InstabilityError, _core, rft
+from terrasph import _core, rft
 from terrasph.config import ConfigError
-from terrasph.robots.coupling import RobotStepper, divergences, mujoco_state, restore_mujoco_state, velocity_servos
+from terrasph.robots.coupling import RobotStepper, divergence_error, divergences, mujoco_state, restore_mujoco_state, velocity_servos
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
 __all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "mujoco_library"]
@@ -148,10 +148,7 @@ class RFTCoupling(RobotStepper):
         reset the robot: its time back to 0) in the steps taken since `time` (s), step `steps`, as the
         SPH coupling does; the error's time and step are those of the start of that call."""
         if divergences(self.robot.data) > self._divergences:
-            error = InstabilityError(f"MuJoCo could not integrate the robot's state (bad qacc, qpos or qvel) within "
-                                     f"steps {steps}–{self.step_count} from t = {time:.6g} s, and reset it")
-            error.step, error.time, error.particle, error.reason = steps, time, -1, "robot"
-            raise error
+            raise divergence_error(f"within steps {steps}–{self.step_count}", steps, time)
 
     def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
         """Steps until `t_end` (s) is reached or passed, at most `max_steps`, many steps per call of the
@@ -247,10 +244,9 @@ class RFTCoupling(RobotStepper):
     # -- checkpoints ---------------------------------------------------------------------------
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
         """Writes MuJoCo's state and the stepper's memory (under ``progress["robot"]``) to `path`."""
-        from terrasph.checkpoint import write_checkpoint
+        from terrasph.checkpoint import grain_free_state, write_checkpoint
 
-        state = {"granular": {}, "walls": {}, "counters": {"steps": self.step_count}, "bodies": [], "removals": [],
-                 "wall_loads": {"tracked": False}}
+        state = grain_free_state(self.step_count)
         return write_checkpoint(path, state, self.describe(), {**(progress or {}), "robot": self.state()})
 
     def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:

@@ -402,10 +402,9 @@ class RFTLegSweep:
 
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> Path:
         """Writes the sweep's time, step count and running load sums with the run loop's `progress`."""
-        from terrasph.checkpoint import write_checkpoint
+        from terrasph.checkpoint import grain_free_state, write_checkpoint
 
-        state = {"granular": {}, "walls": {}, "counters": {"steps": self._steps}, "bodies": [], "removals": [],
-                 "wall_loads": {"tracked": False}}
+        state = grain_free_state(self._steps)
         sweep = {"time": self._time, "since": self._since, "impulse": self._impulse.tolist()}
         return write_checkpoint(path, state, self.describe(), {**(progress or {}), "sweep": sweep})
 
