@@ -2,7 +2,7 @@
 "3D RFT"): dropped on the sand, then all four wheels commanded a constant spin; prints the travel,
 the chassis height, the wheels' spin and the simulated seconds per CPU second on one core.
 
-    OMP_NUM_THREADS=1 python benchmarks/studies/rft3d_rover.py [--time-step 0.002] [--element-length 0.013] \\
+    OMP_NUM_THREADS=1 python benchmarks/studies/rft3d_rover.py [--time-step 0.001] [--element-length 0.013] \\
         [--drop 0.5] [--t-end 2.5] [--omega 3.0] [--rft-table generic|TABLE.json]
 """
 
@@ -15,14 +15,14 @@ from pathlib import Path
 import numpy as np
 
 import terrasph
-from terrasph.robots.rft3d_terrain import RFT3DCoupling, rft_robot
+from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, rft_robot
 
 ROVER = Path(terrasph.__file__).parent / "robots" / "models" / "rover4.xml"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--time-step", type=float, default=0.002, help="MuJoCo's step (s)")
+    parser.add_argument("--time-step", type=float, default=RFT3D_TIME_STEP, help="MuJoCo's step (s)")
     parser.add_argument("--element-length", type=float, default=None,
                         help="surface elements about this long (m); default: terrasph.rft3d.ELEMENT_FRACTION")
     parser.add_argument("--drop", type=float, default=0.5, help="time with the wheels held still (s)")

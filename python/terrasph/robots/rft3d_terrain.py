@@ -40,9 +40,9 @@ from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = ["DIFFERENCE_SPEED", "RFT3D_TIME_STEP", "RFT3DCoupling", "Robot3D", "RobotLoads3D", "rft_robot"]
 
-#: MuJoCo's step on the 3D RFT terrain (s): the rover's travel, spin and sinkage at 2e-3 s within 2.1 % of
-#: those at 5e-4 s (docs/rft.md, "3D RFT")
-RFT3D_TIME_STEP = 2e-3
+#: MuJoCo's step on the 3D RFT terrain (s): the rover's travel at 1e-3 s within 0.3 % of that at 5e-4 s,
+#: at 2e-3 s 12 % short (docs/rft.md, "3D RFT"; benchmarks/studies/rft3d_rover.py)
+RFT3D_TIME_STEP = 1e-3
 
 #: the velocity step (m/s; an angular one of this over the body's size) of the forward differences
 #: that give the wrench's Jacobian: far below the regularisation speed, 1e-4 m/s, over which the load
