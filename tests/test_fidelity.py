@@ -70,3 +70,23 @@ def test_each_tier_keeps_the_leg_wheels_outcomes_within_its_stated_error() -> No
         assert outcome["steps"] < reference["steps"] / 3
         for key in ("mean_slip", "mean_sinkage"):
             assert outcome[key] == pytest.approx(reference[key], rel=band), (tier, key, outcome[key], reference[key])
+
+
+@pytest.mark.parametrize("tier", ["standard", "fast", pytest.param("reference", marks=pytest.mark.slow)])
+def test_every_leg_rotation_tier_keeps_the_bed_at_rest_during_the_pause(tier) -> None:
+    """Nothing moves the bed during the pause before the sweep, so at every tier the grains stay
+    where the geostatic start put them (fast: below 0.003 m/s, no grain higher by 0.1 mm after 0.1 s).
+    Mass scaling 16 at C = 0.9 (the fast tier until 2026-12-05) erupted here: the top grains 5 mm
+    higher and 0.18 m/s after 0.1 s, the bed 2–4 cm higher for the whole sweep (docs/fidelity.md)."""
+    import numpy as np
+
+    from terrasph.scenes.leg_rotation import build_leg_rotation
+    from terrasph.simulation import Simulation
+
+    config = LegRotation(leg="c-leg", bed_depth=0.08, settle_time=0.3, fidelity=tier)
+    scene, material, numerics = build_leg_rotation(config)
+    sim = Simulation(scene, material, numerics, width=config.width)
+    top = float(sim.position[:, 1].max())
+    sim.advance(0.1)
+    assert float(sim.position[:, 1].max()) - top < 0.25 * config.grid_spacing
+    assert float(np.abs(sim.velocity).max()) < 0.02
