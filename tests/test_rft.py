@@ -73,6 +73,51 @@ def test_fourier_basis_reproduces_the_map():
     np.testing.assert_allclose(ZETA * (bz @ G.vector), az, rtol=1e-12, atol=1e-6)
 
 
+def _random_series(rng: np.random.Generator, order: tuple[int, int] = (3, 3)) -> rft.RFTCoefficients:
+    names = rft.series_names(*order)
+    return rft.RFTCoefficients(dict(zip(names, rng.normal(0.0, 0.2, len(names)).tolist())), zeta=1.5e5)
+
+
+def test_every_term_name_of_the_series_reads_back():
+    names = rft.series_names(rft.MAX_ORDER, rft.MAX_ORDER)
+    assert len(set(names)) == len(names)
+    assert all(rft.term_name(rft.parse_term(name)) == name for name in names)
+    assert set(rft.series_names(1, 1)) == set(rft.COEFFICIENT_NAMES)  # Li et al.'s nine are order (1, 1)
+
+
+def test_any_map_of_the_series_keeps_vertical_motion_mirror_symmetric(rng):
+    """Pushed straight down or up, a plate and its mirror image (β → −β) meet the same α_z and opposite
+    α_x: the symmetry the x → −x mirroring of the law needs, which the terms' parity rule guarantees
+    for every map, not only Li et al.'s."""
+    table = _random_series(rng, (rft.MAX_ORDER, rft.MAX_ORDER))
+    beta = np.linspace(-1.5, 1.5, 13)
+    for gamma in (math.pi / 2, -math.pi / 2):
+        ax, az = table.alpha(beta, gamma)
+        ax_m, az_m = table.alpha(-beta, gamma)
+        np.testing.assert_allclose(az, az_m, atol=1e-9 * table.zeta)
+        np.testing.assert_allclose(ax, -ax_m, atol=1e-9 * table.zeta)
+
+
+def test_compiled_load_evaluates_a_higher_order_map_as_its_basis_does(rng):
+    """One horizontal element at depth d below the surface, its normal leading, moving in direction γ:
+    the compiled core's load (angle addition of the multiples, cpp/src/rft.cpp) is (−α_x, α_z) d ℓ w of
+    the map evaluated term by term in numpy (RFTCoefficients.alpha), and its velocity Jacobian matches
+    central differences."""
+    table = _random_series(rng)
+    element = rft.SurfaceElements(np.array([[0.0, -0.03]]), np.array([[0.0, -1.0]]), np.array([0.002]), WIDTH)
+    for gamma in (0.3, 0.9, 1.4):
+        velocity = 0.02 * np.array([math.cos(gamma), -math.sin(gamma)])
+        load = rft.body_load(element, 0.0, (0.0, 0.0), velocity, 0.0, 0.0, table, jacobian=True)
+        ax, az = table.alpha(0.0, gamma)
+        assert load.force == pytest.approx([-ax * 0.03 * 0.002 * WIDTH, az * 0.03 * 0.002 * WIDTH], rel=1e-12)
+        for k in range(2):
+            step = np.zeros(2)
+            step[k] = 1e-7
+            up = rft.body_load(element, 0.0, (0.0, 0.0), velocity + step, 0.0, 0.0, table).force
+            down = rft.body_load(element, 0.0, (0.0, 0.0), velocity - step, 0.0, 0.0, table).force
+            np.testing.assert_allclose(load.jacobian[:2, k], (up - down) / 2e-7, rtol=1e-5, atol=1e-9)
+
+
 # -- hand-computed plates ---------------------------------------------------------------------------
 
 @pytest.mark.parametrize("speed, alpha_hat", [(-0.01, 1.0), (0.01, -0.25)])
@@ -99,7 +144,8 @@ def test_vertical_plate_dragged_forward():
     depth, half = 0.06, 0.0032
     elements = rft.SurfaceElements.from_shape(bodies.flat_leg(depth, 2 * half, WIDTH, 0.0016), 0.0005)
     load = rft.body_load(elements, 0.0, (0.0, 0.0), np.array([0.05, 0.0]), 0.0, 0.0, G)
-    alpha_x, alpha_z = (-G.C11 + G.C01 - G.Cm11) * ZETA, (G.A00 - G.A10) * ZETA
+    k = G.coefficients
+    alpha_x, alpha_z = (-k["C11"] + k["C01"] - k["Cm11"]) * ZETA, (k["A00"] - k["A10"]) * ZETA
     assert load.force[0] == pytest.approx(-alpha_x * WIDTH * depth ** 2 / 2, rel=1e-6)
     assert load.force[1] == pytest.approx(alpha_z * WIDTH * depth ** 2 / 2, rel=1e-6)
     expected = alpha_x * WIDTH * depth ** 3 / 3 - half * alpha_z * WIDTH * depth ** 2 / 2
@@ -161,7 +207,8 @@ def test_overlapping_spokes_keep_only_the_outer_surface():
 # -- tables and bad input ------------------------------------------------------------------------------
 
 def test_coefficient_table_round_trip(tmp_path):
-    table = rft.RFTCoefficients(*(G.vector * 1.1), zeta=3.0e5, source="test")
+    table = rft.RFTCoefficients({name: 1.1 * value for name, value in G.coefficients.items()} | {"A22": 0.02},
+                                zeta=3.0e5, source="test")
     path = rft.save_coefficients(table, tmp_path / "map.json", correlation=0.9)
     assert rft.coefficient_table(str(path)) == table
     assert json.loads(path.read_text())["units"]["zeta"] == "N/m^3"
@@ -170,7 +217,10 @@ def test_coefficient_table_round_trip(tmp_path):
 @pytest.mark.parametrize("content, message", [
     ("{not json", "is not JSON"),
     ('{"format": "other"}', "malformed"),
-    ('{"format": "terrasph-rft-coefficients", "zeta": 1.0, "coefficients": {"A00": 1}}', "exactly A00"),
+    ('{"format": "terrasph-rft-coefficients", "zeta": 1.0, "coefficients": {}}', "a mapping of term names"),
+    ('{"format": "terrasph-rft-coefficients", "zeta": 1.0, "coefficients": {"A01": 1}}', "not a term of the map"),
+    ('{"format": "terrasph-rft-coefficients", "zeta": 1.0, "coefficients": {"E10": 1}}', "not a term's name"),
+    ('{"format": "terrasph-rft-coefficients", "zeta": 1.0, "coefficients": {"A50": 1}}', "not a term"),
     ('{"format": "terrasph-rft-coefficients", "zeta": -1.0, "coefficients": '
      + json.dumps(dict.fromkeys(rft.COEFFICIENT_NAMES, 0.1)) + "}", "'zeta'"),
 ])
@@ -293,14 +343,33 @@ def test_fit_recovers_a_known_map_from_noisy_samples(rng):
     """49 samples of a map (the generic one with a different ζ and tilted coefficients), with noise of
     2 % of ζ: the fit's ζ is within 2 % and its shape correlates with the true one at r > 0.99 (the
     least-squares error of 9 unknowns from 98 values at that noise)."""
-    truth = rft.RFTCoefficients(*(G.vector + 0.03 * np.arange(9) / 9), zeta=1.0)
-    truth = rft.RFTCoefficients(*(truth.vector / float(rft.fourier_basis(0.0, math.pi / 2)[1] @ truth.vector)),
-                                zeta=3.1e5)
+    tilted = G.vector + 0.03 * np.arange(9) / 9
+    tilted /= float(rft.fourier_basis(0.0, math.pi / 2)[1] @ tilted)
+    truth = rft.RFTCoefficients(dict(zip(rft.COEFFICIENT_NAMES, tilted.tolist())), zeta=3.1e5)
     fitted, quality = rft.fit_coefficients(*_sampled(truth, rng, noise=0.02))
     assert fitted.zeta == pytest.approx(truth.zeta, rel=0.02)
     correlation = rft.map_correlation(fitted, truth)
     assert correlation["r_x"] > 0.99 and correlation["r_z"] > 0.99
     assert quality["rms_residual"] < 0.03 * truth.zeta
+
+
+def test_a_higher_order_fit_recovers_its_map_and_leave_one_out_measures_the_noise(rng):
+    """Li et al.'s generic map with random terms up to order (2, 3) added, sampled on a 12 × 13 grid with noise of 2 % of ζ: the order-(2, 3) fit gets ζ
+    within 3 % (a sum of 35 fitted terms) and its held-out (leave-one-out) rms error is the noise's size, 1.5–3 % of ζ; an order
+    (1, 2) fit cannot carry that map, and its held-out error says so (above 3 × the noise)."""
+    names = rft.series_names(2, 3)
+    values = rng.normal(0.0, 0.1, len(names)) + np.array([G.coefficients.get(name, 0.0) for name in names])
+    values /= float(rft.fourier_basis(0.0, math.pi / 2, names)[1] @ values)
+    truth = rft.RFTCoefficients(dict(zip(names, values.tolist())), zeta=2.0e5)
+    beta, gamma = (a.ravel() for a in np.meshgrid(np.linspace(-math.pi / 2, 1.31, 12), np.linspace(-math.pi / 2, math.pi / 2, 13)))
+    ax, az = truth.alpha(beta, gamma)
+    noise = 0.02 * truth.zeta
+    ax, az = ax + noise * rng.standard_normal(ax.shape), az + noise * rng.standard_normal(az.shape)
+    fitted, quality = rft.fit_coefficients(beta, gamma, ax, az, names=names)
+    assert fitted.zeta == pytest.approx(truth.zeta, rel=0.03)
+    assert 0.75 * noise < quality["rms_loo"] < 1.5 * noise
+    _, lower = rft.fit_coefficients(beta, gamma, ax, az, names=rft.series_names(1, 2))
+    assert lower["rms_loo"] > 3 * noise
 
 
 def test_rft_calibrate_command_fits_a_sweep(tmp_path, rng):
@@ -313,10 +382,16 @@ def test_rft_calibrate_command_fits_a_sweep(tmp_path, rng):
                                                   "spacing": 0.005, "plate_thickness": 0.015}}
              for b, g, x, z in zip(beta, gamma, ax, az)]
     (tmp_path / "manifest.json").write_text(json.dumps({"cases": cases}))
-    assert main(["rft-calibrate", str(tmp_path), "--out", str(tmp_path / "map.json")]) == 0
+    assert main(["rft-calibrate", str(tmp_path), "--out", str(tmp_path / "map.json"), "--order", "1", "1"]) == 0
     table = rft.coefficient_table(str(tmp_path / "map.json"))
-    np.testing.assert_allclose(table.vector, G.vector, atol=1e-9)
+    assert set(table.names) == set(G.names)
+    np.testing.assert_allclose([table.coefficients[k] for k in G.names], G.vector, atol=1e-9)
     assert table.zeta == pytest.approx(ZETA, rel=1e-9)
+    # the default chooses an order by leave-one-out error; any order holds the generic map exactly
+    assert main(["rft-calibrate", str(tmp_path), "--out", str(tmp_path / "auto.json")]) == 0
+    chosen = rft.coefficient_table(str(tmp_path / "auto.json"))
+    grid = np.meshgrid(np.linspace(-1.5, 1.5, 9), np.linspace(-1.5, 1.5, 9))
+    np.testing.assert_allclose(chosen.alpha(*grid), G.alpha(*grid), atol=1e-6 * ZETA)
     with pytest.raises(SystemExit) as stop:
         main(["rft-calibrate", str(tmp_path / "none"), "--out", str(tmp_path / "x.json")])
     assert stop.value.code == 2

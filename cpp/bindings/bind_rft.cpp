@@ -4,6 +4,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstdlib>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -26,10 +27,16 @@ void check_elements(const CArray& centre, const CArray& normal, const CArray& le
       throw py::value_error("RFT elements: centre and normal must be (count, 2) and length (count,)");
 }
 
-tr::Coefficients coefficients(const std::vector<double>& c, double zeta) {
-  if (c.size() != 9) throw py::value_error("RFT coefficients: nine expected");
+/// A map's terms as (vertical, sine, m, n, value) tuples (terrasph.rft.RFTCoefficients.terms).
+using TermTuple = std::tuple<bool, bool, int, int, double>;
+
+tr::Coefficients coefficients(const std::vector<TermTuple>& terms, double zeta) {
   tr::Coefficients out;
-  std::copy(c.begin(), c.end(), out.c.begin());
+  for (const auto& [vertical, sine, m, n, value] : terms) {
+    if (std::abs(m) > tr::kMaxOrder || n < 0 || n > tr::kMaxOrder)
+      throw py::value_error("RFT coefficients: a term's order exceeds " + std::to_string(tr::kMaxOrder));
+    out.terms.push_back({vertical, sine, m, n, value});
+  }
   out.zeta = zeta;
   return out;
 }
@@ -42,7 +49,7 @@ void bind_rft(py::module_& m) {
   m.def(
       "rft_body_load",
       [](const CArray& centre, const CArray& normal, const CArray& length, double width, double angle, double x,
-         double z, double vx, double vz, double omega, double surface, const std::vector<double>& c, double zeta,
+         double z, double vx, double vz, double omega, double surface, const std::vector<TermTuple>& c, double zeta,
          double regularisation, bool jacobian) {
         check_elements(centre, normal, length);
         const tr::ElementsView view{centre.data(), normal.data(), length.data(),
@@ -62,7 +69,7 @@ void bind_rft(py::module_& m) {
       .def(py::init([](const std::string& library, std::uintptr_t model, std::uintptr_t data,
                        const std::vector<std::tuple<int, CArray, CArray, CArray, double>>& bodies,
                        const std::vector<std::tuple<int, int, double, double, double, double>>& servos,
-                       double surface, const std::vector<double>& c, double zeta, double time_step,
+                       double surface, const std::vector<TermTuple>& c, double zeta, double time_step,
                        double regularisation, int iterations, int halvings, double tolerance) {
              std::vector<tr::RobotBody> robot_bodies;
              for (const auto& [id, centre, normal, length, width] : bodies) {

@@ -2,26 +2,44 @@
 #include "terrasph/rft.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 
 namespace terrasph::rft {
 
 namespace {
 
-/// α̂_x, α̂_z and their derivatives in γ (Li et al. 2013, supplementary Eq. S2, with the sums of
-/// angles expanded: sin(2β ± γ) = sin 2β cos γ ± cos 2β sin γ, ...).
+/// α̂_x, α̂_z and their derivatives in γ: Σ value · cos or sin(2mβ + nγ) over the map's terms (Li et
+/// al. 2013, supplementary Eq. S2, extended to higher orders; terrasph.rft), the multiples of the
+/// angles by angle addition.
 struct AlphaHat {
   double ax, az, dax, daz;
 };
 
-AlphaHat alpha_hat(const std::array<double, 9>& k, double cos2b, double sin2b, double cosg, double sing) {
-  const double a00 = k[0], a10 = k[1], b11 = k[2], b01 = k[3], bm11 = k[4];
-  const double c11 = k[5], c01 = k[6], cm11 = k[7], d10 = k[8];
+AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double cosg, double sing) {
+  std::array<double, kMaxOrder + 1> cb{}, sb{}, cg{}, sg{};  // cos, sin of 2mβ and nγ, m, n = 0 … kMaxOrder
+  cb[0] = cg[0] = 1.0;
+  for (int k = 1; k <= kMaxOrder; ++k) {
+    cb[k] = cb[k - 1] * cos2b - sb[k - 1] * sin2b;
+    sb[k] = sb[k - 1] * cos2b + cb[k - 1] * sin2b;
+    cg[k] = cg[k - 1] * cosg - sg[k - 1] * sing;
+    sg[k] = sg[k - 1] * cosg + cg[k - 1] * sing;
+  }
   AlphaHat out{};
-  out.az = a00 + a10 * cos2b + (b11 - bm11) * sin2b * cosg + (b11 + bm11) * cos2b * sing + b01 * sing;
-  out.daz = -(b11 - bm11) * sin2b * sing + (b11 + bm11) * cos2b * cosg + b01 * cosg;
-  out.ax = (c11 + cm11) * cos2b * cosg + (cm11 - c11) * sin2b * sing + c01 * cosg + d10 * sin2b;
-  out.dax = -(c11 + cm11) * cos2b * sing + (cm11 - c11) * sin2b * cosg - c01 * sing;
+  for (const Term& t : table.terms) {
+    const std::size_t m = static_cast<std::size_t>(std::abs(t.m)), n = static_cast<std::size_t>(t.n);
+    const double cm = cb[m], sm = t.m < 0 ? -sb[m] : sb[m];
+    const double cos_arg = cm * cg[n] - sm * sg[n], sin_arg = sm * cg[n] + cm * sg[n];  // of 2mβ + nγ
+    const double value = t.sine ? sin_arg : cos_arg;
+    const double slope = t.n * (t.sine ? cos_arg : -sin_arg);  // ∂/∂γ
+    if (t.vertical) {
+      out.az += t.value * value;
+      out.daz += t.value * slope;
+    } else {
+      out.ax += t.value * value;
+      out.dax += t.value * slope;
+    }
+  }
   return out;
 }
 
@@ -47,7 +65,7 @@ BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, dou
     const double cosg = sign * vx / speed, sing = -vz / speed;
     const double tx = nz, tz = -sign * nx;  // the face's tangent (cos β, sin β) up to sign
     const double cos2b = tx * tx - tz * tz, sin2b = 2.0 * tx * tz;
-    const AlphaHat a = alpha_hat(table.c, cos2b, sin2b, cosg, sing);
+    const AlphaHat a = alpha_hat(table, cos2b, sin2b, cosg, sing);
     const double weight = table.zeta * depth * elements.length[e] * elements.width;
     const double raw_x = -sign * a.ax * weight, raw_z = a.az * weight;  // σ ℓ w of the bare map (Li et al. Eq. 1)
     const bool ramp = regularisation > 0.0 && normal_speed < regularisation;

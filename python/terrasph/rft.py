@@ -58,15 +58,19 @@ from terrasph import _core
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 
-__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "REGULARISATION_SPEED", "TABLE_FORMAT", "TERRAINS",
-           "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "check_terrain", "coefficient_table",
-           "fit_coefficients", "fourier_basis", "load_coefficients", "map_correlation", "save_coefficients"]
+__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "MAX_ORDER", "REGULARISATION_SPEED", "TABLE_FORMAT",
+           "TERRAINS", "BodyLoad", "RFTCoefficients", "SurfaceElements", "Term", "body_load", "check_terrain",
+           "coefficient_table", "fit_coefficients", "fourier_basis", "load_coefficients", "map_correlation",
+           "parse_term", "save_coefficients", "series_names", "term_name"]
 
 #: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
 TERRAINS = ("sph", "rft")
 
-#: the nine Fourier coefficients of Li et al. 2013 (Eq. S2), in the order of :func:`fourier_basis`
+#: the nine Fourier coefficients of Li et al. 2013 (Eq. S2): the series' terms of order (1, 1)
 COEFFICIENT_NAMES = ("A00", "A10", "B11", "B01", "Bm11", "C11", "C01", "Cm11", "D10")
+
+#: the largest multiple m of 2β and n of γ a term may have (cpp/include/terrasph/rft.hpp, kMaxOrder)
+MAX_ORDER = 4
 
 #: ζ of the chapter 3 glass beads (N/m³): the SPH's stress per unit depth on a horizontal plate pushed
 #: down, k/(L W) = 247.9 N/m / (0.04 m × 0.0254 m) (α = 15.2 ρ0 g; docs/benchmarks.md, plate intrusion)
@@ -75,68 +79,137 @@ GLASS_BEADS_ZETA = 2.44e5
 #: the ``format`` entry of a coefficient table file
 TABLE_FORMAT = "terrasph-rft-coefficients"
 
+#: a term's letter: (in α̂_z, a sine), and the parity of n it allows (the mirror symmetry of vertical motion)
+_LETTERS = {"A": (True, False, 0), "B": (True, True, 1), "C": (False, False, 1), "D": (False, True, 0)}
+
+
+@dataclass(frozen=True)
+class Term:
+    """One term of the series: ``value`` × cos or sin(2mβ + nγ) in α̂_z (`vertical`) or α̂_x."""
+
+    vertical: bool
+    sine: bool
+    m: int
+    n: int
+
+
+def parse_term(name: str) -> Term:
+    """The term of a coefficient's name: a letter A (α̂_z, cos), B (α̂_z, sin), C (α̂_x, cos) or D (α̂_x,
+    sin), then m (``m1`` for −1) and n, e.g. ``Bm11`` = sin(−2β + γ) in α̂_z (Li et al.'s naming).
+    ConfigError for a name that is not one, an order above :data:`MAX_ORDER`, or a term the map's
+    symmetry forbids (A and D need even n, B and C odd n; for n = 0, m ≥ 0, and D00 vanishes)."""
+    letter, rest = name[:1], name[1:]
+    negative = rest.startswith("m")
+    digits = rest[1:] if negative else rest
+    if letter not in _LETTERS or len(digits) != 2 or not digits.isdigit():
+        raise ConfigError(f"RFT coefficient {name!r} is not a term's name: allowed A, B, C or D, then m (m1 for "
+                          f"-1) and n, each 0…{MAX_ORDER} (e.g. A00, Bm11)")
+    vertical, sine, parity = _LETTERS[letter]
+    m, n = (-1 if negative else 1) * int(digits[0]), int(digits[1])
+    if abs(m) > MAX_ORDER or n > MAX_ORDER or n % 2 != parity or (n == 0 and (m < 0 or (sine and m == 0))) \
+            or (negative and m == 0):
+        raise ConfigError(f"RFT coefficient {name!r} is not a term of the map's series: allowed orders up to "
+                          f"{MAX_ORDER}, n {'even' if parity == 0 else 'odd'} for {letter}, m ≥ 0 when n = 0")
+    return Term(vertical, sine, m, n)
+
+
+def term_name(term: Term) -> str:
+    """The name :func:`parse_term` reads."""
+    letter = {(True, False): "A", (True, True): "B", (False, False): "C", (False, True): "D"}[(term.vertical, term.sine)]
+    return f"{letter}{'m' if term.m < 0 else ''}{abs(term.m)}{term.n}"
+
+
+def series_names(order_beta: int, order_gamma: int) -> tuple[str, ...]:
+    """Every term allowed up to m = ±`order_beta`, n = `order_gamma`; (1, 1) is Li et al.'s nine."""
+    names = []
+    for n in range(order_gamma + 1):
+        for m in range(0 if n == 0 else -order_beta, order_beta + 1):
+            for letter, (_, sine, parity) in _LETTERS.items():
+                if n % 2 == parity and not (n == 0 and sine and m == 0):
+                    names.append(f"{letter}{'m' if m < 0 else ''}{abs(m)}{n}")
+    return tuple(names)
+
 
 @dataclass(frozen=True)
 class RFTCoefficients:
     """An RFT coefficient map: α = ζ·α̂(β, γ) with α̂ the Fourier series of the module docstring.
 
-    The nine coefficients are dimensionless, normalised so that α̂_z(0, π/2) = 1 (a horizontal plate
-    pushed straight down); `zeta` ζ is that plate's stress per unit depth in N/m³.
+    `coefficients` maps each term's name (:func:`parse_term`) to its dimensionless value, normalised
+    so that α̂_z(0, π/2) = 1 (a horizontal plate pushed straight down); `zeta` ζ is that plate's
+    stress per unit depth in N/m³.
     """
 
-    A00: float
-    A10: float
-    B11: float
-    B01: float
-    Bm11: float
-    C11: float
-    C01: float
-    Cm11: float
-    D10: float
+    coefficients: dict[str, float]
     zeta: float = GLASS_BEADS_ZETA
     source: str = ""
 
     def __post_init__(self) -> None:
-        for name in (*COEFFICIENT_NAMES, "zeta"):
-            value = getattr(self, name)
+        if not isinstance(self.coefficients, dict) or not self.coefficients:
+            raise ConfigError("RFT coefficients: allowed a non-empty mapping of term names to numbers")
+        for name, value in self.coefficients.items():
+            parse_term(name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ConfigError(f"RFT coefficient '{name}' = {value!r} is invalid: allowed a finite number")
+        if isinstance(self.zeta, bool) or not isinstance(self.zeta, (int, float)) or not math.isfinite(self.zeta):
+            raise ConfigError(f"RFT coefficient 'zeta' = {self.zeta!r} is invalid: allowed a finite number")
         if not self.zeta > 0:
             raise ConfigError(f"RFT coefficient 'zeta' = {self.zeta!r} is invalid: allowed > 0 (N/m³)")
 
     @property
+    def names(self) -> tuple[str, ...]:
+        """The terms' names, in the table's order."""
+        return tuple(self.coefficients)
+
+    @property
     def vector(self) -> np.ndarray:
-        """The nine coefficients in :data:`COEFFICIENT_NAMES` order."""
-        return np.array([getattr(self, name) for name in COEFFICIENT_NAMES])
+        """The coefficients in :attr:`names` order."""
+        return np.array([float(v) for v in self.coefficients.values()])
+
+    @property
+    def terms(self) -> list[tuple[bool, bool, int, int, float]]:
+        """(vertical, sine, m, n, value) of each term, as the compiled core reads them."""
+        out = []
+        for name, value in self.coefficients.items():
+            term = parse_term(name)
+            out.append((term.vertical, term.sine, term.m, term.n, float(value)))
+        return out
 
     def with_zeta(self, zeta: float) -> RFTCoefficients:
         """The same map with another scale ζ (N/m³)."""
-        return RFTCoefficients(*self.vector, zeta=zeta, source=self.source)
+        return RFTCoefficients(dict(self.coefficients), zeta=zeta, source=self.source)
 
     def alpha(self, beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """(α_x, α_z) in N/m³ at the angles of the module docstring (β, γ in [−π/2, π/2])."""
-        ax, az = _alpha_hat(self.vector, *_trig(beta, gamma))
-        return self.zeta * ax, self.zeta * az
+        basis_x, basis_z = fourier_basis(beta, gamma, self.names)
+        return self.zeta * (basis_x @ self.vector), self.zeta * (basis_z @ self.vector)
 
 
-def _trig(beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, ...]:
-    """cos 2β, sin 2β, cos γ, sin γ."""
-    b, g = np.asarray(beta, dtype=float), np.asarray(gamma, dtype=float)
-    return np.cos(2 * b), np.sin(2 * b), np.cos(g), np.sin(g)
+def _alpha_hat(table: RFTCoefficients, cos2b: np.ndarray, sin2b: np.ndarray, cosg: np.ndarray,
+               sing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """α̂_x and α̂_z of `table` from the trigonometric values of 2β and γ (for the 3D law,
+    terrasph.rft3d; the loads of the planar law: cpp/src/rft.cpp)."""
+    beta, gamma = 0.5 * np.arctan2(sin2b, cos2b), np.arctan2(sing, cosg)
+    basis_x, basis_z = fourier_basis(beta, gamma, table.names)
+    return basis_x @ table.vector, basis_z @ table.vector
 
 
-def fourier_basis(beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-    """The terms multiplying each coefficient of :data:`COEFFICIENT_NAMES` in α̂_x and α̂_z: two
-    (..., 9) arrays, so α̂ = basis @ coefficients (the series is linear in them, so a least-squares
-    fit is linear)."""
-    trig = np.broadcast_arrays(*_trig(beta, gamma))
-    columns = [_alpha_hat(unit, *trig) for unit in np.eye(len(COEFFICIENT_NAMES))]
-    return np.stack([x for x, _ in columns], axis=-1), np.stack([z for _, z in columns], axis=-1)
+def fourier_basis(beta: np.ndarray | float, gamma: np.ndarray | float,
+                  names: tuple[str, ...] = COEFFICIENT_NAMES) -> tuple[np.ndarray, np.ndarray]:
+    """The terms multiplying each coefficient of `names` in α̂_x and α̂_z: two (..., len(names))
+    arrays, so α̂ = basis @ coefficients (the series is linear in them, so a least-squares fit is
+    linear)."""
+    b, g = np.broadcast_arrays(np.asarray(beta, dtype=float), np.asarray(gamma, dtype=float))
+    basis_x, basis_z = np.zeros((*b.shape, len(names))), np.zeros((*b.shape, len(names)))
+    for k, name in enumerate(names):
+        term = parse_term(name)
+        argument = 2 * term.m * b + term.n * g
+        (basis_z if term.vertical else basis_x)[..., k] = np.sin(argument) if term.sine else np.cos(argument)
+    return basis_x, basis_z
 
 
 #: Li, Zhang & Goldman 2013 (Science 339:1408), supplementary Table S2: the generic coefficients,
 #: here with the chapter 3 glass beads' ζ (GLASS_BEADS_ZETA)
-GENERIC = RFTCoefficients(0.206, 0.169, 0.212, 0.358, 0.055, -0.124, 0.253, 0.007, 0.088,
+GENERIC = RFTCoefficients(dict(zip(COEFFICIENT_NAMES, (0.206, 0.169, 0.212, 0.358, 0.055, -0.124, 0.253, 0.007, 0.088))),
                           source="Li, Zhang & Goldman 2013, Science 339:1408, Table S2 (generic)")
 
 
@@ -148,7 +221,7 @@ def save_coefficients(table: RFTCoefficients, path: str | os.PathLike[str], **ex
     out = pathlib.Path(path)
     document = {"format": TABLE_FORMAT, "version": 1,
                 "units": {"zeta": "N/m^3", "coefficients": "1 (alpha / zeta)"},
-                "zeta": table.zeta, "coefficients": {name: getattr(table, name) for name in COEFFICIENT_NAMES},
+                "zeta": table.zeta, "coefficients": dict(table.coefficients),
                 "source": table.source, **extra}
     out.write_text(json.dumps(document, indent=2) + "\n")
     return out
@@ -166,12 +239,11 @@ def load_coefficients(path: str | os.PathLike[str]) -> RFTCoefficients:
         raise ConfigError(f"RFT coefficient table '{path}' is malformed: allowed a JSON object with "
                           f"\"format\": \"{TABLE_FORMAT}\"")
     coefficients = document.get("coefficients")
-    if not isinstance(coefficients, dict) or set(coefficients) != set(COEFFICIENT_NAMES) or "zeta" not in document:
+    if not isinstance(coefficients, dict) or not coefficients or "zeta" not in document:
         raise ConfigError(f"RFT coefficient table '{path}' is malformed: allowed \"zeta\" (N/m^3) and "
-                          f"\"coefficients\" with exactly {', '.join(COEFFICIENT_NAMES)}")
+                          "\"coefficients\", a mapping of term names (e.g. A00, Bm11) to numbers")
     try:
-        return RFTCoefficients(**{name: coefficients[name] for name in COEFFICIENT_NAMES}, zeta=document["zeta"],
-                               source=str(document.get("source", path)))
+        return RFTCoefficients(dict(coefficients), zeta=document["zeta"], source=str(document.get("source", path)))
     except ConfigError as error:
         raise ConfigError(f"RFT coefficient table '{path}': {error}") from None
 
@@ -319,17 +391,6 @@ class SurfaceElements:
 REGULARISATION_SPEED = 1e-4
 
 
-def _alpha_hat(c: np.ndarray, cos2b: np.ndarray, sin2b: np.ndarray, cosg: np.ndarray,
-               sing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """α̂_x and α̂_z from the coefficients `c` (COEFFICIENT_NAMES order) and the trigonometric values
-    of 2β and γ: the series of the module docstring with its sums of angles expanded (sin(2β ± γ) =
-    sin 2β cos γ ± cos 2β sin γ, ...), for the map and its fit (the loads: cpp/src/rft.cpp)."""
-    a00, a10, b11, b01, bm11, c11, c01, cm11, d10 = c
-    az = a00 + a10 * cos2b + (b11 - bm11) * sin2b * cosg + (b11 + bm11) * cos2b * sing + b01 * sing
-    ax = (c11 + cm11) * cos2b * cosg + (cm11 - c11) * sin2b * sing + c01 * cosg + d10 * sin2b
-    return ax, az
-
-
 @dataclass(frozen=True)
 class BodyLoad:
     """The RFT load on a body: `force` (F_x, F_z) N, clockwise `torque` N·m about its origin and, if
@@ -357,7 +418,7 @@ def body_load(elements: SurfaceElements, angle: float, origin: tuple[float, floa
     fx, fz, torque, derivative = _core.rft_body_load(
         elements.centre, elements.normal, elements.length, elements.width, float(angle), float(origin[0]),
         float(origin[1]), float(velocity[0]), float(velocity[1]), float(omega), float(surface),
-        table.vector.tolist(), table.zeta, float(regularisation), bool(jacobian))
+        table.terms, table.zeta, float(regularisation), bool(jacobian))
     return BodyLoad(np.array([fx, fz]), torque, np.reshape(derivative, (3, 3)) if jacobian else None)
 
 
@@ -369,28 +430,41 @@ _COMPARISON_GRID = np.meshgrid(np.linspace(-math.pi / 2, math.pi / 2, 31), np.li
 
 
 def fit_coefficients(beta: np.ndarray, gamma: np.ndarray, alpha_x: np.ndarray, alpha_z: np.ndarray,
-                     source: str = "") -> tuple[RFTCoefficients, dict[str, float]]:
-    """Least-squares fit of the nine Fourier coefficients to measured stresses per unit depth α_x,
-    α_z (N/m³) at attack angles β and directions γ (rad, the module docstring's convention), both
-    components in one linear system (:func:`fourier_basis`); returned normalised (α̂_z(0, π/2) = 1,
-    ζ the fitted map's value there) with the fit's quality: ``rms_residual`` over ``rms_measured``
-    (N/m³) and the ``points`` used. ConfigError with fewer than 9 points or an unusable fit."""
+                     source: str = "", names: tuple[str, ...] = COEFFICIENT_NAMES) -> tuple[RFTCoefficients, dict[str, float]]:
+    """Least-squares fit of the coefficients `names` (default Li et al.'s nine; :func:`series_names`
+    for a higher order) to measured stresses per unit depth α_x, α_z (N/m³) at attack angles β and
+    directions γ (rad, the module docstring's convention), both components in one linear system
+    (:func:`fourier_basis`); returned normalised (α̂_z(0, π/2) = 1, ζ the fitted map's value there)
+    with the fit's quality: ``rms_residual`` over ``rms_measured`` (N/m³), the ``points`` used and
+    ``rms_loo``, the rms error of each point predicted by the fit to the others (leave-one-out, the
+    measure that chooses the order). ConfigError with fewer points than 2·len(names)/2 or an
+    unusable fit."""
     beta, gamma, alpha_x, alpha_z = (np.asarray(v, dtype=float).ravel() for v in (beta, gamma, alpha_x, alpha_z))
-    if not len(beta) == len(gamma) == len(alpha_x) == len(alpha_z) or len(beta) < len(COEFFICIENT_NAMES):
-        raise ConfigError(f"an RFT fit needs at least {len(COEFFICIENT_NAMES)} measured (β, γ, α_x, α_z) points of "
-                          f"equal count; got {len(beta)}")
-    basis_x, basis_z = fourier_basis(beta, gamma)
+    if not len(beta) == len(gamma) == len(alpha_x) == len(alpha_z) or 2 * len(beta) <= len(names):
+        raise ConfigError(f"an RFT fit of {len(names)} coefficients needs more than {len(names) // 2} measured "
+                          f"(β, γ, α_x, α_z) points of equal count; got {len(beta)}")
+    basis_x, basis_z = fourier_basis(beta, gamma, names)
     matrix = np.vstack([basis_x, basis_z])
     measured = np.concatenate([alpha_x, alpha_z])
     raw, *_ = np.linalg.lstsq(matrix, measured, rcond=None)
-    zeta = float(fourier_basis(0.0, math.pi / 2)[1] @ raw)
+    zeta = float(fourier_basis(0.0, math.pi / 2, names)[1] @ raw)
     if not (math.isfinite(zeta) and zeta > 0):
         raise ConfigError(f"the fitted map pushes a horizontal plate going down upward (ζ = {zeta:g} N/m³): "
                           "the points do not determine it")
     residual = matrix @ raw - measured
+    # leave one point (both its components) out: the residual of a linear least-squares fit's
+    # prediction is r_i / (1 − h_ii) for one row; for the point's two rows, (I − H_pp)⁻¹ r_p
+    hat = matrix @ np.linalg.pinv(matrix)
+    count = len(beta)
+    held_out = []
+    for k in range(count):
+        rows = [k, k + count]
+        block = np.eye(2) - hat[np.ix_(rows, rows)]
+        held_out.extend(np.linalg.solve(block, residual[rows]) if abs(np.linalg.det(block)) > 1e-12
+                        else [np.nan, np.nan])
     quality = {"rms_residual": float(np.sqrt(np.mean(residual ** 2))), "rms_measured": float(np.sqrt(np.mean(measured ** 2))),
-               "points": int(len(beta))}
-    return RFTCoefficients(*(raw / zeta), zeta=zeta, source=source), quality
+               "rms_loo": float(np.sqrt(np.nanmean(np.square(held_out)))), "points": int(count)}
+    return RFTCoefficients(dict(zip(names, (raw / zeta).tolist())), zeta=zeta, source=source), quality
 
 
 def map_correlation(first: RFTCoefficients, second: RFTCoefficients) -> dict[str, float]:

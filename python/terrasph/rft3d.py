@@ -89,7 +89,7 @@ def _planar(direction: np.ndarray, normal: np.ndarray, velocity: np.ndarray, wei
     sign = np.where(v_r < 0, -1.0, 1.0)  # a face moving backward in the plane is mirrored (as in 2D)
     cosg, sing = sign * v_r / safe_speed, -v_z / safe_speed
     tx, tz = n_z / safe_plane, -sign * n_r / safe_plane  # the face's tangent (cos β, sin β) up to sign
-    alpha_x, alpha_z = _alpha_hat(table.vector, tx * tx - tz * tz, 2 * tx * tz, cosg, sing)
+    alpha_x, alpha_z = _alpha_hat(table, tx * tx - tz * tz, 2 * tx * tz, cosg, sing)
     scale = np.where(ok, table.zeta * weight * in_plane, 0.0)
     force_r, force_z = -sign * alpha_x * scale, alpha_z * scale
     return force_r[:, None] * direction + force_z[:, None] * np.array([0.0, 0.0, 1.0])

@@ -9,26 +9,36 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["calibrate", "register"]
+__all__ = ["ORDERS", "calibrate", "register"]
+
+#: the series' orders (m, n) the calibration chooses from, by leave-one-out error (docs/rft.md)
+ORDERS = ((1, 1), (1, 2), (2, 2), (2, 3), (3, 3), (3, 4), (4, 4))
+MAX_ORDER_CHOICE = 4
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Adds ``rft-calibrate``."""
     p = subparsers.add_parser(
         "rft-calibrate", help="fit an RFT coefficient table to a plate-drag sweep",
-        description="Least-squares fit of Li et al.'s (2013) nine Fourier coefficients and the scale zeta to the "
-                    "stress per unit depth of the finished cases of a plate-drag sweep (terrasph sweep "
+        description="Least-squares fit of the RFT map's Fourier series (Li et al. 2013's nine coefficients are "
+                    "order 1 1) and the scale zeta to the stress per unit depth of the finished cases of a plate-drag sweep (terrasph sweep "
                     "benchmarks/studies/sweep_rft_calibration.yaml); writes the table as JSON with its units, the fit's "
                     "quality and its correlation with the generic map, for --rft-table.")
     p.add_argument("sweep", metavar="SWEEP", help="the sweep directory (its manifest.json)")
     p.add_argument("--out", required=True, help="the coefficient table to write (.json)")
+    p.add_argument("--order", type=int, nargs=2, default=None, metavar=("M", "N"),
+                   help="the series' order in 2beta and gamma, each 1..%d (default: the order of ORDERS whose "
+                        "leave-one-out error is least)" % MAX_ORDER_CHOICE)
     p.add_argument("--plot", default=None, metavar="PNG", help="also draw the fitted and generic maps side by side")
     p.set_defaults(handler=_cmd_calibrate)
 
 
-def calibrate(sweep: str | os.PathLike[str], out: str | os.PathLike[str]) -> dict[str, Any]:
-    """Fits the finished plate-drag cases of `sweep` and writes the table to `out`; returns what was
-    written besides the coefficients (quality, correlation with the generic map)."""
+def calibrate(sweep: str | os.PathLike[str], out: str | os.PathLike[str],
+              order: tuple[int, int] | None = None) -> dict[str, Any]:
+    """Fits the finished plate-drag cases of `sweep` with the series of `order` (default: the one of
+    :data:`ORDERS` with the least leave-one-out error that the cases determine) and writes the table
+    to `out`; returns what was written besides the coefficients (order, quality, correlation with
+    the generic map)."""
     from terrasph import rft
     from terrasph.config import ConfigError
     from terrasph.sweeps.report import finished_cases
@@ -44,10 +54,26 @@ def calibrate(sweep: str | os.PathLike[str], out: str | os.PathLike[str]) -> dic
         raise ConfigError(f"sweep '{sweep}' has no finished plate-drag case")
     values = {key: np.array([c["summary"][key] for c in cases]) for key in ("attack_angle", "direction", "alpha_x",
                                                                              "alpha_z")}
-    table, quality = rft.fit_coefficients(values["attack_angle"], values["direction"], values["alpha_x"],
-                                          values["alpha_z"], source=f"terrasph plate-drag sweep ({len(cases)} runs)")
+    if order is not None and not all(1 <= k <= rft.MAX_ORDER for k in order):
+        raise ConfigError(f"parameter '--order' = {list(order)} is invalid: allowed two integers 1..{rft.MAX_ORDER}")
+    source = f"terrasph plate-drag sweep ({len(cases)} runs)"
+    fits = {}
+    for candidate in [tuple(order)] if order is not None else ORDERS:
+        if 2 * len(cases) <= len(rft.series_names(*candidate)) and order is None:
+            continue  # too few cases for this order
+        try:
+            fits[candidate] = rft.fit_coefficients(values["attack_angle"], values["direction"], values["alpha_x"],
+                                                   values["alpha_z"], source=source, names=rft.series_names(*candidate))
+        except ConfigError:
+            if order is not None:
+                raise
+    if not fits:
+        raise ConfigError(f"sweep '{sweep}' has too few finished plate-drag cases ({len(cases)}) to fit a map")
+    chosen = min(fits, key=lambda k: fits[k][1]["rms_loo"])
+    table, quality = fits[chosen]
     correlation = rft.map_correlation(table, rft.GENERIC)
-    extra = {"fit": quality, "correlation_with_generic": correlation,
+    extra = {"order": list(chosen), "fit": quality,
+             "leave_one_out_by_order": {f"{m} {n}": fit[1]["rms_loo"] for (m, n), fit in fits.items()}, "correlation_with_generic": correlation,
              "spacing": sorted({c["summary"]["spacing"] for c in cases}),
              "plate_thickness": sorted({c["summary"]["plate_thickness"] for c in cases})}
     rft.save_coefficients(table, out, **extra)
@@ -72,7 +98,7 @@ def plot_maps(tables: dict[str, Any], path: str | os.PathLike[str]) -> None:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from terrasph import rft
 
-    extra = calibrate(args.sweep, args.out)
+    extra = calibrate(args.sweep, args.out, None if args.order is None else tuple(args.order))
     if args.plot:
         plot_maps({"SPH": rft.load_coefficients(args.out), "generic": rft.GENERIC}, args.plot)
     print(json.dumps({"out": args.out, "plot": args.plot, **extra}, indent=2))

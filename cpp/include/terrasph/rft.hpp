@@ -6,13 +6,25 @@
 
 #include <array>
 #include <cstddef>
+#include <vector>
 
 namespace terrasph::rft {
 
-/// α = ζ α̂(β, γ): Li et al.'s nine Fourier coefficients (A00, A10, B11, B01, B−11, C11, C01, C−11,
-/// D10; dimensionless, α̂_z(0, π/2) = 1) and the scale ζ (N/m³).
+/// The largest multiple m of 2β and n of γ a map's series may hold.
+constexpr int kMaxOrder = 4;
+
+/// One term of the map's Fourier series (terrasph.rft): `value` × cos or sin(2mβ + nγ), in α̂_z
+/// (`vertical`) or α̂_x. Li et al.'s nine coefficients are the terms with |m| ≤ 1, n ≤ 1.
+struct Term {
+  bool vertical = true;
+  bool sine = false;
+  int m = 0, n = 0;  ///< |m|, n ≤ kMaxOrder (checked by the Python caller)
+  double value = 0.0;
+};
+
+/// α = ζ α̂(β, γ): the series' terms (dimensionless, α̂_z(0, π/2) = 1) and the scale ζ (N/m³).
 struct Coefficients {
-  std::array<double, 9> c{};
+  std::vector<Term> terms;
   double zeta = 0.0;
 };
 

@@ -299,7 +299,7 @@ class RFT3DCoupling:
     def describe(self) -> dict[str, Any]:
         """The terrain and the coupled bodies, for the run file."""
         return {"terrain": {"kind": "rft3d", "surface": self.robot.surface, "zeta": self.table.zeta,
-                            "coefficients": dict(zip(rft.COEFFICIENT_NAMES, self.table.vector.tolist())),
+                            "coefficients": dict(self.table.coefficients),
                             "source": self.table.source, "time_step": self._dt,
                             "elements": {b.name: len(b.elements) for b in self.robot.coupled}},
                 "robot": {"coupled": [b.name for b in self.robot.coupled], "mujoco": mujoco.__version__}}

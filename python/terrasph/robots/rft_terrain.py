@@ -105,7 +105,7 @@ class RFTCoupling(RobotStepper):
             mujoco_library(), robot.model._address, robot.data._address,
             [(b.body_id, e.centre, e.normal, e.length, e.width) for b, e in zip(robot.coupled, self._elements.values())],
             [(s.actuator, s.dof, s.kv, s.gear, s.lower, s.upper) for s in velocity_servos(robot)],
-            self.surface_level, self.table.vector.tolist(), self.table.zeta, self._dt, rft.REGULARISATION_SPEED,
+            self.surface_level, self.table.terms, self.table.zeta, self._dt, rft.REGULARISATION_SPEED,
             NEWTON_ITERATIONS, NEWTON_HALVINGS, NEWTON_TOLERANCE)
         self._span = self._dt
         self._since = float(robot.data.time)
@@ -174,7 +174,7 @@ class RFTCoupling(RobotStepper):
     def describe(self) -> dict[str, Any]:
         """The terrain and the coupled bodies, for the run file."""
         return {"terrain": {"kind": "rft", "surface": self.surface_level, "zeta": self.table.zeta,
-                            "coefficients": dict(zip(rft.COEFFICIENT_NAMES, self.table.vector.tolist())),
+                            "coefficients": dict(self.table.coefficients),
                             "source": self.table.source, "time_step": self._dt,
                             "elements": {name: len(e) for name, e in self._elements.items()}},
                 "robot": self.robot_description()}

@@ -376,7 +376,7 @@ class RFTLegSweep:
     def describe(self) -> dict[str, Any]:
         """The terrain, for the run file (a flat surface at z = 0, as the robots' RFT terrain)."""
         return {"terrain": {"kind": "rft", "surface": 0.0, "zeta": self.table.zeta,
-                            "coefficients": dict(zip(rft.COEFFICIENT_NAMES, self.table.vector.tolist())),
+                            "coefficients": dict(self.table.coefficients),
                             "source": self.table.source, "elements": {"leg": len(self.elements)}}}
 
     def frame_fields(self) -> dict[str, np.ndarray]:
