@@ -57,13 +57,15 @@ import numpy as np
 from terrasph import _core
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
+from terrasph.options import SHARED
 
 __all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "REGULARISATION_SPEED", "TABLE_FORMAT", "TERRAINS",
            "BodyLoad", "RFTCoefficients", "SurfaceElements", "body_load", "check_terrain", "coefficient_table",
            "fit_coefficients", "fourier_basis", "load_coefficients", "map_correlation", "save_coefficients"]
 
-#: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
-TERRAINS = ("sph", "rft")
+#: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module); the choices of
+#: the scenes' shared ``terrain`` option (terrasph.options.SHARED)
+TERRAINS: tuple[str, ...] = SHARED["terrain"].choices or ()
 
 #: the nine Fourier coefficients of Li et al. 2013 (Eq. S2), in the order of :func:`fourier_basis`
 COEFFICIENT_NAMES = ("A00", "A10", "B11", "B01", "Bm11", "C11", "C01", "Cm11", "D10")
