@@ -178,25 +178,30 @@ def load_coefficients(path: str | os.PathLike[str]) -> RFTCoefficients:
         raise ConfigError(f"RFT coefficient table '{path}': {error}") from None
 
 
-def check_terrain(config: Any, sph_only: tuple[str, ...]) -> None:
+def check_terrain(config: Any, sph_only: tuple[str, ...], rft_only: tuple[str, ...] = ()) -> None:
     """Checks a scene configuration's `terrain` and, on RFT, its coefficient map and that none of its
     `sph_only` fields (the bed's material, depth, numerics, fidelity: settings the RFT terrain has no
-    use for) differs from its default; ConfigError in one line naming the parameter otherwise, so a
-    setting is never ignored without a word."""
+    use for) differs from its default, and on the SPH that none of its `rft_only` fields does;
+    ConfigError in one line naming the parameter otherwise, so a setting is never ignored without a
+    word."""
     if config.terrain not in TERRAINS:
         raise ConfigError(f"parameter 'terrain' = {config.terrain!r} is invalid: allowed one of {', '.join(TERRAINS)}")
-    if config.terrain != "rft":
-        return
-    coefficient_table(config.rft_table)  # an unknown name or a malformed file, before any work
+    if config.terrain == "rft":
+        coefficient_table(config.rft_table)  # an unknown name or a malformed file, before any work
+    unused = sph_only if config.terrain == "rft" else rft_only
     for item in dataclasses.fields(config):
-        if item.name not in sph_only:
+        if item.name not in unused:
             continue
         default = item.default if item.default_factory is dataclasses.MISSING else item.default_factory()
         value = getattr(config, item.name)
-        if value != default:
+        if value == default:
+            continue
+        if config.terrain == "rft":
             raise ConfigError(f"parameter '{item.name}' = {value!r} is invalid on the RFT terrain: allowed only its "
                               f"default {default!r} there (it sets the SPH bed; RFT's sand is its coefficient map, "
                               "rft_table)")
+        raise ConfigError(f"parameter '{item.name}' = {value!r} is invalid on the SPH terrain: allowed only its "
+                          f"default {default!r} there (it sets the RFT terrain: add terrain 'rft')")
 
 
 def coefficient_table(name: str | RFTCoefficients, zeta: float | None = None) -> RFTCoefficients:
