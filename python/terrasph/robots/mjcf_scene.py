@@ -88,7 +88,7 @@ class MjcfScene:
                                    help="an actuator's input (by name, joint or #index); FORM: " + " | ".join(FORMS))
     bodies: tuple[str, ...] = option((), cli="body", repeat=True, unit="NAME",
                                      default_text="every body with a collision geom below --couple-below",
-                                     help="a body that meets the grains")
+                                     help="a body that meets the terrain")
     couple_below: float = option(COUPLE_BELOW, help="height above the floor that selects the coupled bodies", unit="m")
     widths: dict[str, float] = option(cli="width", repeat=True, unit="NAME=METRES", parse=_body_width,
                                       default_factory=dict, default_text="its geoms' extent across the plane",
