@@ -125,8 +125,9 @@ class MjcfScene:
             if not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
                 raise ConfigError(f"parameter 'widths' of body '{body}' = {width!r} is invalid: allowed a finite "
                                   "number > 0 (m)")
-        if self.element_length is not None and (isinstance(self.element_length, bool) or not isinstance(
-                self.element_length, (int, float)) or not (math.isfinite(self.element_length) and self.element_length > 0)):
+        length = self.element_length
+        if length is not None and (isinstance(length, bool) or not isinstance(length, (int, float))
+                                   or not (math.isfinite(length) and length > 0)):
             raise ConfigError(f"parameter 'element_length' = {self.element_length!r} is invalid: allowed a finite "
                               "number > 0 (m)")
         rft.check_terrain(self, self.SPH_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
@@ -233,8 +234,8 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
     time = series[f"robot/{names[0]}"]["time"]
     last = time >= time[-1] - 0.2 * (time[-1] - time[0])
     lift = sum(series[f"robot/{n}"]["force"][:, up] for n in names)
-    radii = {coupled.robot.coupled[k].name: radius for k, (_, radius) in wheel_radii(coupled.robot).items()} \
-        if on_rft else {}
+    wheels = wheel_radii(coupled.robot) if on_rft else {}
+    radii = {coupled.robot.coupled[k].name: radius for k, (_, radius) in wheels.items()}
     summary: dict[str, Any] = {"model": pathlib.Path(config.model).name, "terrain": config.terrain,
                                "coupled_bodies": names, "steps": coupled.step_count,
                                "leaked_particles": coupled.run_attributes()["leaked_particles"],
@@ -255,9 +256,9 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
         summary[f"{n}_mean_sinkage"] = float(np.mean(body["sinkage"][after]))
         if on_rft:
             summary[f"{n}_mean_force"] = np.mean(body["force"][last], axis=0).tolist()
-            if n in radii:
-                summary[f"{n}_mean_slip"] = float(slip(np.mean(body["forward_speed"][after]),
-                                                       np.mean(body["spin"][after]), radii[n])) if after.any() else math.nan
+            if n in radii and after.any():
+                speed, spin = np.mean(body["forward_speed"][after]), np.mean(body["spin"][after])
+                summary[f"{n}_mean_slip"] = float(slip(speed, spin, radii[n]))
     if on_rft:
         mujoco.mj_kinematics(model, data)  # the end state's derived quantities
         mujoco.mj_comPos(model, data)
