@@ -122,6 +122,26 @@ def test_a_run_on_the_rft_terrain_shows_its_robot_over_the_flat_sand(tmp_path: P
     assert (first != last).sum() > 100
 
 
+def test_a_robot_on_the_3d_rft_terrain_is_drawn_from_the_side_over_the_sand(tmp_path: Path) -> None:
+    """A non-planar robot on the 3D RFT terrain: its frames hold its bodies' surface points seen from
+    the side (x–z); the movie draws the chassis (body 0) over the sand, and the rover falls onto it."""
+    from terrasph.robots.mjcf_scene import MjcfScene, run_mjcf
+    from terrasph.robots.rft3d_terrain import ROVER4
+
+    run = tmp_path / "rover.h5"
+    run_mjcf(MjcfScene(model=str(ROVER4), terrain="rft", element_length=0.03, settle_time=0.0, t_end=0.06,
+                       frame_interval=0.02), run, plot=False)
+    with h5py.File(run) as file:
+        frames = file["frames/time"].shape[0]
+        assert "frames/position" not in file and frames == 4 and file["frames/body_position"].shape[2] == 2
+    movie = pictures(animate.animate_run(run, tmp_path / "rover.gif", fps=5))
+    assert len(movie) == frames
+    for picture in movie:
+        assert pixels_near(picture, BODY_RED) > 500 and pixels_near(picture, SAND) > 10_000
+    first, last = (np.linalg.norm(movie[k].astype(float) - BODY_RED, axis=-1) < 30 for k in (0, -1))
+    assert (first != last).sum() > 100
+
+
 @pytest.fixture(scope="module")
 def bad_files(run_file: Path, tmp_path_factory) -> dict[str, Path]:
     root = tmp_path_factory.mktemp("animate_bad")

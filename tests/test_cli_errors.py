@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from terrasph.cli import main
+from terrasph.robots.rft3d_terrain import ROVER4
 
 FEATURES = ["omega_cmd", "load", "soil_k", "mu"]
 TARGETS = ["slip", "sinkage"]
@@ -52,6 +53,11 @@ def files(tmp_path_factory) -> dict[str, Path]:
     paths["existing"].write_bytes(b"precious")
     paths["existing_csv"] = root / "existing.csv"
     paths["existing_csv"].write_text("precious")
+    paths["bad_table"] = root / "bad_table.json"
+    paths["bad_table"].write_text('{"format": "terrasph-rft-coefficients", "zeta": 1e5}\n')  # no coefficients
+    paths["high_box"] = root / "high_box.xml"  # its one body 1 m above the floor: none near it
+    paths["high_box"].write_text('<mujoco><worldbody><geom type="plane" size="1 1 0.1"/><body pos="0 0 1">'
+                                 '<freejoint/><geom type="box" size="0.05 0.05 0.05"/></body></worldbody></mujoco>')
     paths["root"] = root
     return paths
 
@@ -126,6 +132,27 @@ BAD_INPUT = [
                                            "--out", "{root}/r.h5"], "'fidelity'"),
     ("run-leg-rotation-rft-with-numerics", ["run", "leg-rotation", "--terrain", "rft", "--numerics", "cfl=0.3",
                                             "--out", "{root}/r.h5"], "'numerics'"),
+    # any MJCF model on the 3D RFT terrain: the SPH's settings refused there, the RFT's on the SPH,
+    # the table, the element length, a model with nothing near the floor
+    ("run-mjcf-rft-with-a-spacing", ["run", "mjcf", str(ROVER4), "--terrain", "rft", "--spacing", "0.02",
+                                     "--out", "{root}/r.h5"], "'spacing' (--spacing) = 0.02 is invalid on the RFT"),
+    ("run-mjcf-rft-with-a-bed-width", ["run", "mjcf", str(ROVER4), "--terrain", "rft", "--bed-width", "2",
+                                       "--out", "{root}/r.h5"], "'bed_width'"),
+    ("run-mjcf-rft-with-numerics", ["run", "mjcf", str(ROVER4), "--terrain", "rft", "--numerics", "cfl=0.3",
+                                    "--out", "{root}/r.h5"], "'numerics'"),
+    ("run-mjcf-element-length-on-the-sph", ["run", "mjcf", str(ROVER4), "--element-length", "0.01",
+                                            "--out", "{root}/r.h5"], "invalid on the SPH terrain"),
+    ("run-mjcf-rft-unknown-table", ["run", "mjcf", str(ROVER4), "--terrain", "rft", "--rft-table", "sandy",
+                                    "--out", "{root}/r.h5"], "'sandy'"),
+    ("run-mjcf-rft-malformed-table", ["run", "mjcf", str(ROVER4), "--terrain", "rft", "--rft-table", "{bad_table}",
+                                      "--out", "{root}/r.h5"], "bad_table.json' is malformed"),
+    *[(f"run-mjcf-rft-element-length-{value}", ["run", "mjcf", str(ROVER4), "--terrain", "rft", "--element-length",
+                                                 value, "--out", "{root}/r.h5"], "'element_length' (--element-length)")
+      for value in ("0", "-0.01", "inf")],
+    ("run-mjcf-rft-no-body-near-the-floor", ["run", "mjcf", "{high_box}", "--terrain", "rft", "--out", "{root}/r.h5",
+                                             "--no-progress"], "couple_below"),
+    ("run-mjcf-non-planar-on-the-sph", ["run", "mjcf", str(ROVER4), "--out", "{root}/r.h5", "--no-progress"],
+     "joint 'root' is a free joint"),
     # info and plot
     ("info-missing-file", ["info", "{root}/nothing.h5"], "nothing.h5"),
     ("info-text-file", ["info", "{text}"], "notes.txt"),

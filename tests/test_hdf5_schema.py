@@ -141,3 +141,27 @@ def test_a_run_on_the_rft_terrain(tmp_path, scene: str) -> None:
         assert {f["run"].attrs[k] for k in ("granular_particles", "wall_particles", "leaked_particles")} == {0}
         if scene == "leg-rotation":
             assert set(f["series/bodies/leg"]) == {"time", "angle", "force", "torque"}
+
+
+def test_a_robot_on_the_3d_rft_terrain(tmp_path) -> None:
+    """The rover on the 3D RFT terrain: its /static and frame fields, and each coupled body's series
+    (the wheels' with spin, forward speed and slip, the chassis' without), are the documented ones."""
+    from terrasph.robots.mjcf_scene import MjcfScene, run_mjcf
+    from terrasph.robots.rft3d_terrain import ROVER4
+
+    path = tmp_path / "rover.h5"
+    run_mjcf(MjcfScene(model=str(ROVER4), terrain="rft", element_length=0.03, settle_time=0.0, t_end=0.02,
+                       ctrl=("front_left_motor=1",)), path, plot=False)
+    wheel_only = {"spin", "forward_speed", "slip"}
+    with h5py.File(path, "r") as f:
+        names = {b for b in f["series/robot"] if b != "actuators"}
+        static = set()
+        f["static"].visititems(lambda name, item: static.add(
+            "static/" + "/".join("<body>" if part in names else part for part in name.split("/")))
+            if isinstance(item, h5py.Dataset) else None)
+        assert static | (set(f["frames"]) - {"time", "step"}) == documented(
+            "#### A robot on the 3D RFT terrain: `/static` and frames")
+        series = documented("#### A robot on the 3D RFT terrain: `series/robot/<body>`")
+        assert set(f["series/robot/front_left"]) == series and set(f["series/robot/chassis"]) == series - wheel_only
+        assert f["series/robot/actuators/com"].shape[1] == 3
+        assert {f["run"].attrs[k] for k in ("granular_particles", "wall_particles", "leaked_particles")} == {0}

@@ -2,8 +2,9 @@
 SPH and MuJoCo-coupled alike, on the SPH terrain and on resistive force theory's (docs/rft.md),
 since all go through one run loop (terrasph.run_loop.RunLoop).
 
-For each scene of :data:`terrasph.scenes.SCENES`, and the leg-wheel and the leg rotation on the RFT
-terrain (frames of the bodies, no grains), at a tiny size:
+For each scene of :data:`terrasph.scenes.SCENES`, and the leg-wheel, the leg rotation and a
+non-planar MJCF robot (the 3D RFT terrain) on the RFT terrain (frames of the bodies, no grains), at a
+tiny size:
 
 * a completed run's file says ``completed`` with the time, steps, leak counter, particle counts
   and wall time reached; ``/results`` holds the scene's summary; the XDMF sidecar, the PNG and a
@@ -34,6 +35,7 @@ from terrasph.cli import main
 from terrasph.io import read_run
 from terrasph.robots.leg_wheel import LegWheel
 from terrasph.robots.mjcf_scene import MjcfScene
+from terrasph.robots.rft3d_terrain import ROVER4
 from terrasph.scenes.plate_drag import PlateDrag
 from terrasph.robots.rover import Rover
 from terrasph.run_loop import checkpoint_path, claimed_output
@@ -67,9 +69,15 @@ CASES = {
     # the leg's prescribed sweep on the RFT terrain: nothing in it can become unstable
     "leg-rotation on rft": (LegRotation(terrain="rft", omega=6.0, settle_time=0.005, end_angle=-0.55,
                                         frame_interval=0.01), 0.02, 0.035),
+    # a non-planar robot (the four-wheeled rover on a free joint) on the 3D RFT terrain, coarse
+    # elements: it falls 5 mm onto the sand by 0.03 s, and its wheels spin from 0.04 s
+    "mjcf on rft": (MjcfScene(model=str(ROVER4), terrain="rft", element_length=0.03, settle_time=0.04, t_end=0.06,
+                              ctrl=tuple(f"{wheel}_motor=3" for wheel in ("front_left", "front_right", "rear_left",
+                                                                         "rear_right")),
+                              series_interval=0.005, frame_interval=0.01), 0.06, 0.09),
 }
 #: the cases whose runs have no SPH step to make unstable (test_unstable_run_is_recorded)
-RFT_CASES = ("leg-wheel on rft", "leg-rotation on rft")
+RFT_CASES = ("leg-wheel on rft", "leg-rotation on rft", "mjcf on rft")
 
 
 def scene_of(case: str) -> str:

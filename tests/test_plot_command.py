@@ -90,6 +90,16 @@ def test_a_robot_run_gets_its_trajectory_slip_and_sinkage_figure(tmp_path, monke
     assert bodies == ["wheel"] and options["settle_time"] == 0.2 and "leg-wheel" in options["title"]
 
 
+def test_a_robot_run_on_the_rft_terrain_is_plotted_without_grains(tmp_path) -> None:
+    """A leg-wheel on the RFT terrain: its frames hold no grains, and `terrasph plot` redraws its
+    figure from the series all the same."""
+    from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+
+    path = tmp_path / "lw.h5"
+    run_leg_wheel(LegWheel(terrain="rft", settle_time=0.02, t_end=0.1, frame_interval=0.05), path, plot=False)
+    assert main(["plot", str(path), "--force"]) == 0 and path.with_suffix(".png").is_file()
+
+
 def test_fields_leave_out_a_wall_removed_before_the_frame(sheared_run, monkeypatch) -> None:
     import h5py
 

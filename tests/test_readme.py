@@ -10,7 +10,8 @@ README edit that breaks one fails this test instead of going unnoticed:
 * the `python -m pytest …` line is skipped: it is the command that runs this test;
 * `terrasph ARGS` runs as `python -m terrasph.cli ARGS` with this interpreter (a line ending in a
   backslash continues on the next);
-* SIZE shrinks the runs (simulated time, sweep speed, dataset size, epochs), in SIZE's order.
+* SIZE shrinks the runs (simulated time, sweep speed, dataset size, epochs), in SIZE's order, and
+  gives the repository's files the commands name (a model) their path in this checkout.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import sys
 from pathlib import Path
 
 README = Path(__file__).resolve().parent.parent / "README.md"
+ROVER4 = README.parent / "python" / "terrasph" / "robots" / "models" / "rover4.xml"
 
 #: (text in a README block, replacement): the small size each block is run at
 SIZE = [
@@ -41,6 +43,8 @@ SIZE = [
     ("--settle-time 0.2 --t-end 1.0 --out lw.h5", "--settle-time 0.02 --t-end 0.04 --out lw.h5"),
     ("--settle-time 0.2 --t-end 1.0 --out rover.h5", "--settle-time 0.02 --t-end 0.04 --out rover.h5"),
     ("--out wheel.tslstm", "--out wheel.tslstm --epochs 3 --no-progress"),
+    ("python/terrasph/robots/models/rover4.xml --terrain rft --settle-time 0.5 --t-end 2.5",
+     f"{ROVER4} --terrain rft --element-length 0.03 --settle-time 0.02 --t-end 0.04"),
 ]
 
 
@@ -91,5 +95,5 @@ def test_readme_blocks_run_as_written(tmp_path: Path) -> None:
     # the files the README says the commands write
     for name in ("leg_wheel.h5", "leg_wheel.png", "leg_wheel.mp4", "column_collapse.h5", "column_collapse.xdmf",
                  "column_collapse.grains.xdmf", "column_collapse.png", "column_collapse.gif", "my_run.h5", "leg.h5",
-                 "c_leg.h5", "plate.h5", "wheel.tslstm", "lw.h5", "rover.h5"):
+                 "c_leg.h5", "plate.h5", "wheel.tslstm", "lw.h5", "rover.h5", "rover4_rft.h5"):
         assert (tmp_path / name).is_file(), name

@@ -5,7 +5,8 @@ fixed walls are grey, and the particles of each body (leg, plate, leg-wheel, rov
 in a colour of their own by body index; for a coupled robot run, each coupled body's reference
 point (the axle) is marked from ``/series/robot/<body>/reference``. A run on a terrain without
 grains (resistive force theory, docs/rft.md) has frames of its bodies only: its flat free surface
-(``config_json``'s ``terrain.surface``) is drawn as sand below that level. Each picture is a matplotlib
+(``config_json``'s ``terrain.surface``) is drawn as sand below that level (a robot on the 3D RFT
+terrain seen from the side: its bodies' surface points in x–z). Each picture is a matplotlib
 figure (no pyplot) rendered with Agg and encoded by imageio: MP4 through imageio-ffmpeg (which
 ships the ffmpeg encoder on PyPI), GIF through imageio's pillow plugin.
 """
@@ -180,9 +181,10 @@ def picture(file: h5py.File, k: int, colouring: str) -> Picture:
 
 def flat_surface(file: h5py.File) -> float | None:
     """The free surface z (m) of a run on a terrain without grains (``config_json``'s
-    ``terrain.surface`` of an RFT run); None for a run whose grains are the terrain."""
+    ``terrain.surface`` of a planar or 3D RFT run); None for a run whose grains are the terrain."""
     terrain = _config(file).get("terrain")
-    return float(terrain["surface"]) if isinstance(terrain, dict) and terrain.get("kind") == "rft" else None
+    grain_free = isinstance(terrain, dict) and terrain.get("kind") in ("rft", "rft3d")
+    return float(terrain["surface"]) if grain_free else None
 
 
 def view_points(file: h5py.File, first: Picture) -> np.ndarray:

@@ -67,6 +67,9 @@ SHARED: dict[str, Option] = {
     "settle_time": Option("pause before the motion starts, while the bed settles", "s"),
     "t_end": Option("simulated time", "s"),
     "frame_interval": Option("time between saved frames", "s"),
+    "terrain": Option("the SPH bed, or resistive force theory on a flat surface (terrasph.rft, docs/rft.md)",
+                      choices=("sph", "rft")),
+    "rft_table": Option('terrain rft: the coefficient map, "generic" or a JSON table (terrasph rft-calibrate)'),
 }
 
 

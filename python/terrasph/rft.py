@@ -57,14 +57,16 @@ import numpy as np
 from terrasph import _core
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
+from terrasph.options import SHARED
 
 __all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "MAX_ORDER", "REGULARISATION_SPEED", "TABLE_FORMAT",
            "TERRAINS", "BodyLoad", "RFTCoefficients", "SurfaceElements", "Term", "body_load", "check_terrain",
            "coefficient_table", "fit_coefficients", "fourier_basis", "load_coefficients", "map_correlation",
            "parse_term", "save_coefficients", "series_names", "term_name"]
 
-#: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module)
-TERRAINS = ("sph", "rft")
+#: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module); the choices of
+#: the scenes' shared ``terrain`` option (terrasph.options.SHARED)
+TERRAINS: tuple[str, ...] = SHARED["terrain"].choices or ()
 
 #: the nine Fourier coefficients of Li et al. 2013 (Eq. S2): the series' terms of order (1, 1)
 COEFFICIENT_NAMES = ("A00", "A10", "B11", "B01", "Bm11", "C11", "C01", "Cm11", "D10")
@@ -248,25 +250,30 @@ def load_coefficients(path: str | os.PathLike[str]) -> RFTCoefficients:
         raise ConfigError(f"RFT coefficient table '{path}': {error}") from None
 
 
-def check_terrain(config: Any, sph_only: tuple[str, ...]) -> None:
+def check_terrain(config: Any, sph_only: tuple[str, ...], rft_only: tuple[str, ...] = ()) -> None:
     """Checks a scene configuration's `terrain` and, on RFT, its coefficient map and that none of its
     `sph_only` fields (the bed's material, depth, numerics, fidelity: settings the RFT terrain has no
-    use for) differs from its default; ConfigError in one line naming the parameter otherwise, so a
-    setting is never ignored without a word."""
+    use for) differs from its default, and on the SPH that none of its `rft_only` fields does;
+    ConfigError in one line naming the parameter otherwise, so a setting is never ignored without a
+    word."""
     if config.terrain not in TERRAINS:
         raise ConfigError(f"parameter 'terrain' = {config.terrain!r} is invalid: allowed one of {', '.join(TERRAINS)}")
-    if config.terrain != "rft":
-        return
-    coefficient_table(config.rft_table)  # an unknown name or a malformed file, before any work
+    if config.terrain == "rft":
+        coefficient_table(config.rft_table)  # an unknown name or a malformed file, before any work
+    unused = sph_only if config.terrain == "rft" else rft_only
     for item in dataclasses.fields(config):
-        if item.name not in sph_only:
+        if item.name not in unused:
             continue
         default = item.default if item.default_factory is dataclasses.MISSING else item.default_factory()
         value = getattr(config, item.name)
-        if value != default:
+        if value == default:
+            continue
+        if config.terrain == "rft":
             raise ConfigError(f"parameter '{item.name}' = {value!r} is invalid on the RFT terrain: allowed only its "
                               f"default {default!r} there (it sets the SPH bed; RFT's sand is its coefficient map, "
                               "rft_table)")
+        raise ConfigError(f"parameter '{item.name}' = {value!r} is invalid on the SPH terrain: allowed only its "
+                          f"default {default!r} there (it sets the RFT terrain: add terrain 'rft')")
 
 
 def coefficient_table(name: str | RFTCoefficients, zeta: float | None = None) -> RFTCoefficients:

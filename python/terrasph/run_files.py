@@ -124,7 +124,7 @@ def plot_run(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     bodies = [name for name in run.series if name.startswith("bodies/")]
     robot_parts = sorted(name.split("/", 1)[1] for name in run.series  # coupled bodies, not the actuators
                          if name.startswith("robot/") and "sinkage" in run.series[name])
-    final = run.frame(-1)["position"]
+    final = run.frame(-1).get("position")  # the grains; none on the RFT terrain
     title = f"{scene or 'run'}, {_status(run)} at t = {run.times[-1]:.3g} s"
     if scene == "column-collapse":
         dx = float(run.config["spacing"])
@@ -144,10 +144,12 @@ def plot_run(path: str | os.PathLike[str]) -> tuple[Path, Path]:
                                   series["force"][turning, 0], run.config["leg_rotation"]["leg"])],
                                 path=png, title=title)
     elif robot_parts:  # a MuJoCo-coupled robot: the figure its run drew (trajectory, slip, sinkage)
-        from terrasph.robots.plots import plot_robot
+        from terrasph.robots.plots import plot_robot, plot_robot_3d
 
         scene_config = run.config.get(str(scene).replace("-", "_"), {})
-        plot_robot(run.series, robot_parts, png, settle_time=scene_config.get("settle_time"), title=title)
+        three_d = "quaternion" in run.series[f"robot/{robot_parts[0]}"]  # the 3D RFT terrain's series
+        (plot_robot_3d if three_d else plot_robot)(run.series, robot_parts, png,
+                                                   settle_time=scene_config.get("settle_time"), title=title)
     elif bodies:
         series = run.series[bodies[0]]
         plotting.plot_series(series["time"], {"F_x (N)": series["force"][:, 0], "F_z (N)": series["force"][:, 1]},

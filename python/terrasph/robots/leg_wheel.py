@@ -99,10 +99,8 @@ class LegWheel(WheelScene):
     mu2_deg: float = option(33.0, help="the bed's dynamic friction angle atan mu2, >= mu1-deg", unit="degrees")
     water_content: float = option(0.0, help="the bed's water content w; > 0: wet beads with cohesion (Table 2.1)",
                                   unit="kg/kg")
-    terrain: str = option("sph", choices=rft.TERRAINS, help="the SPH bed, or resistive force theory on a flat "
-                                                           "surface (terrasph.rft, docs/rft.md)")
-    rft_table: str = option("generic", help='terrain rft: the coefficient map, "generic" or a JSON table '
-                                            "(terrasph rft-calibrate)")
+    terrain: str = shared("terrain", "sph")
+    rft_table: str = shared("rft_table", "generic")
 
     def __post_init__(self) -> None:
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))

@@ -23,7 +23,7 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.scene import Scene
 
-__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "PlanarRobot", "load_model", "shape_inertial"]
+__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "PlanarRobot", "check_planar", "load_model", "shape_inertial"]
 
 #: the example planar rover shipped with the package (a chassis and two driven wheels; see the file)
 ROVER = pathlib.Path(__file__).with_name("models") / "rover.xml"
@@ -123,8 +123,9 @@ def coupled_body_id(model: mujoco.MjModel, name: str) -> int:
     return body_id
 
 
-def _check_planar(model: mujoco.MjModel, data: mujoco.MjData) -> None:
-    """Every body turned about y only, every joint a slide in the x–z plane or a hinge about ±y."""
+def check_planar(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """Every body turned about y only, every joint a slide in the x–z plane or a hinge about ±y, at
+    the pose of `data`; ConfigError naming the first body or joint that is not."""
     tol = _PLANAR_TOLERANCE
     for b in range(1, model.nbody):
         rotation = data.xmat[b].reshape(3, 3)
@@ -170,7 +171,7 @@ class PlanarRobot:
         for joint, value in (initial or {}).items():
             self._set_joint(joint, value)
         mujoco.mj_forward(self.model, self.data)
-        _check_planar(self.model, self.data)
+        check_planar(self.model, self.data)
         expected = np.array([0.0, 0.0, -gravity])
         if np.abs(self.model.opt.gravity - expected).max() > 1e-12 * max(gravity, 1.0):
             raise ConfigError(f"the MJCF option 'gravity' = {self.model.opt.gravity.tolist()} differs from the "

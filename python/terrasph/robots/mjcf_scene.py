@@ -1,10 +1,12 @@
-"""Scene ``mjcf``: any planar MJCF model on a bed of chapter 4's glass beads (docs/mjcf.md).
+"""Scene ``mjcf``: any planar MJCF model on a bed of chapter 4's glass beads, or any MJCF model —
+hinges about any axis, free joints — on the 3D resistive-force-theory terrain (docs/mjcf.md).
 
-The model's floor is replaced by the bed, the bodies near the floor become terrain bodies shaped
-by their collision geoms (:mod:`terrasph.robots.terrain_robot`), and its actuators follow the
-``ctrl`` specs (:mod:`terrasph.robots.control`) or, from Python, any controller
-``(time, model, data) -> ctrl``. :func:`rigid_floor_run` runs the same model and controller on
-MuJoCo's own floor, for comparison.
+The model's floor is replaced by the terrain and the bodies near the floor meet it with their
+collision geoms: on the SPH bed as planar terrain bodies (:mod:`terrasph.robots.terrain_robot`),
+on the RFT terrain (``terrain = "rft"``) as 3D RFT surface elements
+(:mod:`terrasph.robots.rft3d_terrain`). Its actuators follow the ``ctrl`` specs
+(:mod:`terrasph.robots.control`) or, from Python, any controller ``(time, model, data) -> ctrl``.
+:func:`rigid_floor_run` runs the same model and controller on MuJoCo's own floor, for comparison.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import mujoco
 import numpy as np
 from matplotlib.figure import Figure
 
+from terrasph import rft
 from terrasph.cli_common import positive_float
 from terrasph.config import ConfigError
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
@@ -32,7 +35,10 @@ from terrasph.options import option, shared
 from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.leg_wheel import BED_NUMERICS
-from terrasph.robots.mjcf import load_model
+from terrasph.robots.metrics import slip
+from terrasph.robots.mjcf import check_planar, load_model
+from terrasph.robots.plots import plot_robot_3d
+from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, RobotLoads3D, rft_robot, wheel_radii
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.robots.terrain_robot import COUPLE_BELOW, BedCrossings, terrain_robot
 from terrasph.scene import Scene
@@ -58,10 +64,16 @@ def _body_width(text: str) -> tuple[str, float]:
 
 @dataclass(frozen=True)
 class MjcfScene:
-    """Configuration of an MJCF model on the bed. Lengths in m, times in s."""
+    """Configuration of an MJCF model on the bed (a planar model) or on the 3D RFT terrain (any
+    model). Lengths in m, times in s."""
 
     #: fields saved under another name by earlier versions (run files, sweep SPECs): old → new
     RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
+    #: the settings of the SPH bed only, refused on the RFT terrain unless at their defaults
+    SPH_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "bed_depth", "spacing", "start_x", "widths",
+                                                  "freeboard", "fidelity", "numerics")
+    #: the settings of the RFT terrain only, refused on the SPH bed unless at their defaults
+    RFT_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("rft_table", "element_length")
 
     model: str = option("", positional=True, cli="ROBOT.xml",
                         help="the MJCF file (not changed; its floor is switched off in the loaded copy)")
@@ -76,7 +88,7 @@ class MjcfScene:
                                    help="an actuator's input (by name, joint or #index); FORM: " + " | ".join(FORMS))
     bodies: tuple[str, ...] = option((), cli="body", repeat=True, unit="NAME",
                                      default_text="every body with a collision geom below --couple-below",
-                                     help="a body that meets the grains")
+                                     help="a body that meets the terrain")
     couple_below: float = option(COUPLE_BELOW, help="height above the floor that selects the coupled bodies", unit="m")
     widths: dict[str, float] = option(cli="width", repeat=True, unit="NAME=METRES", parse=_body_width,
                                       default_factory=dict, default_text="its geoms' extent across the plane",
@@ -86,6 +98,11 @@ class MjcfScene:
     frame_interval: float = shared("frame_interval", 0.05)
     fidelity: str = fidelity_option("mjcf")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
+    terrain: str = shared("terrain", "sph")
+    rft_table: str = shared("rft_table", "generic")
+    element_length: float | None = option(None, help="terrain rft: the size of the 3D RFT surface elements",
+                                          unit="m", default_text="0.1 of each coupled body's largest geom's "
+                                                                 "bounding radius")
 
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
@@ -108,12 +125,26 @@ class MjcfScene:
             if not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
                 raise ConfigError(f"parameter 'widths' of body '{body}' = {width!r} is invalid: allowed a finite "
                                   "number > 0 (m)")
+        length = self.element_length
+        if length is not None and (isinstance(length, bool) or not isinstance(length, (int, float))
+                                   or not (math.isfinite(length) and length > 0)):
+            raise ConfigError(f"parameter 'element_length' = {self.element_length!r} is invalid: allowed a finite "
+                              "number > 0 (m)")
+        rft.check_terrain(self, self.SPH_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
 
 
-def build_mjcf(config: MjcfScene) -> CoupledSimulation:
-    """Bed, container and the model standing on it, coupled; every check done before any step."""
+def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
+    """The model on its terrain, coupled; every check done before any step. On the SPH: the bed, its
+    container and the model standing on it (a planar model only). On RFT: the model in its own frame
+    on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
+    every step (a ``hold`` spec is a servo), as on the SPH."""
     from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
 
+    if config.terrain == "rft":
+        robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
+                          element_length=config.element_length)
+        return RFT3DCoupling(robot, config.rft_table, control_interval=RFT3D_TIME_STEP)
+    _check_planar_model(config.model)
     numerics = scene_numerics("mjcf", config.fidelity, config.spacing, BED_NUMERICS, config.numerics)
     scene = Scene(spacing=config.spacing)
     surface, inner = scene.add_bed_in_container(config.bed_width, config.bed_depth, config.freeboard,
@@ -128,66 +159,115 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation:
     return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
 
 
+def _check_planar_model(path: str) -> None:
+    """ConfigError naming the first joint or body of the MJCF file that is not planar, with the
+    terrain that takes any model."""
+    model = load_model(path)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    try:
+        check_planar(model, data)
+    except ConfigError as error:
+        raise ConfigError(f"{error}; the SPH terrain takes planar robots only: run this one on the 3D RFT "
+                          "terrain, terrain 'rft' (--terrain rft)") from None
+
+
 def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
              plot: bool = True, resume: bool = False, until: float | None = None,
              controller: Controller | None = None) -> RobotRun:
     """Runs the scene; `controller` (time, model, data) -> ctrl replaces the ``ctrl`` specs. Returns
-    a summary (distance and mean speed of the centre of mass after the pause, each coupled body's
-    mean and final sinkage, the grains' lift over the robot's weight in the last fifth of the run,
-    leaks, and ``through_the_bed``: the uncoupled bodies that reached below the bed's surface, with
-    the first time, each also warned of) and the series; with `plot` and an `output`, the PNG
-    beside it. ``resume`` and ``until`` as in :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
+    a summary (:func:`_summary`: travel of the centre of mass after the pause, each coupled body's
+    sinkage, the terrain's lift over the robot's weight, on RFT the final pose, each body's load and
+    each wheel's slip, and ``through_the_bed``: the uncoupled bodies that reached below the
+    terrain's surface, with the first time, each also warned of) and the series; with `plot` and an
+    `output`, the PNG beside it. ``resume`` and ``until`` as in
+    :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
     coupled = build_mjcf(config)
     model, data = coupled.robot.model, coupled.robot.data
     drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
     memory: dict[str, Any] = {}  # the run's checkpointed values: BedCrossings' record
-    crossings = BedCrossings(coupled.robot, float(coupled.sim.scene.surface_level), memory)
+    on_rft = isinstance(coupled, RFT3DCoupling)
+    surface = coupled.robot.surface if on_rft else float(coupled.sim.scene.surface_level)
+    crossings = BedCrossings(coupled.robot, surface, memory)
 
-    def control(run: CoupledSimulation) -> None:
+    def control(run: CoupledSimulation | RFT3DCoupling) -> None:
         crossings.check(run.time)
         data.ctrl[:] = drive(run.time, model, data)
 
+    terrain = coupled.describe() if on_rft else coupled.sim.describe()
     series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
-                         config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **coupled.sim.describe()})
+                         recorder=RobotLoads3D(coupled) if on_rft else None,
+                         config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **terrain})
     summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"])}
     if output is not None:  # /results holds plain values: the bodies that went through, by name
         write_results(output, {**summary, "through_the_bed": json.dumps(summary["through_the_bed"])})
     figure = None
     if plot and output is not None:
         figure = str(pathlib.Path(output).with_suffix(".png"))
-        plot_mjcf(series, [b.name for b in coupled.robot.coupled], figure, settle_time=config.settle_time,
-                  title=pathlib.Path(config.model).stem, weight=_weight(coupled))
+        draw = plot_robot_3d if on_rft else plot_mjcf
+        draw(series, [b.name for b in coupled.robot.coupled], figure, settle_time=config.settle_time,
+             title=pathlib.Path(config.model).stem, weight=_weight(model))
     return RobotRun(summary, series, figure)
 
 
-def _weight(coupled: CoupledSimulation) -> float:
-    """The whole robot's weight (N)."""
-    return float(coupled.robot.model.body_subtreemass[0]) * coupled.sim.scene.gravity
+def _weight(model: mujoco.MjModel) -> float:
+    """The whole robot's weight (N) under the model's gravity (on the SPH, the scene's: PlanarRobot checks)."""
+    return float(model.body_subtreemass[0]) * -float(model.opt.gravity[2])
 
 
-def _summary(config: MjcfScene, coupled: CoupledSimulation, series: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
-    """The run's summary values (:func:`run_mjcf`) from its series."""
-    weight = _weight(coupled)
+def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
+             series: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
+    """The run's summary values from its series: the terrain's vertical load on the coupled bodies
+    over the robot's weight in the last fifth of the run; with actuators, the distance along x and
+    mean speed of the centre of mass after the pause (on RFT also its distance along y); each
+    coupled body's final sinkage and mean sinkage after the pause; leaks (none on RFT). On RFT also
+    the centre of mass's final position (x, y, z) m, the root body's final heading, pitch and roll
+    (degrees, z–y–x angles of its frame), each coupled body's load (force, N, world axes) in the
+    last fifth and each wheel's slip after the pause, Eq. 4.8 of its mean forward speed and mean spin
+    (:class:`terrasph.robots.rft3d_terrain.RobotLoads3D`)."""
+    on_rft = isinstance(coupled, RFT3DCoupling)
+    model, data = coupled.robot.model, coupled.robot.data
+    up = 2 if on_rft else 1  # the vertical component of the series' forces and centre of mass
     names = [b.name for b in coupled.robot.coupled]
     time = series[f"robot/{names[0]}"]["time"]
     last = time >= time[-1] - 0.2 * (time[-1] - time[0])
-    lift = sum(series[f"robot/{n}"]["force"][:, 1] for n in names)
-    summary: dict[str, Any] = {"model": pathlib.Path(config.model).name, "coupled_bodies": names,
-                               "steps": coupled.sim.step_count, "leaked_particles": coupled.sim.leaked_particles,
-                               "lift_over_weight": float(np.mean(lift[last]) / weight)}
+    lift = sum(series[f"robot/{n}"]["force"][:, up] for n in names)
+    wheels = wheel_radii(coupled.robot) if on_rft else {}
+    radii = {coupled.robot.coupled[k].name: radius for k, (_, radius) in wheels.items()}
+    summary: dict[str, Any] = {"model": pathlib.Path(config.model).name, "terrain": config.terrain,
+                               "coupled_bodies": names, "steps": coupled.step_count,
+                               "leaked_particles": coupled.run_attributes()["leaked_particles"],
+                               "lift_over_weight": float(np.mean(lift[last]) / _weight(model))}
     actuators = series.get("robot/actuators")
     if actuators is not None:
         driven = actuators["time"] >= config.settle_time
-        com = actuators["com"][driven, 0]
+        com = actuators["com"][driven]
         span = float(actuators["time"][driven][-1] - actuators["time"][driven][0]) if driven.sum() > 1 else 0.0
-        summary["distance"] = float(com[-1] - com[0]) if len(com) else math.nan
+        summary["distance"] = float(com[-1, 0] - com[0, 0]) if len(com) else math.nan
         summary["mean_speed"] = summary["distance"] / span if span > 0 else math.nan
+        if on_rft:
+            summary["distance_y"] = float(com[-1, 1] - com[0, 1]) if len(com) else math.nan
     for n in names:
         body = series[f"robot/{n}"]
+        after = body["time"] >= config.settle_time
         summary[f"{n}_final_sinkage"] = float(body["sinkage"][-1])
-        summary[f"{n}_mean_sinkage"] = float(np.mean(body["sinkage"][body["time"] >= config.settle_time]))
+        summary[f"{n}_mean_sinkage"] = float(np.mean(body["sinkage"][after]))
+        if on_rft:
+            summary[f"{n}_mean_force"] = np.mean(body["force"][last], axis=0).tolist()
+            if n in radii and after.any():
+                speed, spin = np.mean(body["forward_speed"][after]), np.mean(body["spin"][after])
+                summary[f"{n}_mean_slip"] = float(slip(speed, spin, radii[n]))
+    if on_rft:
+        mujoco.mj_kinematics(model, data)  # the end state's derived quantities
+        mujoco.mj_comPos(model, data)
+        rotation = data.xmat[1].reshape(3, 3)
+        summary.update({"final_com": data.subtree_com[0].tolist(),
+                        "root_body": mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, 1) or "#1",
+                        "final_heading_deg": math.degrees(math.atan2(rotation[1, 0], rotation[0, 0])),
+                        "final_pitch_deg": math.degrees(math.asin(max(-1.0, min(1.0, -rotation[2, 0])))),
+                        "final_roll_deg": math.degrees(math.atan2(rotation[2, 1], rotation[2, 2]))})
     return summary
 
 

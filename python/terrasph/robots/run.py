@@ -27,6 +27,8 @@ import numpy as np
 from terrasph.io import defined_values
 from terrasph.robots.coupling import CoupledSimulation, RobotStepper
 from terrasph.robots.metrics import free_surface, sinkage, slip
+from terrasph.robots.rft3d_terrain import RFT3DCoupling
+from terrasph.run_loop import Recorder
 
 __all__ = ["SURFACE_MARGIN", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
 
@@ -91,7 +93,7 @@ class ControlledRun:
     `control`, called before each step, and its running values `memory` (plain data), kept in the
     checkpoints with MuJoCo's state."""
 
-    def __init__(self, coupled: RobotStepper, control: Callable[[Any], None] | None,
+    def __init__(self, coupled: RobotStepper | RFT3DCoupling, control: Callable[[Any], None] | None,
                  memory: dict[str, Any]) -> None:
         self.coupled = coupled
         self.control = control
@@ -143,13 +145,15 @@ class RobotRun:
         return defined_values(self.values)
 
 
-def run_coupled(coupled: RobotStepper, t_end: float, *, output: str | os.PathLike[str] | None = None,
+def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: str | os.PathLike[str] | None = None,
                 frame_interval: float = 0.05, series_interval: float = 0.01,
                 config: dict[str, Any] | None = None, control: Callable[[Any], None] | None = None,
                 progress: bool = False, memory: dict[str, Any] | None = None,
-                checkpoint_every: float | None = 600.0, resume: bool = False) -> dict[str, dict[str, np.ndarray]]:
+                checkpoint_every: float | None = 600.0, resume: bool = False,
+                recorder: Recorder | None = None) -> dict[str, dict[str, np.ndarray]]:
     """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`RobotStepper`, e.g. the RFT terrain's
-    :class:`terrasph.robots.rft_terrain.RFTCoupling`) to `t_end` (s); writes frames (the grains and
+    :class:`terrasph.robots.rft_terrain.RFTCoupling`, or the 3D RFT terrain's
+    :class:`terrasph.robots.rft3d_terrain.RFT3DCoupling` with its `recorder`) to `t_end` (s); writes frames (the grains and
     bodies; on the RFT terrain the bodies only) every `frame_interval` and robot samples every
     `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
@@ -157,6 +161,8 @@ def run_coupled(coupled: RobotStepper, t_end: float, *, output: str | os.PathLik
     name (``robot/…``, ``diagnostics``, ``walls/…``; the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
     the grains on each fixed wall (:meth:`terrasph.Simulation.wall_loads`) is sampled too, as
     ``walls/<name>`` (kept in checkpoints: track them again, about the same point, before resuming).
+    `recorder` records the robot's series (default :class:`RobotLoads`, the planar robot's; the 3D
+    RFT terrain's is :class:`terrasph.robots.rft3d_terrain.RobotLoads3D`).
 
     As :meth:`terrasph.Simulation.run` (the same loop, terrasph.run_loop.RunLoop): with an `output`,
     the SPH State, MuJoCo's state (qpos, qvel, act, ctrl, warm start, time), the coupling's memory
@@ -178,7 +184,7 @@ def run_coupled(coupled: RobotStepper, t_end: float, *, output: str | os.PathLik
         if walls:
             coupled.sim.reset_wall_load_means()
     loop = RunLoop(ControlledRun(coupled, control, {} if memory is None else memory), output, frame_interval,
-                   series_interval, [RobotLoads(coupled), *([walls] if walls and walls.groups else [])],
+                   series_interval, [recorder or RobotLoads(coupled), *([walls] if walls and walls.groups else [])],
                    config or coupled.describe(), {**versions(), "mujoco": mujoco.__version__}, checkpoint_every,
                    progress)
     return loop.run(t_end, resume).series

@@ -21,6 +21,7 @@ import math
 import os
 import warnings
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -28,6 +29,9 @@ import numpy as np
 from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
 from terrasph.robots.mjcf import Coupling, PlanarRobot, load_model, coupled_body_id
+
+if TYPE_CHECKING:  # the 3D RFT terrain builds on this module
+    from terrasph.robots.rft3d_terrain import Robot3D
 
 __all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "BedCrossings", "floor_geoms", "lowest_points", "switch_off_floor",
            "terrain_model", "terrain_robot"]
@@ -147,7 +151,7 @@ class BedCrossings:
     ``memory["through_the_bed"]`` (plain data: a run's checkpointed memory, read at each check, so a
     resumed run's restored memory counts)."""
 
-    def __init__(self, robot: PlanarRobot, surface: float, memory: dict[str, dict[str, float]]) -> None:
+    def __init__(self, robot: PlanarRobot | Robot3D, surface: float, memory: dict[str, dict[str, float]]) -> None:
         model = robot.model
         coupled = {b.body_id for b in robot.coupled}
         self.robot, self.surface, self.memory = robot, surface, memory

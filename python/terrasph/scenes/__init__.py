@@ -110,10 +110,11 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
                "two leg-wheels on driven hinges, paused and then driven clockwise across a bed of 3 mm glass "
                "beads (docs/robots.md)."),
     SceneEntry("mjcf", "mjcf", "terrasph.robots.mjcf_scene", "MjcfScene", "run_mjcf",
-               "any planar MJCF model on a bed of glass beads",
-               "A planar MuJoCo model (slides in x and z, hinges about y) on a bed of 3 mm glass beads: its floor "
-               "is replaced by the bed, the bodies near the floor meet the grains with the shapes of their "
-               "collision geoms, and its actuators follow --ctrl (docs/mjcf.md)."),
+               "any planar MJCF model on a bed of glass beads, any MJCF model on the 3D RFT terrain",
+               "A planar MuJoCo model (slides in x and z, hinges about y) on a bed of 3 mm glass beads, or any "
+               "MuJoCo model (free joints, hinges about any axis) on the 3D resistive-force-theory terrain "
+               "(--terrain rft): its floor is replaced by the terrain, the bodies near the floor meet it with "
+               "their collision geoms, and its actuators follow --ctrl (docs/mjcf.md)."),
 )}
 
 

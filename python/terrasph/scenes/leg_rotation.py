@@ -88,10 +88,8 @@ class LegRotation:
     t_end: float | None = shared("t_end", None, default_text="the end of the sweep, settle_time + sweep angle / omega")
     fidelity: str = fidelity_option("leg-rotation")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of SCENE_NUMERICS and terrasph.Numerics
-    terrain: str = option("sph", choices=rft.TERRAINS, help="the SPH bed, or resistive force theory on a flat "
-                                                           "surface (terrasph.rft, docs/rft.md)")
-    rft_table: str = option("generic", help='terrain rft: the coefficient map, "generic" or a JSON table '
-                                            "(terrasph rft-calibrate)")
+    terrain: str = shared("terrain", "sph")
+    rft_table: str = shared("rft_table", "generic")
 
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
