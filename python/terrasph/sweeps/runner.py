@@ -165,9 +165,11 @@ def run_sweep(spec: SweepSpec, out_dir: str | os.PathLike[str], *, workers: int 
         return manifest
 
     write_manifest()
-    # silence_logs: Dask's own INFO/WARNING lines (e.g. a worker slow to stop on a busy machine) stay out
+    # silence_logs: Dask's own INFO/WARNING lines (e.g. a worker slow to stop on a busy machine) stay out;
+    # the scheduler's HTTP server on a free port (":0"): with None it still takes 8787 and warns when a
+    # second sweep or a notebook's runs beside it (the chapter 4 notebook's test failed so, 2026-12-05)
     cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                  dashboard_address=None, silence_logs=logging.ERROR)
+                                                  dashboard_address=":0", silence_logs=logging.ERROR)
     try:
         with Client(scheduler or cluster) as client:
             futures = []
