@@ -1,5 +1,6 @@
-// Bindings of resistive force theory (cpp/include/terrasph/rft.hpp, rft_robot.hpp): the load of a
-// body's surface elements and the native step of a planar MuJoCo robot on the RFT terrain.
+// Bindings of resistive force theory (cpp/include/terrasph/rft.hpp, rft_robot.hpp, rft3d.hpp,
+// rft3d_robot.hpp): the load of a body's surface elements in the plane and of 3D elements, and the
+// native steps of a planar and of any MuJoCo robot on the planar and 3D RFT terrains.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "terrasph/rft.hpp"
+#include "terrasph/rft3d.hpp"
 #include "terrasph/rft_robot.hpp"
 
 namespace py = pybind11;
@@ -35,6 +37,18 @@ tr::Coefficients coefficients(const std::vector<double>& c, double zeta) {
 }
 
 std::vector<double> copied(const CArray& a) { return {a.data(), a.data() + a.size()}; }
+
+/// `a` is (count, 3).
+void check_rows(const CArray& a, py::ssize_t count, const char* what) {
+  if (a.ndim() != 2 || a.shape(0) != count || a.shape(1) != 3)
+    throw py::value_error(std::string("3D RFT elements: ") + what + " must be (count, 3)");
+}
+
+std::vector<tr::VelocityServo> robot_servos(const std::vector<std::tuple<int, int, double, double, double, double>>& servos) {
+  std::vector<tr::VelocityServo> out;
+  for (const auto& [actuator, dof, kv, gear, lower, upper] : servos) out.push_back({actuator, dof, kv, gear, lower, upper});
+  return out;
+}
 
 }  // namespace
 
@@ -69,11 +83,8 @@ void bind_rft(py::module_& m) {
                check_elements(centre, normal, length);
                robot_bodies.push_back({id, copied(centre), copied(normal), copied(length), width});
              }
-             std::vector<tr::VelocityServo> robot_servos;
-             for (const auto& [actuator, dof, kv, gear, lower, upper] : servos)
-               robot_servos.push_back({actuator, dof, kv, gear, lower, upper});
              return std::make_unique<tr::PlanarRobotStepper>(library, model, data, std::move(robot_bodies),
-                                                             std::move(robot_servos), surface, coefficients(c, zeta),
+                                                             robot_servos(servos), surface, coefficients(c, zeta),
                                                              time_step, regularisation,
                                                              tr::NewtonSettings{iterations, halvings, tolerance});
            }),
@@ -97,4 +108,31 @@ void bind_rft(py::module_& m) {
           },
           "each body's (F_x, F_z, torque) integrated over time since cleared (N s, N m s)")
       .def_property("step_count", &tr::PlanarRobotStepper::step_count, &tr::PlanarRobotStepper::set_step_count);
+
+  m.def(
+      "rft3d_element_loads",
+      [](const CArray& normal, const CArray& velocity, const CArray& depth, const CArray& area,
+         const std::vector<double>& c, double zeta, double regularisation, bool jacobian) {
+        const py::ssize_t count = depth.ndim() == 1 ? depth.shape(0) : -1;
+        if (area.ndim() != 1 || area.shape(0) != count)
+          throw py::value_error("3D RFT elements: depth and area must be (count,)");
+        check_rows(normal, count, "normal");
+        check_rows(velocity, count, "velocity");
+        const tr::Coefficients table = coefficients(c, zeta);
+        py::array_t<double> forces({count, py::ssize_t{3}});
+        py::array_t<double> jacobians = jacobian ? py::array_t<double>({count, py::ssize_t{3}, py::ssize_t{3}})
+                                                 : py::array_t<double>();
+        const double *n = normal.data(), *v = velocity.data();
+        for (py::ssize_t e = 0; e < count; ++e) {
+          const tr::ElementLoad load = tr::element_force({n[3 * e], n[3 * e + 1], n[3 * e + 2]},
+                                                         {v[3 * e], v[3 * e + 1], v[3 * e + 2]}, depth.data()[e],
+                                                         area.data()[e], table, regularisation, jacobian);
+          std::copy(load.force.begin(), load.force.end(), forces.mutable_data() + 3 * e);
+          if (jacobian) std::copy(load.jacobian.begin(), load.jacobian.end(), jacobians.mutable_data() + 9 * e);
+        }
+        return py::make_tuple(forces, jacobian ? py::object(jacobians) : py::object(py::none()));
+      },
+      py::arg("normal"), py::arg("velocity"), py::arg("depth"), py::arg("area"), py::arg("coefficients"),
+      py::arg("zeta"), py::arg("regularisation"), py::arg("jacobian") = false,
+      "3D RFT forces (count, 3) on elements (terrasph.rft3d.element_forces) and, if asked, dF/dv (count, 3, 3)");
 }

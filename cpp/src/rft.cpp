@@ -6,27 +6,6 @@
 
 namespace terrasph::rft {
 
-namespace {
-
-/// α̂_x, α̂_z and their derivatives in γ (Li et al. 2013, supplementary Eq. S2, with the sums of
-/// angles expanded: sin(2β ± γ) = sin 2β cos γ ± cos 2β sin γ, ...).
-struct AlphaHat {
-  double ax, az, dax, daz;
-};
-
-AlphaHat alpha_hat(const std::array<double, 9>& k, double cos2b, double sin2b, double cosg, double sing) {
-  const double a00 = k[0], a10 = k[1], b11 = k[2], b01 = k[3], bm11 = k[4];
-  const double c11 = k[5], c01 = k[6], cm11 = k[7], d10 = k[8];
-  AlphaHat out{};
-  out.az = a00 + a10 * cos2b + (b11 - bm11) * sin2b * cosg + (b11 + bm11) * cos2b * sing + b01 * sing;
-  out.daz = -(b11 - bm11) * sin2b * sing + (b11 + bm11) * cos2b * cosg + b01 * cosg;
-  out.ax = (c11 + cm11) * cos2b * cosg + (cm11 - c11) * sin2b * sing + c01 * cosg + d10 * sin2b;
-  out.dax = -(c11 + cm11) * cos2b * sing + (cm11 - c11) * sin2b * cosg - c01 * sing;
-  return out;
-}
-
-}  // namespace
-
 BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, double surface,
                    const Coefficients& table, double regularisation, bool jacobian) {
   BodyLoad load{};
