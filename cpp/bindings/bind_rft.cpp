@@ -11,6 +11,7 @@
 
 #include "terrasph/rft.hpp"
 #include "terrasph/rft3d.hpp"
+#include "terrasph/rft3d_robot.hpp"
 #include "terrasph/rft_robot.hpp"
 
 namespace py = pybind11;
@@ -135,4 +136,38 @@ void bind_rft(py::module_& m) {
       py::arg("normal"), py::arg("velocity"), py::arg("depth"), py::arg("area"), py::arg("coefficients"),
       py::arg("zeta"), py::arg("regularisation"), py::arg("jacobian") = false,
       "3D RFT forces (count, 3) on elements (terrasph.rft3d.element_forces) and, if asked, dF/dv (count, 3, 3)");
+
+  py::class_<tr::Robot3DStepper>(m, "Robot3DStepper",
+                                 "A MuJoCo robot on the 3D RFT terrain stepped natively "
+                                 "(terrasph.robots.rft3d_terrain.RFT3DCoupling)")
+      .def(py::init([](const std::string& library, std::uintptr_t model, std::uintptr_t data,
+                       const std::vector<std::tuple<int, CArray, CArray, CArray>>& bodies,
+                       const std::vector<std::tuple<int, int, double, double, double, double>>& servos,
+                       double surface, const std::vector<double>& c, double zeta, double time_step,
+                       double regularisation, int iterations, int halvings, double tolerance) {
+             std::vector<tr::RobotBody3D> robot_bodies;
+             for (const auto& [id, centre, normal, area] : bodies) {
+               if (area.ndim() != 1) throw py::value_error("3D RFT elements: area must be (count,)");
+               check_rows(centre, area.shape(0), "centre");
+               check_rows(normal, area.shape(0), "normal");
+               robot_bodies.push_back({id, copied(centre), copied(normal), copied(area)});
+             }
+             return std::make_unique<tr::Robot3DStepper>(library, model, data, std::move(robot_bodies),
+                                                         robot_servos(servos), surface, coefficients(c, zeta),
+                                                         time_step, regularisation,
+                                                         tr::NewtonSettings{iterations, halvings, tolerance});
+           }),
+           py::arg("library"), py::arg("model"), py::arg("data"), py::arg("bodies"), py::arg("servos"),
+           py::arg("surface"), py::arg("coefficients"), py::arg("zeta"), py::arg("time_step"),
+           py::arg("regularisation"), py::arg("iterations"), py::arg("halvings"), py::arg("tolerance"))
+      .def("step", &tr::Robot3DStepper::step, "one step")
+      .def("steps", &tr::Robot3DStepper::steps, py::arg("count"), "`count` steps")
+      .def_property(
+          "load_sums", [](tr::Robot3DStepper& s) { return s.load_sums(); },
+          [](tr::Robot3DStepper& s, const std::vector<double>& v) {
+            if (v.size() != s.load_sums().size()) throw py::value_error("load_sums: six per coupled body");
+            s.load_sums() = v;
+          },
+          "each body's (force, torque about its centre of mass) integrated over time since cleared (N s, N m s)")
+      .def_property("step_count", &tr::Robot3DStepper::step_count, &tr::Robot3DStepper::set_step_count);
 }

@@ -27,6 +27,28 @@ struct ElementLoad {
 ElementLoad element_force(const Vec3& normal, const Vec3& velocity, double depth, double area,
                           const Coefficients& table, double regularisation, bool jacobian);
 
+/// A body's elements below the free surface, world frame, borrowed: arms from the body's reference
+/// point (its centre of mass), unit outward normals, depths (m), areas (m²).
+struct SubmergedElements {
+  const Vec3* arm = nullptr;
+  const Vec3* normal = nullptr;
+  const double* depth = nullptr;
+  const double* area = nullptr;
+  std::size_t count = 0;
+};
+
+/// The body's wrench (F, τ = Σ r × F_e about the reference point; N, N m) and, if asked for, its
+/// derivative in the body's (velocity of the reference point, angular velocity), row-major 6 × 6.
+struct BodyWrench {
+  std::array<double, 6> wrench{};
+  std::array<double, 36> jacobian{};
+};
+
+/// The load on `elements` of a body moving with `velocity` (m/s) at its reference point and angular
+/// velocity `spin` (rad/s): each element at v = velocity + spin × r takes element_force().
+BodyWrench body_wrench(const SubmergedElements& elements, const Vec3& velocity, const Vec3& spin,
+                       const Coefficients& table, double regularisation, bool jacobian);
+
 /// element_force() on `count` elements: `normal`, `velocity` and `out` (count, 3) row-major,
 /// `depth`, `area` (count,).
 void element_forces(const double* normal, const double* velocity, const double* depth, const double* area,
