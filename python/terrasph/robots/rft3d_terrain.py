@@ -14,6 +14,9 @@ frame is kept. :class:`RFT3DCoupling` is the run loop's stepper (terrasph.run_lo
    the residual) with the wrenches' velocity Jacobians, those of the element law's analytic one
    (cpp/src/rft3d.cpp); the positions move by dt (q̇ − q̇*). The torque-limited velocity servos take
    the step as plain forces, their force at t_n, corrected in the Newton solve as the wrenches are.
+   Where no halving lowers the residual (a kink of the regularised load) the iterations stop with the
+   best velocities so far: in a drop onto the sand a good share of the impact's steps end so, and the
+   settled sinkage depends on those stops at the level of a few per cent (docs/rft.md, "3D RFT").
 
 Why implicit, as in the planar stepper (terrasph.robots.rft_terrain): the regularised load's
 derivative in the normal speed is F / v_ε with v_ε = 0.1 mm/s, a damping that an explicit step
@@ -48,8 +51,9 @@ from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = ["RFT3D_TIME_STEP", "RFT3DCoupling", "Robot3D", "RobotLoads3D", "rft_robot"]
 
-#: MuJoCo's step on the 3D RFT terrain (s): the rover's travel at 1e-3 s within 0.3 % of that at 5e-4 s,
-#: at 2e-3 s 12 % short (docs/rft.md, "3D RFT"; benchmarks/studies/rft3d_rover.py)
+#: MuJoCo's step on the 3D RFT terrain (s): chosen when the numpy stepper read the rover's travel at 1e-3 s
+#: within 0.3 % of that at 5e-4 s (2e-3 s 12 % short); the native one reads 5 % apart, within the spread
+#: the drop's implicit solve leaves in it (docs/rft.md, "3D RFT"; benchmarks/studies/rft3d_rover.py)
 RFT3D_TIME_STEP = 1e-3
 
 #: Newton iterations per step at most, halvings of a step that fails to reduce the residual, and the
