@@ -1,17 +1,23 @@
 """3D resistive force theory (terrasph.rft3d) and its MuJoCo stepper (terrasph.robots.rft3d_terrain):
 the planar law recovered for motion in the x–z plane, invariance under a turn about the vertical,
-the geoms' surface areas, a plate's hand-computed load and a resting box's equilibrium depth."""
+the geoms' surface areas, a plate's hand-computed load and a resting box's equilibrium depth; the
+compiled law's Jacobian, the native step's momentum balance, its checkpoint and its control rate."""
 
 import math
+from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
-from terrasph import rft, rft3d
+import terrasph
+from terrasph import _core, rft, rft3d
 from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_surface
-from terrasph.robots.rft3d_terrain import RFT3DCoupling, rft_robot
+from terrasph.robots import rft_terrain
+from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, rft_robot
+
+ROVER = Path(terrasph.__file__).parent / "robots" / "models" / "rover4.xml"
 
 
 def _model(geom: str, joint: str = "<freejoint/>") -> mujoco.MjModel:
@@ -101,3 +107,99 @@ def test_box_dropped_on_the_sand_stops_where_the_resistance_took_its_energy():
     assert -(robot.data.qpos[2] - 0.01) == pytest.approx(expected, rel=0.02)
     assert stepper.body_sample(0)["force"][2] == pytest.approx(weight, rel=0.01)
     assert np.abs(robot.data.qvel).max() < 1e-3
+
+
+@pytest.mark.parametrize("speed", [0.2, 3e-4, 5e-5])  # the plane of motion; blended with the normal's; ramped
+def test_element_jacobian_matches_finite_differences(speed):
+    # the analytic ∂F/∂v of the compiled law (the native stepper's Newton matrix) against central differences
+    rng = np.random.default_rng(7)
+    normal = rng.normal(size=(400, 3))
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    direction = rng.normal(size=(400, 3))
+    velocity = speed * direction / np.linalg.norm(direction, axis=1)[:, None]
+    depth, area = rng.uniform(0.001, 0.05, 400), rng.uniform(1e-5, 1e-4, 400)
+    table = rft.GENERIC
+
+    def forces(v):
+        return _core.rft3d_element_loads(normal, v, depth, area, table.terms, table.zeta,
+                                         rft.REGULARISATION_SPEED)[0]
+
+    force, analytic = _core.rft3d_element_loads(normal, velocity, depth, area, table.terms, table.zeta,
+                                                rft.REGULARISATION_SPEED, True)
+    assert np.array_equal(force, rft3d.element_forces(normal, velocity, depth, area, table))
+    h = 1e-6 * speed
+    numeric = np.stack([(forces(velocity + h * e) - forces(velocity - h * e)) / (2 * h) for e in np.eye(3)], axis=2)
+    # a kink (n·v = v_ε, |v_h| = v_ε or n·v = 0) within h of an element spoils its difference: leave those out
+    normal_speed, horizontal = np.sum(normal * velocity, axis=1), np.hypot(velocity[:, 0], velocity[:, 1])
+    smooth = (np.abs(normal_speed - rft.REGULARISATION_SPEED) > 10 * h) & (np.abs(horizontal - rft.REGULARISATION_SPEED)
+                                                                          > 10 * h) & (np.abs(normal_speed) > 10 * h)
+    loaded = smooth & (np.abs(force).max(axis=1) > 0)
+    assert loaded.sum() > 100
+    scale = np.abs(numeric[loaded]).max(axis=(1, 2))[:, None, None]
+    assert np.all(np.abs(analytic[loaded] - numeric[loaded]) <= 1e-5 * scale)
+
+
+def _tumbling_box(element_length: float = 0.005):
+    # a 1 kg box, its centre of mass at its frame, half in the sand, moving sideways and down and turning
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="1 1 0.1"/><body name="b" pos="0 0 0.005" '
+        'euler="10 -20 15"><freejoint/><geom type="box" size="0.04 0.03 0.02" mass="1"/></body></worldbody>'
+        '</mujoco>')
+    robot = rft_robot(model, element_length=element_length)
+    robot.data.qvel[:] = [0.2, 0.1, -0.3, 1.0, -2.0, 0.5]
+    return robot, RFT3DCoupling(robot)
+
+
+def test_native_step_is_backward_euler_in_the_rft_force():
+    # one step of the native stepper: m (v_{n+1} − v_n) = dt (m g + F) with F the RFT force at the step's end
+    # velocities and its start pose, recomputed here by terrasph.rft3d.body_wrench (numpy sums of the law)
+    robot, stepper = _tumbling_box()
+    model, data = robot.model, robot.data
+    mujoco.mj_forward(model, data)
+    position, rotation = data.xpos[1].copy(), data.xmat[1].reshape(3, 3).copy()
+    start = data.qvel.copy()
+    stepper.reset_body_means()
+    dt = stepper.step()
+    end = data.qvel.copy()
+    sample = stepper.body_sample(0)
+    force, torque = rft3d.body_wrench(robot.coupled[0].elements, position, rotation, position, end[:3],
+                                      rotation @ end[3:], robot.surface, stepper.table)
+    assert np.linalg.norm(force) > 5.0  # well loaded: ~ its weight and more
+    assert np.allclose(sample["force"], force, rtol=0, atol=1e-10 * np.linalg.norm(force))
+    assert np.allclose(sample["torque"], torque, rtol=0, atol=1e-10 * np.linalg.norm(force) * 0.05)
+    balance = model.body_mass[1] * (end[:3] - start[:3]) - dt * (model.body_mass[1] * model.opt.gravity + force)
+    assert np.abs(balance).max() < 1e-7 * dt * np.linalg.norm(force)
+
+
+def test_rft3d_checkpoint_continues_bit_for_bit(tmp_path):
+    # the rover driven on the sand, checkpointed and continued by a fresh stepper restored from the file,
+    # ends where the uninterrupted one does, bit for bit (MuJoCo's state and the load means)
+    def rover():
+        robot = rft_robot(ROVER, element_length=0.013)
+        robot.data.ctrl[:] = 3.0
+        return RFT3DCoupling(robot)
+
+    whole = rover()
+    whole.advance(0.06)
+    whole.checkpoint(tmp_path / "c.h5")
+    whole.advance(0.12)
+    resumed = rover()
+    resumed.restore(tmp_path / "c.h5")
+    assert resumed.step_count == 60
+    resumed.advance(0.12)
+    assert np.array_equal(whole.robot.data.qpos, resumed.robot.data.qpos)
+    assert np.array_equal(whole.robot.data.qvel, resumed.robot.data.qvel)
+    for k in range(len(whole.robot.coupled)):
+        assert np.array_equal(whole.body_sample(k)["force"], resumed.body_sample(k)["force"])
+        assert np.array_equal(whole.body_sample(k)["torque"], resumed.body_sample(k)["torque"])
+
+
+def test_rft3d_stepper_calls_its_controller_at_the_control_rate():
+    # the native stepper takes a control interval's steps per call; the controller is called at its multiples
+    robot, stepper = _tumbling_box(0.01)
+    calls = []
+    taken = stepper.advance(0.05, control=lambda run: calls.append((run.time, run.control_span())))
+    interval = rft_terrain.RFT_CONTROL_INTERVAL
+    assert taken == stepper.step_count == round(0.05 / RFT3D_TIME_STEP)
+    assert np.allclose([t for t, _ in calls], interval * np.arange(round(0.05 / interval)), rtol=0, atol=1e-12)
+    assert all(span == pytest.approx(interval) for _, span in calls)

@@ -1,5 +1,6 @@
-// Bindings of resistive force theory (cpp/include/terrasph/rft.hpp, rft_robot.hpp): the load of a
-// body's surface elements and the native step of a planar MuJoCo robot on the RFT terrain.
+// Bindings of resistive force theory (cpp/include/terrasph/rft.hpp, rft_robot.hpp, rft3d.hpp,
+// rft3d_robot.hpp): the load of a body's surface elements in the plane and of 3D elements, and the
+// native steps of a planar and of any MuJoCo robot on the planar and 3D RFT terrains.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -10,6 +11,8 @@
 #include <vector>
 
 #include "terrasph/rft.hpp"
+#include "terrasph/rft3d.hpp"
+#include "terrasph/rft3d_robot.hpp"
 #include "terrasph/rft_robot.hpp"
 
 namespace py = pybind11;
@@ -42,6 +45,18 @@ tr::Coefficients coefficients(const std::vector<TermTuple>& terms, double zeta) 
 }
 
 std::vector<double> copied(const CArray& a) { return {a.data(), a.data() + a.size()}; }
+
+/// `a` is (count, 3).
+void check_rows(const CArray& a, py::ssize_t count, const char* what) {
+  if (a.ndim() != 2 || a.shape(0) != count || a.shape(1) != 3)
+    throw py::value_error(std::string("3D RFT elements: ") + what + " must be (count, 3)");
+}
+
+std::vector<tr::VelocityServo> robot_servos(const std::vector<std::tuple<int, int, double, double, double, double>>& servos) {
+  std::vector<tr::VelocityServo> out;
+  for (const auto& [actuator, dof, kv, gear, lower, upper] : servos) out.push_back({actuator, dof, kv, gear, lower, upper});
+  return out;
+}
 
 }  // namespace
 
@@ -76,11 +91,8 @@ void bind_rft(py::module_& m) {
                check_elements(centre, normal, length);
                robot_bodies.push_back({id, copied(centre), copied(normal), copied(length), width});
              }
-             std::vector<tr::VelocityServo> robot_servos;
-             for (const auto& [actuator, dof, kv, gear, lower, upper] : servos)
-               robot_servos.push_back({actuator, dof, kv, gear, lower, upper});
              return std::make_unique<tr::PlanarRobotStepper>(library, model, data, std::move(robot_bodies),
-                                                             std::move(robot_servos), surface, coefficients(c, zeta),
+                                                             robot_servos(servos), surface, coefficients(c, zeta),
                                                              time_step, regularisation,
                                                              tr::NewtonSettings{iterations, halvings, tolerance});
            }),
@@ -104,4 +116,65 @@ void bind_rft(py::module_& m) {
           },
           "each body's (F_x, F_z, torque) integrated over time since cleared (N s, N m s)")
       .def_property("step_count", &tr::PlanarRobotStepper::step_count, &tr::PlanarRobotStepper::set_step_count);
+
+  m.def(
+      "rft3d_element_loads",
+      [](const CArray& normal, const CArray& velocity, const CArray& depth, const CArray& area,
+         const std::vector<TermTuple>& c, double zeta, double regularisation, bool jacobian) {
+        const py::ssize_t count = depth.ndim() == 1 ? depth.shape(0) : -1;
+        if (area.ndim() != 1 || area.shape(0) != count)
+          throw py::value_error("3D RFT elements: depth and area must be (count,)");
+        check_rows(normal, count, "normal");
+        check_rows(velocity, count, "velocity");
+        const tr::Coefficients table = coefficients(c, zeta);
+        py::array_t<double> forces({count, py::ssize_t{3}});
+        py::array_t<double> jacobians = jacobian ? py::array_t<double>({count, py::ssize_t{3}, py::ssize_t{3}})
+                                                 : py::array_t<double>();
+        const double *n = normal.data(), *v = velocity.data();
+        for (py::ssize_t e = 0; e < count; ++e) {
+          const tr::ElementLoad load = tr::element_force({n[3 * e], n[3 * e + 1], n[3 * e + 2]},
+                                                         {v[3 * e], v[3 * e + 1], v[3 * e + 2]}, depth.data()[e],
+                                                         area.data()[e], table, regularisation, jacobian);
+          std::copy(load.force.begin(), load.force.end(), forces.mutable_data() + 3 * e);
+          if (jacobian) std::copy(load.jacobian.begin(), load.jacobian.end(), jacobians.mutable_data() + 9 * e);
+        }
+        return py::make_tuple(forces, jacobian ? py::object(jacobians) : py::object(py::none()));
+      },
+      py::arg("normal"), py::arg("velocity"), py::arg("depth"), py::arg("area"), py::arg("coefficients"),
+      py::arg("zeta"), py::arg("regularisation"), py::arg("jacobian") = false,
+      "3D RFT forces (count, 3) on elements (terrasph.rft3d.element_forces) and, if asked, dF/dv (count, 3, 3)");
+
+  py::class_<tr::Robot3DStepper>(m, "Robot3DStepper",
+                                 "A MuJoCo robot on the 3D RFT terrain stepped natively "
+                                 "(terrasph.robots.rft3d_terrain.RFT3DCoupling)")
+      .def(py::init([](const std::string& library, std::uintptr_t model, std::uintptr_t data,
+                       const std::vector<std::tuple<int, CArray, CArray, CArray>>& bodies,
+                       const std::vector<std::tuple<int, int, double, double, double, double>>& servos,
+                       double surface, const std::vector<TermTuple>& c, double zeta, double time_step,
+                       double regularisation, int iterations, int halvings, double tolerance) {
+             std::vector<tr::RobotBody3D> robot_bodies;
+             for (const auto& [id, centre, normal, area] : bodies) {
+               if (area.ndim() != 1) throw py::value_error("3D RFT elements: area must be (count,)");
+               check_rows(centre, area.shape(0), "centre");
+               check_rows(normal, area.shape(0), "normal");
+               robot_bodies.push_back({id, copied(centre), copied(normal), copied(area)});
+             }
+             return std::make_unique<tr::Robot3DStepper>(library, model, data, std::move(robot_bodies),
+                                                         robot_servos(servos), surface, coefficients(c, zeta),
+                                                         time_step, regularisation,
+                                                         tr::NewtonSettings{iterations, halvings, tolerance});
+           }),
+           py::arg("library"), py::arg("model"), py::arg("data"), py::arg("bodies"), py::arg("servos"),
+           py::arg("surface"), py::arg("coefficients"), py::arg("zeta"), py::arg("time_step"),
+           py::arg("regularisation"), py::arg("iterations"), py::arg("halvings"), py::arg("tolerance"))
+      .def("step", &tr::Robot3DStepper::step, "one step")
+      .def("steps", &tr::Robot3DStepper::steps, py::arg("count"), "`count` steps")
+      .def_property(
+          "load_sums", [](tr::Robot3DStepper& s) { return s.load_sums(); },
+          [](tr::Robot3DStepper& s, const std::vector<double>& v) {
+            if (v.size() != s.load_sums().size()) throw py::value_error("load_sums: six per coupled body");
+            s.load_sums() = v;
+          },
+          "each body's (force, torque about its centre of mass) integrated over time since cleared (N s, N m s)")
+      .def_property("step_count", &tr::Robot3DStepper::step_count, &tr::Robot3DStepper::set_step_count);
 }

@@ -7,15 +7,7 @@
 
 namespace terrasph::rft {
 
-namespace {
-
-/// α̂_x, α̂_z and their derivatives in γ: Σ value · cos or sin(2mβ + nγ) over the map's terms (Li et
-/// al. 2013, supplementary Eq. S2, extended to higher orders; terrasph.rft), the multiples of the
-/// angles by angle addition.
-struct AlphaHat {
-  double ax, az, dax, daz;
-};
-
+// The multiples of the angles by angle addition.
 AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double cosg, double sing) {
   std::array<double, kMaxOrder + 1> cb{}, sb{}, cg{}, sg{};  // cos, sin of 2mβ and nγ, m, n = 0 … kMaxOrder
   cb[0] = cg[0] = 1.0;
@@ -31,19 +23,19 @@ AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double
     const double cm = cb[m], sm = t.m < 0 ? -sb[m] : sb[m];
     const double cos_arg = cm * cg[n] - sm * sg[n], sin_arg = sm * cg[n] + cm * sg[n];  // of 2mβ + nγ
     const double value = t.sine ? sin_arg : cos_arg;
-    const double slope = t.n * (t.sine ? cos_arg : -sin_arg);  // ∂/∂γ
+    const double rate = t.sine ? cos_arg : -sin_arg;  // ∂/∂(2mβ + nγ)
     if (t.vertical) {
       out.az += t.value * value;
-      out.daz += t.value * slope;
+      out.daz += t.value * t.n * rate;
+      out.daz_dbeta += t.value * 2 * t.m * rate;
     } else {
       out.ax += t.value * value;
-      out.dax += t.value * slope;
+      out.dax += t.value * t.n * rate;
+      out.dax_dbeta += t.value * 2 * t.m * rate;
     }
   }
   return out;
 }
-
-}  // namespace
 
 BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, double surface,
                    const Coefficients& table, double regularisation, bool jacobian) {

@@ -2,7 +2,6 @@
 // class terrasph.robots.rft_terrain.RFTCoupling, whose docstring gives the scheme.
 #include "terrasph/rft_robot.hpp"
 
-#include <dlfcn.h>
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Dense>
@@ -10,55 +9,14 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "mujoco_api.hpp"
+
 namespace terrasph::rft {
 
 namespace {
 
-/// The MuJoCo functions the step calls, looked up in the loaded library (signatures from the headers).
-struct MujocoApi {
-  decltype(&mj_step) step = nullptr;
-  decltype(&mj_jac) jac = nullptr;
-  decltype(&mj_fullM) full_mass = nullptr;
-  decltype(&mj_integratePos) integrate_positions = nullptr;
-  decltype(&mj_kinematics) kinematics = nullptr;
-  decltype(&mj_comPos) com_positions = nullptr;
-  decltype(&mj_comVel) com_velocities = nullptr;
-
-  explicit MujocoApi(const std::string& library) {
-    void* handle = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL | RTLD_NOLOAD);
-    if (handle == nullptr) handle = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (handle == nullptr) throw std::runtime_error("cannot open the MuJoCo library '" + library + "'");
-    const auto version = reinterpret_cast<decltype(&mj_version)>(dlsym(handle, "mj_version"));
-    if (version == nullptr || version() != mjVERSION_HEADER)
-      throw std::runtime_error("the MuJoCo library '" + library + "' is version " +
-                               std::to_string(version ? version() : -1) + ", terrasph's core was built with " +
-                               std::to_string(mjVERSION_HEADER) + ": rebuild terrasph against the installed mujoco");
-    find(handle, "mj_step", step);
-    find(handle, "mj_jac", jac);
-    find(handle, "mj_fullM", full_mass);
-    find(handle, "mj_integratePos", integrate_positions);
-    find(handle, "mj_kinematics", kinematics);
-    find(handle, "mj_comPos", com_positions);
-    find(handle, "mj_comVel", com_velocities);
-  }
-
-  template <typename Function>
-  static void find(void* handle, const char* name, Function& out) {
-    out = reinterpret_cast<Function>(dlsym(handle, name));
-    if (out == nullptr) throw std::runtime_error(std::string("the MuJoCo library has no ") + name);
-  }
-};
-
 using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 using Vector = Eigen::VectorXd;
-
-/// The servo's force kv (command − gear q̇) within its limits and its derivative in q̇ (0 at a limit).
-std::pair<double, double> servo_force(const VelocityServo& servo, double command, const Vector& qvel) {
-  const double raw = servo.kv * (command - servo.gear * qvel[servo.dof]);
-  if (raw <= servo.lower) return {servo.lower, 0.0};
-  if (raw >= servo.upper) return {servo.upper, 0.0};
-  return {raw, -servo.kv * servo.gear};
-}
 
 double unwrapped(double previous, double wrapped) {
   return previous + std::remainder(wrapped - previous, 2.0 * M_PI);
@@ -119,7 +77,7 @@ struct PlanarRobotStepper::Impl {
       stiffness += twists[b].transpose() * jacobian * twists[b];
     }
     for (std::size_t k = 0; k < servos.size(); ++k) {
-      const auto [force, slope] = servo_force(servos[k], commands[k], qvel);
+      const auto [force, slope] = servo_force(servos[k], commands[k], qvel[servos[k].dof]);
       generalised[servos[k].dof] += servos[k].gear * force;
       stiffness(servos[k].dof, servos[k].dof) += servos[k].gear * slope;
     }
@@ -137,20 +95,12 @@ struct PlanarRobotStepper::Impl {
       applied[2] = loads[b].fz;
       applied[4] = loads[b].torque + oz * loads[b].fx - ox * loads[b].fz;  // τ_com = τ_ref + ((x_ref − x_com) × F)_y
     }
-    for (std::size_t k = 0; k < servos.size(); ++k) {
-      const int a = servos[k].actuator;
-      m->actuator_gainprm[a * mjNGAIN] = 1.0;
-      m->actuator_biasprm[a * mjNBIAS + 2] = 0.0;
-      d->ctrl[a] = servo_force(servos[k], commands[k], start).first;
-    }
+    std::vector<double> forces(servos.size());
+    for (std::size_t k = 0; k < servos.size(); ++k) forces[k] = servo_force(servos[k], commands[k], start[servos[k].dof]).first;
+    set_servos(m, d, servos, forces.data(), commands);
     m->opt.timestep = dt;
     api.step(m, d);
-    for (std::size_t k = 0; k < servos.size(); ++k) {
-      const int a = servos[k].actuator;
-      m->actuator_gainprm[a * mjNGAIN] = servos[k].kv;
-      m->actuator_biasprm[a * mjNBIAS + 2] = -servos[k].kv;
-      d->ctrl[a] = commands[k];
-    }
+    set_servos(m, d, servos, nullptr, commands);
   }
 
   /// Backward Euler in the loads and servo forces: M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)) by Newton's

@@ -29,6 +29,10 @@ For motion in the x–z plane and a face whose normal lies in it, this is the pl
 (tests/test_rft3d.py compares an extruded box with :func:`terrasph.rft.body_load`), and the load is
 invariant under a rotation of body and motion about the vertical (it is built from ẑ and the two
 vectors only).
+
+The law has one definition, in the compiled core (cpp/src/rft3d.cpp, ``element_force``), which
+:func:`element_forces` calls and the native 3D stepper (terrasph.robots.rft3d_terrain) uses with the
+law's analytic velocity Jacobian.
 """
 
 from __future__ import annotations
@@ -39,8 +43,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from terrasph import _core
 from terrasph.config import ConfigError
-from terrasph.rft import REGULARISATION_SPEED, RFTCoefficients, _alpha_hat
+from terrasph.rft import REGULARISATION_SPEED, RFTCoefficients
 from terrasph.robots.geoms import body_surface
 
 __all__ = ["ELEMENT_FRACTION", "BodyElements", "body_wrench", "element_forces"]
@@ -76,56 +81,14 @@ class BodyElements:
         return len(self.area)
 
 
-def _planar(direction: np.ndarray, normal: np.ndarray, velocity: np.ndarray, weight: np.ndarray,
-            table: RFTCoefficients) -> np.ndarray:
-    """The 2D law (terrasph.rft, cpp/src/rft.cpp) in the vertical plane of the unit horizontal
-    `direction` r̂ (E, 3): forces (E, 3) before the regularisation, `weight` = ζ-free d·A per element."""
-    n_r, n_z = np.sum(normal * direction, axis=1), normal[:, 2]
-    v_r, v_z = np.sum(velocity * direction, axis=1), velocity[:, 2]
-    in_plane = np.hypot(n_r, n_z)  # |(n_r, n_z)|: the area's share facing the plane of motion
-    speed = np.hypot(v_r, v_z)
-    ok = (in_plane > 0) & (speed > 0)
-    safe_plane, safe_speed = np.where(ok, in_plane, 1.0), np.where(ok, speed, 1.0)
-    sign = np.where(v_r < 0, -1.0, 1.0)  # a face moving backward in the plane is mirrored (as in 2D)
-    cosg, sing = sign * v_r / safe_speed, -v_z / safe_speed
-    tx, tz = n_z / safe_plane, -sign * n_r / safe_plane  # the face's tangent (cos β, sin β) up to sign
-    alpha_x, alpha_z = _alpha_hat(table, tx * tx - tz * tz, 2 * tx * tz, cosg, sing)
-    scale = np.where(ok, table.zeta * weight * in_plane, 0.0)
-    force_r, force_z = -sign * alpha_x * scale, alpha_z * scale
-    return force_r[:, None] * direction + force_z[:, None] * np.array([0.0, 0.0, 1.0])
-
-
 def element_forces(normal: np.ndarray, velocity: np.ndarray, depth: np.ndarray, area: np.ndarray,
                    table: RFTCoefficients, regularisation: float = REGULARISATION_SPEED) -> np.ndarray:
     """The 3D RFT force (E, 3) N on each element (world frame) of unit outward `normal` (E, 3) moving
     with `velocity` (E, 3) m/s at `depth` (E,) m below the free surface with `area` (E,) m² (the
     module docstring's law; 0 above the surface and on trailing faces)."""
-    normal_speed = np.sum(normal * velocity, axis=1)
-    loaded = (depth > 0) & (normal_speed > 0)
-    out = np.zeros_like(velocity)
-    if not loaded.any():
-        return out
-    n, v, weight = normal[loaded], velocity[loaded], (depth * area)[loaded]
-    horizontal = np.hypot(v[:, 0], v[:, 1])
-    fallback = np.hypot(n[:, 0], n[:, 1])
-    # r̂ of the plane of motion; of the normal's plane below |v_h| = v_ε (module docstring)
-    plane = np.zeros_like(v)
-    moving = horizontal > 0
-    plane[moving, :2] = v[moving, :2] / horizontal[moving, None]
-    plane[~moving, 0] = 1.0
-    blend = np.clip(horizontal / regularisation, 0.0, 1.0) if regularisation > 0 else (horizontal > 0).astype(float)
-    force = blend[:, None] * _planar(plane, n, v, weight, table)
-    slow = blend < 1
-    if slow.any():
-        own = plane[slow].copy()
-        tilted = fallback[slow] > 0
-        own[tilted, :2] = n[slow][tilted, :2] / fallback[slow][tilted, None]
-        own[tilted, 2] = 0.0
-        force[slow] += (1 - blend[slow])[:, None] * _planar(own, n[slow], v[slow], weight[slow], table)
-    if regularisation > 0:
-        force *= np.minimum(1.0, normal_speed[loaded] / regularisation)[:, None]
-    out[loaded] = force
-    return out
+    force, _ = _core.rft3d_element_loads(normal, velocity, depth, area, table.terms, table.zeta,
+                                         regularisation)
+    return force
 
 
 def body_wrench(elements: BodyElements, position: np.ndarray, rotation: np.ndarray, point: np.ndarray,

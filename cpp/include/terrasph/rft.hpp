@@ -28,6 +28,15 @@ struct Coefficients {
   double zeta = 0.0;
 };
 
+/// α̂_x, α̂_z and their derivatives in γ (dax, daz) and in β (dax_dbeta, daz_dbeta) of a map: Σ value ·
+/// cos or sin(2mβ + nγ) over its terms (Li et al. 2013, supplementary Eq. S2, extended to higher
+/// orders), from cos 2β, sin 2β, cos γ, sin γ.
+struct AlphaHat {
+  double ax, az, dax, daz, dax_dbeta, daz_dbeta;
+};
+
+AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double cosg, double sing);
+
 /// A body's surface elements in its own frame, borrowed (the owner keeps the arrays alive):
 /// `centre` and `normal` are (count, 2) row-major (x, z), `length` (count,), all in m.
 struct ElementsView {

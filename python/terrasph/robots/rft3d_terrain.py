@@ -10,14 +10,25 @@ frame is kept. :class:`RFT3DCoupling` is the run loop's stepper (terrasph.run_lo
    the state of t_n goes into MuJoCo's ``xfrc_applied`` and MuJoCo steps: velocities q̇*, poses q*;
 2. the step is made backward Euler in the RFT load: M (q̇ − q̇*) = dt (G(q̇) − G_n), G = Σ_b J_bᵀ W_b(J_b q̇)
    the generalised load (J_b the body's 6 × nv Jacobian at its centre of mass, at t_n's pose), solved
-   by Newton's method with the wrenches' velocity Jacobians (forward differences of the twist,
-   :data:`DIFFERENCE_SPEED`); the positions move by dt (q̇ − q̇*).
+   by Newton's method (at most :data:`NEWTON_ITERATIONS`, each step halved while it does not reduce
+   the residual) with the wrenches' velocity Jacobians, those of the element law's analytic one
+   (cpp/src/rft3d.cpp); the positions move by dt (q̇ − q̇*). The torque-limited velocity servos take
+   the step as plain forces, their force at t_n, corrected in the Newton solve as the wrenches are.
+   Where no halving lowers the residual (a kink of the regularised load) the iterations stop with the
+   best velocities so far: in a drop onto the sand a good share of the impact's steps end so, and the
+   settled sinkage depends on those stops at the level of a few per cent (docs/rft.md, "3D RFT").
 
 Why implicit, as in the planar stepper (terrasph.robots.rft_terrain): the regularised load's
 derivative in the normal speed is F / v_ε with v_ε = 0.1 mm/s, a damping that an explicit step
 of dt cannot carry unless dt < 2 m v_ε / F, i.e. microseconds for a robot resting on the sand
 (docs/rft.md, "3D RFT"). The loads are taken at the step's start pose.
-MuJoCo's own actuators (velocity servos included) act inside its step as usual.
+MuJoCo's other actuators act inside its step as usual.
+
+The step runs in the compiled core (``terrasph._core.Robot3DStepper``, cpp/src/rft3d_robot.cpp),
+which calls the MuJoCo library of the ``mujoco`` package on the robot's own ``model`` and ``data``,
+as the planar stepper (terrasph.robots.rft_terrain) does: :meth:`RFT3DCoupling.advance` takes the
+steps of a whole control interval per Python call. A state MuJoCo cannot integrate (it then resets
+the robot) raises :class:`terrasph.InstabilityError`, checked after each such call.
 """
 
 from __future__ import annotations
@@ -32,27 +43,23 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph import rft
+from terrasph import _core, rft
 from terrasph.config import ConfigError
-from terrasph.rft3d import BodyElements, element_forces
+from terrasph.rft3d import BodyElements, body_wrench
 from terrasph.robots.coupling import _velocity_servos, divergence_error, divergences, mujoco_state, restore_mujoco_state
 from terrasph.robots.metrics import slip
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
-__all__ = ["DIFFERENCE_SPEED", "RFT3D_TIME_STEP", "ROVER4", "RFT3DCoupling", "Robot3D", "RobotLoads3D", "WHEEL_BALANCE", "rft_robot",
+__all__ = ["RFT3D_TIME_STEP", "ROVER4", "RFT3DCoupling", "Robot3D", "RobotLoads3D", "WHEEL_BALANCE", "rft_robot",
            "wheel_radii"]
 
 #: the example non-planar robot shipped with the package: a four-wheeled rover on a free joint (see the file)
 ROVER4 = pathlib.Path(__file__).with_name("models") / "rover4.xml"
 
-#: MuJoCo's step on the 3D RFT terrain (s): the rover's travel at 1e-3 s within 0.3 % of that at 5e-4 s,
-#: at 2e-3 s 12 % short (docs/rft.md, "3D RFT"; benchmarks/studies/rft3d_rover.py)
+#: MuJoCo's step on the 3D RFT terrain (s): chosen when the numpy stepper read the rover's travel at 1e-3 s
+#: within 0.3 % of that at 5e-4 s (2e-3 s 12 % short); the native one reads 5 % apart, within the spread
+#: the drop's implicit solve leaves in it (docs/rft.md, "3D RFT"; benchmarks/studies/rft3d_rover.py)
 RFT3D_TIME_STEP = 1e-3
-
-#: the velocity step (m/s; an angular one of this over the body's size) of the forward differences
-#: that give the wrench's Jacobian: far below the regularisation speed, 1e-4 m/s, over which the load
-#: of a face turns on
-DIFFERENCE_SPEED = 1e-8
 
 #: Newton iterations per step at most, halvings of a step that fails to reduce the residual, and the
 #: residual (relative to the step's momentum change) at which the iterations stop
@@ -102,7 +109,7 @@ class RFT3DCoupling:
 
     def __init__(self, robot: Robot3D, table: rft.RFTCoefficients | str = "generic", *,
                  time_step: float = RFT3D_TIME_STEP, control_interval: float | None = None) -> None:
-        from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL
+        from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, mujoco_library
 
         interval = RFT_CONTROL_INTERVAL if control_interval is None else control_interval
         if not (isinstance(time_step, (int, float)) and math.isfinite(time_step) and time_step > 0):
@@ -115,17 +122,17 @@ class RFT3DCoupling:
         self._dt = float(time_step)
         self._control_steps = max(1, round(interval / time_step))
         self._span = self._dt
-        self._steps = 0
-        self._sums = np.zeros((len(robot.coupled), 6))
         self._since = float(robot.data.time)
         self._divergences = divergences(robot.data)
-        self._size = np.array([max(1e-3, float(np.linalg.norm(b.elements.centre, axis=1).max())) for b in robot.coupled])
         model = robot.model
         model.opt.timestep = self._dt  # MuJoCo's step is the implicit correction's dt
-        self._jacp, self._jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
-        self._mass = np.zeros((model.nv, model.nv))
         mujoco.mj_forward(model, robot.data)
-        self._servos = _velocity_servos(model, robot.data)
+        self._native = _core.Robot3DStepper(
+            mujoco_library(), model._address, robot.data._address,
+            [(b.body_id, b.elements.centre, b.elements.normal, b.elements.area) for b in robot.coupled],
+            [(s.actuator, s.dof, s.kv, s.gear, s.lower, s.upper) for s in _velocity_servos(model, robot.data)],
+            robot.surface, self.table.terms, self.table.zeta, self._dt, rft.REGULARISATION_SPEED,
+            NEWTON_ITERATIONS, NEWTON_HALVINGS, NEWTON_TOLERANCE)
 
     # -- the stepper --------------------------------------------------------------------------
     @property
@@ -136,7 +143,7 @@ class RFT3DCoupling:
     @property
     def step_count(self) -> int:
         """Steps taken so far."""
-        return self._steps
+        return self._native.step_count
 
     def time_step(self) -> float:
         """The step's dt (s)."""
@@ -146,158 +153,38 @@ class RFT3DCoupling:
         """The simulated time (s) over which the controller's commands of this call are held."""
         return self._span
 
-    def _submerged(self) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """At the current pose: the coupled bodies with elements below the surface, and those elements'
-        owner (index into that list), arms from the owner's centre of mass, normals, depths and areas
-        (world frame)."""
-        data, surface = self.robot.data, self.robot.surface
-        owners, arms, normals, depths, areas = [], [], [], [], []
-        for k, body in enumerate(self.robot.coupled):
-            b = body.body_id
-            rotation = data.xmat[b].reshape(3, 3)
-            centre = data.xpos[b] + body.elements.centre @ rotation.T
-            depth = surface - centre[:, 2]
-            below = depth > 0
-            if below.any():
-                owners.append(k)
-                arms.append(centre[below] - data.xipos[b])
-                normals.append(body.elements.normal[below] @ rotation.T)
-                depths.append(depth[below])
-                areas.append(body.elements.area[below])
-        if not owners:
-            empty = np.zeros((0, 3))
-            return [], np.zeros(0, dtype=int), empty, empty, np.zeros(0), np.zeros(0)
-        index = np.concatenate([np.full(len(a), i) for i, a in enumerate(arms)])
-        return owners, index, np.concatenate(arms), np.concatenate(normals), np.concatenate(depths), np.concatenate(areas)
-
-    def _wrenches(self, twists: np.ndarray, index: np.ndarray, arm: np.ndarray, normal: np.ndarray,
-                  depth: np.ndarray, area: np.ndarray) -> np.ndarray:
-        """The wrenches (..., B, 6) [force, torque about the centre of mass] of the submerged bodies
-        for twists (..., B, 6) [velocity of the centre of mass, angular velocity]."""
-        lead = twists.shape[:-2]
-        velocity = twists[..., index, :3] + np.cross(twists[..., index, 3:], arm)
-        shape = velocity.shape
-        force = element_forces(np.broadcast_to(normal, shape).reshape(-1, 3), velocity.reshape(-1, 3),
-                               np.broadcast_to(depth, shape[:-1]).ravel(), np.broadcast_to(area, shape[:-1]).ravel(),
-                               self.table).reshape(shape)
-        torque = np.cross(arm, force)
-        per_element = np.concatenate([force, torque], axis=-1)
-        starts = np.flatnonzero(np.r_[True, index[1:] != index[:-1]])
-        return np.add.reduceat(per_element, starts, axis=-2).reshape(*lead, -1, 6)
-
     def step(self) -> float:
         """One step (module docstring); returns its dt."""
-        model, data, dt = self.robot.model, self.robot.data, self._dt
-        time, steps = self.time, self._steps
-        mujoco.mj_forward(model, data)
-        owners, index, arm, normal, depth, area = self._submerged()
-        data.xfrc_applied[:] = 0.0
-        if not owners:  # nothing in the sand: MuJoCo's step alone
-            mujoco.mj_step(model, data)
-            self._finish(time, steps, [], np.zeros((0, 6)))
-            return dt
-        jacobian = np.empty((len(owners), 6, model.nv))
-        for i, k in enumerate(owners):
-            b = self.robot.coupled[k].body_id
-            mujoco.mj_jacBodyCom(model, data, self._jacp, self._jacr, b)
-            jacobian[i, :3], jacobian[i, 3:] = self._jacp, self._jacr
-        mujoco.mj_fullM(model, data, self._mass)
-        start = data.qvel.copy()
-        command = data.ctrl.copy()
-        wrench = self._wrenches(jacobian @ start, index, arm, normal, depth, area)
-        load = np.einsum("bij,bi->j", jacobian, wrench) + self._servo_load(command, start)[0]
-        for i, k in enumerate(owners):
-            data.xfrc_applied[self.robot.coupled[k].body_id] = wrench[i]
-        try:  # each torque-limited velocity servo as a plain force, its force at t_n (the Newton step corrects it)
-            for servo in self._servos:
-                servo.apply_force(model, data, servo.force(float(command[servo.actuator]), start)[0])
-            mujoco.mj_step(model, data)
-        finally:
-            for servo in self._servos:
-                servo.restore(model)
-            data.ctrl[:] = command
-        explicit = data.qvel.copy()
-        qvel = self._implicit(explicit, load, command, jacobian, index, arm, normal, depth, area, owners)
-        wrench = self._wrenches(jacobian @ qvel, index, arm, normal, depth, area)
-        mujoco.mj_integratePos(model, data.qpos, qvel - explicit, dt)
-        data.qvel[:] = qvel
-        data.xfrc_applied[:] = 0.0
-        self._finish(time, steps, owners, wrench)
-        return dt
+        time, steps = self.time, self.step_count
+        self._native.step()
+        self._check_integrated(time, steps)
+        return self._dt
 
-    def _servo_load(self, command: np.ndarray, qvel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The generalised forces of the torque-limited velocity servos at joint velocities `qvel` and
-        their derivative's diagonal (−kv·gear² within the force limits, 0 at them)."""
-        force, derivative = np.zeros(len(qvel)), np.zeros(len(qvel))
-        for servo in self._servos:
-            value, slope = servo.force(float(command[servo.actuator]), qvel)
-            force[servo.dof] += servo.gear * value
-            derivative[servo.dof] += servo.gear * slope
-        return force, derivative
-
-    def _implicit(self, explicit: np.ndarray, load: np.ndarray, command: np.ndarray, jacobian: np.ndarray,
-                  index: np.ndarray, arm: np.ndarray, normal: np.ndarray, depth: np.ndarray, area: np.ndarray,
-                  owners: list[int]) -> np.ndarray:
-        """The velocities q̇ that solve M (q̇ − q̇*) = dt (G(q̇) − G_n) (step 2 of the module docstring;
-        G with the servos' forces)."""
-        dt, mass = self._dt, self._mass
-        size = self._size[owners]
-        steps = np.zeros((7, len(owners), 6))
-        for c in range(6):  # forward differences of each twist component, all bodies at once
-            steps[c + 1, :, c] = DIFFERENCE_SPEED if c < 3 else DIFFERENCE_SPEED / size
-
-        def residual(qvel: np.ndarray) -> np.ndarray:
-            wrench = self._wrenches(jacobian @ qvel, index, arm, normal, depth, area)
-            generalised = np.einsum("bij,bi->j", jacobian, wrench) + self._servo_load(command, qvel)[0]
-            return mass @ (qvel - explicit) - dt * (generalised - load)
-
-        scale = dt * float(np.linalg.norm(load)) + float(np.linalg.norm(mass @ explicit)) * 1e-6 + 1e-300
-        qvel = explicit.copy()
-        for _ in range(NEWTON_ITERATIONS):
-            twists = jacobian @ qvel
-            wrenches = self._wrenches(twists[None] + steps, index, arm, normal, depth, area)
-            base = wrenches[0]
-            servo_force, servo_slope = self._servo_load(command, qvel)
-            r = mass @ (qvel - explicit) - dt * (np.einsum("bij,bi->j", jacobian, base) + servo_force - load)
-            size_r = float(np.linalg.norm(r))
-            if size_r <= NEWTON_TOLERANCE * scale:
-                break
-            derivative = (wrenches[1:] - base[None]) / steps[1:].sum(axis=2)[:, :, None]  # (6 twist, B, 6 wrench)
-            stiffness = np.einsum("bik,cbi,bcj->kj", jacobian, derivative, jacobian)  # Σ Jᵀ (∂W/∂ξ) J
-            delta = np.linalg.solve(mass - dt * (stiffness + np.diag(servo_slope)), -r)
-            best, best_size = qvel, size_r
-            for _ in range(NEWTON_HALVINGS):
-                trial = qvel + delta
-                trial_size = float(np.linalg.norm(residual(trial)))
-                if trial_size < best_size:
-                    best, best_size = trial, trial_size
-                    break
-                delta *= 0.5
-            if best is qvel:  # no step along this direction reduces the residual: a kink; keep the best
-                break
-            qvel = best
-        return qvel
-
-    def _finish(self, time: float, steps: int, owners: list[int], wrench: np.ndarray) -> None:
-        """Counts the step, adds its loads to the means, and raises :class:`terrasph.InstabilityError`
-        if MuJoCo met a state it could not integrate (and reset the robot)."""
-        self._steps += 1
-        for i, k in enumerate(owners):
-            self._sums[k] += wrench[i] * self._dt
+    def _check_integrated(self, time: float, steps: int) -> None:
+        """Raises :class:`terrasph.InstabilityError` if MuJoCo met a state it could not integrate (and
+        reset the robot) in the steps taken since `time` (s), step `steps`; the error's time and step
+        are those of the start of that call."""
         if divergences(self.robot.data) > self._divergences:
-            raise divergence_error(f"at step {steps}", steps, time)
+            raise divergence_error(f"within steps {steps}–{self.step_count}", steps, time)
 
     def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
-        """Steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the number taken.
-        `control`, if given, is called with the stepper every ``control_interval`` of simulated time
-        (at its multiples), its commands held in between (:meth:`control_span`)."""
+        """Steps until `t_end` (s) is reached or passed, at most `max_steps`, many steps per call of the
+        native stepper; returns the number taken. `control`, if given, is called with the stepper
+        every ``control_interval`` of simulated time (at its multiples) and its commands held in
+        between (:meth:`control_span`)."""
         taken, interval = 0, self._control_steps * self._dt
         while taken < max_steps and self.time < t_end * (1 - 1e-14):
-            if control and self._steps % self._control_steps == 0:
-                self._span = interval
+            target = t_end
+            if control:
+                target = min(t_end, interval * (math.floor(self.time / interval + 1e-6) + 1))
+            count = min(max_steps - taken, max(1, math.ceil((target - self.time) / self._dt - 1e-6)))
+            if control:
+                self._span = count * self._dt
                 control(self)
-            self.step()
-            taken += 1
+            time, steps = self.time, self.step_count
+            self._native.steps(count)
+            self._check_integrated(time, steps)
+            taken += count
         return taken
 
     # -- what the run loop records --------------------------------------------------------------
@@ -313,29 +200,24 @@ class RFT3DCoupling:
         """Coupled body `k`'s RFT force (N) and torque (N·m, about its centre of mass), world frame,
         averaged since :meth:`reset_body_means` (the load of each step weighted by its dt; the load
         now before any step), and its lowest element's z (m)."""
-        body, data = self.robot.coupled[k], self.robot.data
+        body, model, data = self.robot.coupled[k], self.robot.model, self.robot.data
         span = self.time - self._since
         if span > 0:
-            wrench = self._sums[k] / span
+            wrench = np.array(self._native.load_sums[6 * k:6 * k + 6]) / span
         else:
-            mujoco.mj_forward(self.robot.model, data)
-            owners, index, arm, normal, depth, area = self._submerged()
-            wrench = np.zeros(6)
-            if k in owners:
-                twist = np.zeros((len(owners), 6))
-                for i, owner in enumerate(owners):
-                    velocity = np.zeros(6)  # [angular, linear] at the centre of mass, world axes
-                    mujoco.mj_objectVelocity(self.robot.model, data, mujoco.mjtObj.mjOBJ_BODY,
-                                             self.robot.coupled[owner].body_id, velocity, 0)
-                    twist[i] = np.r_[velocity[3:], velocity[:3]]
-                wrench = self._wrenches(twist, index, arm, normal, depth, area)[owners.index(k)]
+            mujoco.mj_forward(model, data)
+            twist = np.zeros(6)  # [angular, linear] at the centre of mass, world axes
+            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body.body_id, twist, 0)
+            wrench = np.concatenate(body_wrench(body.elements, data.xpos[body.body_id],
+                                                data.xmat[body.body_id].reshape(3, 3), data.xipos[body.body_id],
+                                                twist[3:], twist[:3], self.robot.surface, self.table))
         rotation = data.xmat[body.body_id].reshape(3, 3)
         lowest = float((data.xpos[body.body_id] + body.elements.centre @ rotation.T)[:, 2].min())
         return {"force": wrench[:3].copy(), "torque": wrench[3:].copy(), "lowest_z": lowest}
 
     def reset_body_means(self) -> None:
         """Starts a new averaging interval of the body loads."""
-        self._sums[:] = 0.0
+        self._native.load_sums = [0.0] * (6 * len(self.robot.coupled))
         self._since = self.time
 
     def frame_fields(self) -> dict[str, np.ndarray]:
@@ -367,7 +249,7 @@ class RFT3DCoupling:
 
     def diagnostics(self) -> dict[str, float]:
         """A diagnostics row: the step count and dt (s); no grains to leak."""
-        return {"step": self._steps, "dt": self._dt, "leaked_particles": 0}
+        return {"step": self.step_count, "dt": self._dt, "leaked_particles": 0}
 
     def run_attributes(self) -> dict[str, int]:
         """The counts of the run file's ``/run``: no grains, none leaked."""
@@ -378,8 +260,10 @@ class RFT3DCoupling:
         """Writes MuJoCo's state and the stepper's memory (under ``progress["robot"]``) to `path`."""
         from terrasph.checkpoint import grain_free_state, write_checkpoint
 
-        state = grain_free_state(self._steps)
-        saved = {**mujoco_state(self.robot), "sums": self._sums.tolist(), "since": self._since}
+        state = grain_free_state(self.step_count)
+        sums = self._native.load_sums
+        saved = {**mujoco_state(self.robot), "sums": [sums[6 * k:6 * k + 6] for k in range(len(self.robot.coupled))],
+                 "since": self._since}
         return write_checkpoint(path, state, self.describe(), {**(progress or {}), "robot": saved})
 
     def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -391,10 +275,10 @@ class RFT3DCoupling:
         if differences or "robot" not in progress:
             raise CheckpointError(f"checkpoint {path} belongs to another RFT run: {', '.join(differences) or 'no robot'}")
         saved = progress.pop("robot")
-        self._steps = int(state["counters"]["steps"])
+        self._native.step_count = int(state["counters"]["steps"])
         restore_mujoco_state(self.robot, saved)
         self._divergences = divergences(self.robot.data)
-        self._sums = np.array(saved["sums"], dtype=float).reshape(-1, 6)
+        self._native.load_sums = [float(v) for row in saved["sums"] for v in row]
         self._since = float(saved["since"])
         return progress
 

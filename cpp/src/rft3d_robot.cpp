@@ -1,0 +1,238 @@
+// The native step of any MuJoCo robot on the 3D RFT terrain: see terrasph/rft3d_robot.hpp and the
+// Python class terrasph.robots.rft3d_terrain.RFT3DCoupling, whose docstring gives the scheme.
+#include "terrasph/rft3d_robot.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "mujoco_api.hpp"
+#include "terrasph/rft3d.hpp"
+
+namespace terrasph::rft {
+
+namespace {
+
+using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using Vector = Eigen::VectorXd;
+using Matrix3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+using Matrix6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
+using Vector6 = Eigen::Matrix<double, 6, 1>;
+
+/// The elements below the free surface at the step's start pose, body by body (world frame).
+struct Submerged {
+  std::vector<std::size_t> owners;  // index into the coupled bodies
+  std::vector<std::size_t> first;   // the owner's elements are [first[i], first[i + 1])
+  std::vector<Vec3> arm;  // from the owner's centre of mass
+  std::vector<Vec3> normal;
+  std::vector<double> depth, area;
+
+  void clear() {
+    owners.clear();
+    first.assign(1, 0);
+    arm.clear();
+    normal.clear();
+    depth.clear();
+    area.clear();
+  }
+};
+
+}  // namespace
+
+struct Robot3DStepper::Impl {
+  MujocoApi api;
+  mjModel* m;
+  mjData* d;
+  std::vector<RobotBody3D> bodies;
+  std::vector<VelocityServo> servos;
+  double surface, regularisation;
+  Coefficients table;
+  NewtonSettings newton;
+  int nv;
+  Submerged sub;
+  std::vector<Matrix> jacobians;  // each owner's 6 × nv Jacobian of (v_com, ω) at the step's start
+  std::vector<Vector6> wrenches;   // each owner's (F, τ about the centre of mass)
+  std::vector<double> commands;
+  Vector generalised;
+  Matrix stiffness, mass;
+  std::vector<mjtNum> linear, angular;
+
+  Impl(const std::string& library, std::uintptr_t model, std::uintptr_t data, std::vector<RobotBody3D> bodies_,
+       std::vector<VelocityServo> servos_, double surface_, Coefficients table_, double regularisation_,
+       NewtonSettings newton_)
+      : api(library), m(reinterpret_cast<mjModel*>(model)), d(reinterpret_cast<mjData*>(data)),
+        bodies(std::move(bodies_)), servos(std::move(servos_)), surface(surface_), regularisation(regularisation_),
+        table(table_), newton(newton_), nv(static_cast<int>(m->nv)), commands(servos.size()), generalised(m->nv),
+        stiffness(m->nv, m->nv), mass(m->nv, m->nv), linear(static_cast<std::size_t>(3 * m->nv)),
+        angular(static_cast<std::size_t>(3 * m->nv)) {}
+
+  /// The elements below the surface at the current pose: centre c = x_b + R c_b, depth z_s − c_z, arm
+  /// c − x_com, normal R n_b (R = xmat, body axes as columns).
+  void submerge() {
+    sub.clear();
+    for (std::size_t k = 0; k < bodies.size(); ++k) {
+      const RobotBody3D& body = bodies[k];
+      const int id = body.body_id;
+      const Eigen::Map<const Matrix3> rotation(d->xmat + 9 * id);
+      const Eigen::Map<const Eigen::Vector3d> origin(d->xpos + 3 * id), com(d->xipos + 3 * id);
+      const std::size_t before = sub.arm.size();
+      for (std::size_t e = 0; e < body.area.size(); ++e) {
+        const Eigen::Vector3d centre = origin + rotation * Eigen::Map<const Eigen::Vector3d>(&body.centre[3 * e]);
+        const double depth = surface - centre[2];
+        if (!(depth > 0.0)) continue;
+        const Eigen::Vector3d normal = rotation * Eigen::Map<const Eigen::Vector3d>(&body.normal[3 * e]);
+        const Eigen::Vector3d arm = centre - com;
+        sub.arm.push_back({arm[0], arm[1], arm[2]});
+        sub.normal.push_back({normal[0], normal[1], normal[2]});
+        sub.depth.push_back(depth);
+        sub.area.push_back(body.area[e]);
+      }
+      if (sub.arm.size() > before) {
+        sub.owners.push_back(k);
+        sub.first.push_back(sub.arm.size());
+      }
+    }
+    jacobians.resize(sub.owners.size(), Matrix::Zero(6, nv));
+    wrenches.resize(sub.owners.size());
+  }
+
+  /// Each owner's Jacobian at its centre of mass (mj_jacBodyCom: rows v_com, then ω).
+  void take_jacobians() {
+    for (std::size_t i = 0; i < sub.owners.size(); ++i) {
+      api.jac_body_com(m, d, linear.data(), angular.data(), bodies[sub.owners[i]].body_id);
+      jacobians[i].topRows(3) = Eigen::Map<const Matrix>(linear.data(), 3, nv);
+      jacobians[i].bottomRows(3) = Eigen::Map<const Matrix>(angular.data(), 3, nv);
+    }
+  }
+
+  /// The owners' wrenches at joint velocities `qvel` (each element at v = v_com + ω × r, r its arm;
+  /// F = Σ F_e, τ = Σ r × F_e), their generalised force with the servos' (Σ Jᵀ W + servo forces) in
+  /// `generalised` and, if asked for, its derivative in q̇ (Σ Jᵀ ∂W/∂ξ J + the servos') in `stiffness`.
+  void evaluate(const Vector& qvel, bool jacobian) {
+    generalised.setZero();
+    if (jacobian) stiffness.setZero();
+    for (std::size_t i = 0; i < sub.owners.size(); ++i) {
+      const Vector6 twist = jacobians[i] * qvel;
+      const SubmergedElements elements{&sub.arm[sub.first[i]], &sub.normal[sub.first[i]], &sub.depth[sub.first[i]],
+                                       &sub.area[sub.first[i]], sub.first[i + 1] - sub.first[i]};
+      const BodyWrench load = body_wrench(elements, {twist[0], twist[1], twist[2]}, {twist[3], twist[4], twist[5]},
+                                          table, regularisation, jacobian);
+      Vector6& wrench = wrenches[i];
+      wrench = Eigen::Map<const Vector6>(load.wrench.data());
+      const Eigen::Map<const Matrix6> slope(load.jacobian.data());
+      generalised.noalias() += jacobians[i].transpose() * wrench;
+      if (jacobian) stiffness.noalias() += jacobians[i].transpose() * (slope * jacobians[i]);
+    }
+    for (std::size_t k = 0; k < servos.size(); ++k) {
+      const auto [force, slope] = servo_force(servos[k], commands[k], qvel[servos[k].dof]);
+      generalised[servos[k].dof] += servos[k].gear * force;
+      if (jacobian) stiffness(servos[k].dof, servos[k].dof) += servos[k].gear * slope;
+    }
+  }
+
+  /// Backward Euler in the RFT wrenches and servo forces: the q̇ that solves M (q̇ − q̇*) = dt (G(q̇) − G_n)
+  /// by Newton's method with step halvings (RFT3DCoupling's docstring), from q̇ = q̇*; the wrenches
+  /// are left at the q̇ returned.
+  Vector implicit_velocities(const Vector& explicit_qvel, const Vector& applied, double dt) {
+    // the residual's scale: the step's RFT and servo impulse, and a millionth of the momentum
+    const double scale = dt * applied.norm() + (mass * explicit_qvel).norm() * 1e-6 + 1e-300;
+    auto residual = [&](const Vector& qvel, bool jacobian) -> Vector {
+      evaluate(qvel, jacobian);
+      return mass * (qvel - explicit_qvel) - dt * (generalised - applied);
+    };
+    Vector qvel = explicit_qvel;
+    Vector r = residual(qvel, true);
+    bool stiffness_at_qvel = true;  // trials are evaluated without the Jacobian, taken once a step needs it
+    std::vector<Vector6> best = wrenches;
+    for (int iteration = 0; iteration < newton.iterations; ++iteration) {
+      const double size = r.norm();
+      if (size <= newton.tolerance * scale) break;
+      if (!stiffness_at_qvel) evaluate(qvel, true);
+      Vector delta = Matrix(mass - dt * stiffness).partialPivLu().solve(-r);
+      bool reduced = false;
+      Vector trial, r_trial;
+      for (int halving = 0; halving < newton.halvings; ++halving) {  // halve while the residual does not fall
+        trial = qvel + delta;
+        r_trial = residual(trial, false);
+        if (r_trial.norm() < size) {
+          reduced = true;
+          break;
+        }
+        delta *= 0.5;
+      }
+      if (!reduced) break;  // at a kink of the regularisation no step reduces it: keep the best so far
+      qvel = trial;
+      r = r_trial;
+      best = wrenches;
+      stiffness_at_qvel = false;
+    }
+    wrenches = best;
+    return qvel;
+  }
+};
+
+Robot3DStepper::Robot3DStepper(const std::string& library, std::uintptr_t model, std::uintptr_t data,
+                               std::vector<RobotBody3D> bodies, std::vector<VelocityServo> servos, double surface,
+                               Coefficients table, double time_step, double regularisation, NewtonSettings newton)
+    : impl_(std::make_unique<Impl>(library, model, data, std::move(bodies), std::move(servos), surface, table,
+                                   regularisation, newton)),
+      dt_(time_step),
+      sums_(6 * impl_->bodies.size(), 0.0) {}
+
+Robot3DStepper::~Robot3DStepper() = default;
+
+void Robot3DStepper::step() {
+  Impl& s = *impl_;
+  mjModel* m = s.m;
+  mjData* d = s.d;
+  m->opt.timestep = dt_;  // MuJoCo's step is the implicit correction's dt
+  s.api.forward(m, d);    // the start pose's frames, Jacobians and mass matrix
+  s.submerge();
+  std::fill(d->xfrc_applied, d->xfrc_applied + 6 * m->nbody, 0.0);
+  if (s.sub.owners.empty()) {  // nothing in the sand: MuJoCo's step alone
+    s.api.step(m, d);
+  } else {
+    implicit_step();
+  }
+  s.api.kinematics(m, d);  // mj_step leaves the derived quantities at the step's start
+  s.api.com_positions(m, d);
+  s.api.com_velocities(m, d);
+  ++steps_;
+}
+
+void Robot3DStepper::implicit_step() {
+  Impl& s = *impl_;
+  mjModel* m = s.m;
+  mjData* d = s.d;
+  s.take_jacobians();
+  s.api.full_mass(m, d, s.mass.data());
+  const Vector start = Eigen::Map<const Vector>(d->qvel, s.nv);
+  for (std::size_t k = 0; k < s.servos.size(); ++k) s.commands[k] = d->ctrl[s.servos[k].actuator];
+  s.evaluate(start, false);  // W_n and G_n at t_n
+  const Vector applied = s.generalised;
+  for (std::size_t i = 0; i < s.sub.owners.size(); ++i)  // xfrc_applied: force and torque at the centre of mass
+    std::copy(s.wrenches[i].data(), s.wrenches[i].data() + 6, d->xfrc_applied + 6 * s.bodies[s.sub.owners[i]].body_id);
+  // each torque-limited velocity servo as a plain force, its force at t_n (the Newton step corrects it)
+  std::vector<double> forces(s.servos.size());
+  for (std::size_t k = 0; k < s.servos.size(); ++k)
+    forces[k] = servo_force(s.servos[k], s.commands[k], start[s.servos[k].dof]).first;
+  set_servos(m, d, s.servos, forces.data(), s.commands);
+  s.api.step(m, d);
+  set_servos(m, d, s.servos, nullptr, s.commands);
+  const Vector explicit_qvel = Eigen::Map<const Vector>(d->qvel, s.nv);
+  const Vector qvel = s.implicit_velocities(explicit_qvel, applied, dt_);
+  const Vector change = qvel - explicit_qvel;
+  s.api.integrate_positions(m, d->qpos, change.data(), dt_);  // q moves by dt (q̇ − q̇*)
+  Eigen::Map<Vector>(d->qvel, s.nv) = qvel;
+  std::fill(d->xfrc_applied, d->xfrc_applied + 6 * m->nbody, 0.0);
+  for (std::size_t i = 0; i < s.sub.owners.size(); ++i)
+    for (std::size_t c = 0; c < 6; ++c) sums_[6 * s.sub.owners[i] + c] += s.wrenches[i][static_cast<Eigen::Index>(c)] * dt_;
+}
+
+void Robot3DStepper::steps(long count) {
+  for (long k = 0; k < count; ++k) step();
+}
+
+}  // namespace terrasph::rft
