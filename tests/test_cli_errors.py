@@ -132,6 +132,11 @@ BAD_INPUT = [
                                            "--out", "{root}/r.h5"], "'fidelity'"),
     ("run-leg-rotation-rft-with-numerics", ["run", "leg-rotation", "--terrain", "rft", "--numerics", "cfl=0.3",
                                             "--out", "{root}/r.h5"], "'numerics'"),
+    # the RFT's map on the SPH bed, which would ignore it
+    ("run-leg-wheel-sph-with-an-rft-table", ["run", "leg-wheel", "--rft-table", "generic.json",
+                                             "--out", "{root}/w.h5"], "invalid on the SPH terrain"),
+    ("run-leg-rotation-sph-with-an-rft-table", ["run", "leg-rotation", "--rft-table", "sandy",
+                                                "--out", "{root}/l.h5"], "invalid on the SPH terrain"),
     # any MJCF model on the 3D RFT terrain: the SPH's settings refused there, the RFT's on the SPH,
     # the table, the element length, a model with nothing near the floor
     ("run-mjcf-rft-with-a-spacing", ["run", "mjcf", str(ROVER4), "--terrain", "rft", "--spacing", "0.02",

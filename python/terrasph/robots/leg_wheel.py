@@ -104,7 +104,7 @@ class LegWheel(WheelScene):
 
     def __post_init__(self) -> None:
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
-        rft.check_terrain(self, self.SPH_ONLY_FIELDS)
+        rft.check_terrain(self, self.SPH_ONLY_FIELDS, ("rft_table",))
         object.__setattr__(self, "omega_schedule", check_knots("omega_schedule", self.omega_schedule, lower=0.0))
         if not self.leg_length < self.start_x < self.bed_width - self.leg_length:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between leg_length and "

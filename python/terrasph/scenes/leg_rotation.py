@@ -119,7 +119,7 @@ class LegRotation:
         if not (math.isfinite(self.hip_height) and -self.bed_depth < self.hip_height < self.leg_length):
             raise ConfigError(f"parameter 'hip_height' = {self.hip_height!r} is invalid: allowed between "
                               f"-bed_depth and leg_length (the leg must reach the sand)")
-        rft.check_terrain(self, self.SPH_ONLY_FIELDS)
+        rft.check_terrain(self, self.SPH_ONLY_FIELDS, ("rft_table",))
 
     @property
     def grid_spacing(self) -> float:
