@@ -48,6 +48,7 @@ from terrasph.config import ConfigError
 from terrasph.rft3d import BodyElements, body_wrench
 from terrasph.robots.coupling import _velocity_servos, divergence_error, divergences, mujoco_state, restore_mujoco_state
 from terrasph.robots.metrics import slip
+from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, advance_native, mujoco_library
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = ["RFT3D_TIME_STEP", "ROVER4", "RFT3DCoupling", "Robot3D", "RobotLoads3D", "WHEEL_BALANCE", "rft_robot",
@@ -109,8 +110,6 @@ class RFT3DCoupling:
 
     def __init__(self, robot: Robot3D, table: rft.RFTCoefficients | str = "generic", *,
                  time_step: float = RFT3D_TIME_STEP, control_interval: float | None = None) -> None:
-        from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, mujoco_library
-
         interval = RFT_CONTROL_INTERVAL if control_interval is None else control_interval
         if not (isinstance(time_step, (int, float)) and math.isfinite(time_step) and time_step > 0):
             raise ConfigError(f"parameter 'time_step' = {time_step!r} is invalid: allowed a finite number > 0 (s)")
@@ -172,20 +171,7 @@ class RFT3DCoupling:
         native stepper; returns the number taken. `control`, if given, is called with the stepper
         every ``control_interval`` of simulated time (at its multiples) and its commands held in
         between (:meth:`control_span`)."""
-        taken, interval = 0, self._control_steps * self._dt
-        while taken < max_steps and self.time < t_end * (1 - 1e-14):
-            target = t_end
-            if control:
-                target = min(t_end, interval * (math.floor(self.time / interval + 1e-6) + 1))
-            count = min(max_steps - taken, max(1, math.ceil((target - self.time) / self._dt - 1e-6)))
-            if control:
-                self._span = count * self._dt
-                control(self)
-            time, steps = self.time, self.step_count
-            self._native.steps(count)
-            self._check_integrated(time, steps)
-            taken += count
-        return taken
+        return advance_native(self, t_end, max_steps, control)
 
     # -- what the run loop records --------------------------------------------------------------
     def describe(self) -> dict[str, Any]:

@@ -46,7 +46,7 @@ from terrasph.config import ConfigError
 from terrasph.robots.coupling import RobotStepper, divergence_error, divergences, mujoco_state, restore_mujoco_state, velocity_servos
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
-__all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "mujoco_library"]
+__all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "advance_native", "mujoco_library"]
 
 #: MuJoCo's step on the RFT terrain (s): the flat-leg and C-leg wheels' slip and sinkage at 2e-3 s are
 #: within 0.004 and 0.3 mm of those at 5e-4 s; at 5e-3 s the flat-leg wheel's spin runs away (docs/rft.md)
@@ -155,20 +155,7 @@ class RFTCoupling(RobotStepper):
         native stepper; returns the number taken. `control`, if given, is called with the stepper
         every ``control_interval`` of simulated time (at its multiples) and its commands held in
         between (:meth:`control_span`)."""
-        taken, interval = 0, self._control_steps * self._dt
-        while taken < max_steps and self.time < t_end * (1 - 1e-14):
-            target = t_end
-            if control:
-                target = min(t_end, interval * (math.floor(self.time / interval + 1e-6) + 1))
-            count = min(max_steps - taken, max(1, math.ceil((target - self.time) / self._dt - 1e-6)))
-            if control:
-                self._span = count * self._dt
-                control(self)
-            time, steps = self.time, self.step_count
-            self._native.steps(count)
-            self._check_integrated(time, steps)
-            taken += count
-        return taken
+        return advance_native(self, t_end, max_steps, control)
 
     # -- what a run loop records ------------------------------------------------------------------
     def describe(self) -> dict[str, Any]:
@@ -276,3 +263,24 @@ class RFTCoupling(RobotStepper):
         self._native.load_sums = [float(v) for k in self._elements
                                   for v in (*saved["sums"][k][0], saved["sums"][k][1])]
         self._since = float(saved["since"])
+
+
+def advance_native(stepper: Any, t_end: float, max_steps: int, control: Callable[[Any], None] | None) -> int:
+    """The `advance` of a native RFT stepper (:class:`RFTCoupling`, terrasph.robots.rft3d_terrain.
+    RFT3DCoupling): many steps per call of its compiled ``_native.steps``, the controller called every
+    ``_control_steps`` steps (at the multiples of that interval), its commands held in between; its
+    divergence checked after each call. Returns the number of steps taken."""
+    taken, interval = 0, stepper._control_steps * stepper._dt
+    while taken < max_steps and stepper.time < t_end * (1 - 1e-14):
+        target = t_end
+        if control:
+            target = min(t_end, interval * (math.floor(stepper.time / interval + 1e-6) + 1))
+        count = min(max_steps - taken, max(1, math.ceil((target - stepper.time) / stepper._dt - 1e-6)))
+        if control:
+            stepper._span = count * stepper._dt
+            control(stepper)
+        time, steps = stepper.time, stepper.step_count
+        stepper._native.steps(count)
+        stepper._check_integrated(time, steps)
+        taken += count
+    return taken
