@@ -3,6 +3,7 @@ the geometry read from a shape's outline, coefficient tables and bad input."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -204,11 +205,66 @@ def test_overlapping_spokes_keep_only_the_outer_surface():
     assert rft.SurfaceElements.from_shape(rim).length.sum() == pytest.approx(2 * math.pi * (0.08 + 0.074), rel=1e-3)
 
 
+# -- carried grains ------------------------------------------------------------------------------------
+
+def _cup(spacing: float = 0.0005) -> tuple[bodies.BodyShape, float]:
+    """The reversed C-leg of chapter 3 (a half ring opening backward, −x) and its cup's area, the half
+    disc inside the ring, π (R/2 − t/2)²/2 (hand geometry)."""
+    radius, thickness = 0.0762, 0.0064
+    return bodies.reversed_c_leg(radius, thickness, WIDTH, spacing), 0.5 * math.pi * (0.5 * radius - 0.5 * thickness) ** 2
+
+
+def test_pockets_are_the_open_regions_between_outline_and_hull():
+    """The reversed C-leg has one pocket, its cup, of the half disc's area (to 1 %); a flat leg has
+    none; a rim's hole, closed by the body, holds no grains and is no pocket."""
+    shape, area = _cup()
+    cup = rft.SurfaceElements.from_shape(shape)
+    assert set(cup.cell_pocket) == {0} and cup.cell_area.sum() == pytest.approx(area, rel=0.01)
+    assert np.count_nonzero(cup.wall_pocket == 0) > 0.3 * len(cup)  # the cup's inside faces it
+    assert len(rft.SurfaceElements.from_shape(bodies.flat_leg(0.0762, 0.0064, WIDTH, 0.0005)).cell_area) == 0
+    assert len(rft.SurfaceElements.from_shape(bodies.wheel(0.08, 0.006, 0.1, 0.002)).cell_area) == 0
+
+
+def test_a_cup_pushing_its_opening_forward_carries_the_weight_of_its_grains():
+    """Buried and pushed opening first (−x, its inside leading), the cup adds the weight ρ0 g A w of
+    the grains it holds (A the half disc; the inside's tips, tangent to the motion, lead a little
+    less, so 0.9–1.0 of it); half buried (the surface through the ring's centre), half that weight;
+    drawn away from its opening (+x, its inside trailing) it carries nothing."""
+    shape, area = _cup()
+    elements = rft.SurfaceElements.from_shape(shape)
+    weight = rft.GLASS_BEADS_DENSITY * 9.81 * area * WIDTH
+    bare = dataclasses.replace(G, density=0.0)
+
+    def carried(speed: float, surface: float) -> float:
+        args = (elements, 0.0, (0.0, 0.0), np.array([speed, 0.0]), 0.0, surface)
+        return rft.body_load(*args, G).force[1] - rft.body_load(*args, bare).force[1]
+
+    assert -weight <= carried(-0.01, 0.2) < -0.9 * weight
+    assert carried(-0.01, -0.0381) == pytest.approx(0.5 * carried(-0.01, 0.2), rel=0.02)
+    assert carried(0.01, 0.2) == 0.0
+
+
+def test_jacobian_with_pockets_matches_finite_differences_where_the_walls_turn():
+    """Moving at the regularisation's speed, the cup's walls fade in and out of leading, and with
+    them the carried weight: its derivative agrees with central differences of the load."""
+    elements = rft.SurfaceElements.from_shape(_cup(0.001)[0])
+    twist = np.array([-0.6, 0.3, 0.5]) * rft.REGULARISATION_SPEED
+
+    def load(x: np.ndarray) -> np.ndarray:
+        result = rft.body_load(elements, 0.3, (0.0, 0.02), x[:2], x[2], 0.0, G)
+        return np.r_[result.force, result.torque]
+
+    analytic = rft.body_load(elements, 0.3, (0.0, 0.02), twist[:2], twist[2], 0.0, G, jacobian=True).jacobian
+    h = 1e-9
+    numeric = np.column_stack([(load(twist + d) - load(twist - d)) / (2 * h) for d in np.eye(3) * h])
+    np.testing.assert_allclose(analytic, numeric, rtol=1e-4, atol=1e-4 * np.abs(numeric).max())
+
+
 # -- tables and bad input ------------------------------------------------------------------------------
 
 def test_coefficient_table_round_trip(tmp_path):
     table = rft.RFTCoefficients({name: 1.1 * value for name, value in G.coefficients.items()} | {"A22": 0.02},
-                                zeta=3.0e5, source="test")
+                                zeta=3.0e5, source="test", density=1500.0)
     path = rft.save_coefficients(table, tmp_path / "map.json", correlation=0.9)
     assert rft.coefficient_table(str(path)) == table
     assert json.loads(path.read_text())["units"]["zeta"] == "N/m^3"
@@ -223,6 +279,8 @@ def test_coefficient_table_round_trip(tmp_path):
     ('{"format": "terrasph-rft-coefficients", "zeta": 1.0, "coefficients": {"A50": 1}}', "not a term"),
     ('{"format": "terrasph-rft-coefficients", "zeta": -1.0, "coefficients": '
      + json.dumps(dict.fromkeys(rft.COEFFICIENT_NAMES, 0.1)) + "}", "'zeta'"),
+    ('{"format": "terrasph-rft-coefficients", "zeta": 1.0, "density": -5, "coefficients": '
+     + json.dumps(dict.fromkeys(rft.COEFFICIENT_NAMES, 0.1)) + "}", "'density'"),
 ])
 def test_malformed_table_is_refused(tmp_path, content, message):
     path = tmp_path / "bad.json"

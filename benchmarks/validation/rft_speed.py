@@ -1,7 +1,8 @@
 """Speed of the RFT terrain's step (docs/rft.md): each leg-wheel on RFT (generic map, 6 s, the motor
 commanded as in the scene) stepped by the native stepper alone, without the run loop's recording.
 
-    OMP_NUM_THREADS=1 python benchmarks/validation/rft_speed.py [--wheels c-leg flat-leg ...] [--t-end 6]
+    OMP_NUM_THREADS=1 python benchmarks/validation/rft_speed.py [--wheels c-leg flat-leg ...] [--t-end 6] \
+        [--rft-table generic|TABLE.json]
 
 Prints per wheel the steps, the CPU time of the stepping (``time.process_time``: a machine shared
 with other jobs does not inflate it as it does the wall time), the simulated seconds per CPU second
@@ -20,11 +21,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--wheels", nargs="+", default=list(WHEELS))
     parser.add_argument("--t-end", type=float, default=6.0)
+    parser.add_argument("--rft-table", default="generic", help="a table with density 0 steps without the carried grains")
     args = parser.parse_args()
     print("| wheel | steps | stepping CPU (s) | simulated s per CPU s | CPU per step (µs) |")
     print("|---|---|---|---|---|")
     for wheel in args.wheels:
-        config = LegWheel(wheel=wheel, terrain="rft", t_end=args.t_end)
+        config = LegWheel(wheel=wheel, terrain="rft", t_end=args.t_end, rft_table=args.rft_table)
         coupled = build_leg_wheel(config)
 
         def motor(run: object, config: LegWheel = config) -> None:

@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 #include <tuple>
@@ -33,7 +34,7 @@ void check_elements(const CArray& centre, const CArray& normal, const CArray& le
 /// A map's terms as (vertical, sine, m, n, value) tuples (terrasph.rft.RFTCoefficients.terms).
 using TermTuple = std::tuple<bool, bool, int, int, double>;
 
-tr::Coefficients coefficients(const std::vector<TermTuple>& terms, double zeta) {
+tr::Coefficients coefficients(const std::vector<TermTuple>& terms, double zeta, double unit_weight = 0.0) {
   tr::Coefficients out;
   for (const auto& [vertical, sine, m, n, value] : terms) {
     if (std::abs(m) > tr::kMaxOrder || n < 0 || n > tr::kMaxOrder)
@@ -41,10 +42,39 @@ tr::Coefficients coefficients(const std::vector<TermTuple>& terms, double zeta) 
     out.terms.push_back({vertical, sine, m, n, value});
   }
   out.zeta = zeta;
+  out.unit_weight = unit_weight;
   return out;
 }
 
 std::vector<double> copied(const CArray& a) { return {a.data(), a.data() + a.size()}; }
+
+using IArray = py::array_t<int, py::array::c_style | py::array::forcecast>;
+
+/// A body's pockets as (wall_pocket (count,), cell_centre (cells, 2), cell_area (cells,), cell_pocket
+/// (cells,)) (terrasph.rft.SurfaceElements), checked: pocket indices within 0 … max.
+struct Pockets {
+  std::vector<int> wall_pocket, cell_pocket;
+  std::vector<double> cell_centre, cell_area;
+  int count = 0;
+};
+using PocketTuple = std::tuple<IArray, CArray, CArray, IArray>;
+
+Pockets pockets(const PocketTuple& tuple, py::ssize_t elements) {
+  const auto& [wall, centre, area, cell] = tuple;
+  const py::ssize_t cells = area.ndim() == 1 ? area.shape(0) : -1;
+  if (wall.ndim() != 1 || wall.shape(0) != elements || centre.ndim() != 2 || centre.shape(0) != cells ||
+      centre.shape(1) != 2 || cell.ndim() != 1 || cell.shape(0) != cells)
+    throw py::value_error("RFT pockets: wall_pocket (count,), cell_centre (cells, 2), cell_area and cell_pocket (cells,)");
+  Pockets out{{wall.data(), wall.data() + wall.size()}, {cell.data(), cell.data() + cell.size()}, copied(centre),
+              copied(area), 0};
+  for (int p : out.cell_pocket) {
+    if (p < 0) throw py::value_error("RFT pockets: a cell's pocket index is negative");
+    out.count = std::max(out.count, p + 1);
+  }
+  for (int p : out.wall_pocket)
+    if (p >= out.count) throw py::value_error("RFT pockets: a wall faces a pocket without cells");
+  return out;
+}
 
 /// `a` is (count, 3).
 void check_rows(const CArray& a, py::ssize_t count, const char* what) {
@@ -63,42 +93,51 @@ std::vector<tr::VelocityServo> robot_servos(const std::vector<std::tuple<int, in
 void bind_rft(py::module_& m) {
   m.def(
       "rft_body_load",
-      [](const CArray& centre, const CArray& normal, const CArray& length, double width, double angle, double x,
-         double z, double vx, double vz, double omega, double surface, const std::vector<TermTuple>& c, double zeta,
-         double regularisation, bool jacobian) {
+      [](const CArray& centre, const CArray& normal, const CArray& length, double width, const PocketTuple& pocket,
+         double angle, double x, double z, double vx, double vz, double omega, double surface,
+         const std::vector<TermTuple>& c, double zeta, double unit_weight, double regularisation, bool jacobian) {
         check_elements(centre, normal, length);
+        const Pockets p = pockets(pocket, length.shape(0));
         const tr::ElementsView view{centre.data(), normal.data(), length.data(),
-                                    static_cast<std::size_t>(length.shape(0)), width};
-        const tr::BodyLoad load = tr::body_load(view, {angle, x, z, vx, vz, omega}, surface, coefficients(c, zeta),
-                                                regularisation, jacobian);
+                                    static_cast<std::size_t>(length.shape(0)), width,
+                                    {p.wall_pocket.data(), p.cell_centre.data(), p.cell_area.data(),
+                                     p.cell_pocket.data(), p.cell_area.size(), p.count}};
+        const tr::BodyLoad load = tr::body_load(view, {angle, x, z, vx, vz, omega}, surface,
+                                                coefficients(c, zeta, unit_weight), regularisation, jacobian);
         return std::make_tuple(load.fx, load.fz, load.torque, load.jacobian);
       },
-      py::arg("centre"), py::arg("normal"), py::arg("length"), py::arg("width"), py::arg("angle"), py::arg("x"),
-      py::arg("z"), py::arg("vx"), py::arg("vz"), py::arg("omega"), py::arg("surface"), py::arg("coefficients"),
-      py::arg("zeta"), py::arg("regularisation"), py::arg("jacobian"),
+      py::arg("centre"), py::arg("normal"), py::arg("length"), py::arg("width"), py::arg("pockets"),
+      py::arg("angle"), py::arg("x"), py::arg("z"), py::arg("vx"), py::arg("vz"), py::arg("omega"),
+      py::arg("surface"), py::arg("coefficients"), py::arg("zeta"), py::arg("unit_weight"),
+      py::arg("regularisation"), py::arg("jacobian"),
       "RFT load (F_x, F_z, torque, row-major 3x3 Jacobian) of body surface elements (terrasph.rft.body_load)");
 
   py::class_<tr::PlanarRobotStepper>(m, "PlanarRobotStepper",
                                      "A planar MuJoCo robot on the RFT terrain stepped natively "
                                      "(terrasph.robots.rft_terrain.RFTCoupling)")
       .def(py::init([](const std::string& library, std::uintptr_t model, std::uintptr_t data,
-                       const std::vector<std::tuple<int, CArray, CArray, CArray, double>>& bodies,
+                       const std::vector<std::tuple<int, CArray, CArray, CArray, double, PocketTuple>>& bodies,
                        const std::vector<std::tuple<int, int, double, double, double, double>>& servos,
-                       double surface, const std::vector<TermTuple>& c, double zeta, double time_step,
-                       double regularisation, int iterations, int halvings, double tolerance) {
+                       double surface, const std::vector<TermTuple>& c, double zeta, double unit_weight,
+                       double time_step, double regularisation, int iterations, int halvings, double tolerance) {
              std::vector<tr::RobotBody> robot_bodies;
-             for (const auto& [id, centre, normal, length, width] : bodies) {
+             for (const auto& [id, centre, normal, length, width, pocket] : bodies) {
                check_elements(centre, normal, length);
-               robot_bodies.push_back({id, copied(centre), copied(normal), copied(length), width});
+               Pockets p = pockets(pocket, length.shape(0));
+               robot_bodies.push_back({id, copied(centre), copied(normal), copied(length), width,
+                                       std::move(p.wall_pocket), std::move(p.cell_pocket), std::move(p.cell_centre),
+                                       std::move(p.cell_area), p.count});
              }
              return std::make_unique<tr::PlanarRobotStepper>(library, model, data, std::move(robot_bodies),
-                                                             robot_servos(servos), surface, coefficients(c, zeta),
+                                                             robot_servos(servos), surface,
+                                                             coefficients(c, zeta, unit_weight),
                                                              time_step, regularisation,
                                                              tr::NewtonSettings{iterations, halvings, tolerance});
            }),
            py::arg("library"), py::arg("model"), py::arg("data"), py::arg("bodies"), py::arg("servos"),
-           py::arg("surface"), py::arg("coefficients"), py::arg("zeta"), py::arg("time_step"),
-           py::arg("regularisation"), py::arg("iterations"), py::arg("halvings"), py::arg("tolerance"))
+           py::arg("surface"), py::arg("coefficients"), py::arg("zeta"), py::arg("unit_weight"),
+           py::arg("time_step"), py::arg("regularisation"), py::arg("iterations"), py::arg("halvings"),
+           py::arg("tolerance"))
       .def("step", &tr::PlanarRobotStepper::step, "one step")
       .def("steps", &tr::PlanarRobotStepper::steps, py::arg("count"), "`count` steps")
       .def_property(

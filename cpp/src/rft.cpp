@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cmath>
+#include <vector>
 
 namespace terrasph::rft {
 
@@ -37,10 +38,63 @@ AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double
   return out;
 }
 
+namespace {
+
+/// The walls of one pocket below the surface: their length L, their length times the leading weight
+/// min(1, n·v / v_ε) (0 trailing) and that sum's derivative in the body's (v_x, v_z, ω).
+struct PocketWalls {
+  double length = 0.0, leading = 0.0;
+  std::array<double, 3> d_leading{};
+};
+
+/// The grains in the pockets below the surface ride with the body where its walls lead (the SPH's
+/// reversed C-leg carries the grains of its cup: docs/rft.md, "Carried grains"): each pocket adds its
+/// weight (pocket_weights) times the walls' leading fraction, at the cells' lever arms.
+void add_carried_grains(const std::vector<PocketWalls>& walls, const PocketWeights& weights, bool jacobian,
+                        BodyLoad& load) {
+  for (std::size_t p = 0; p < walls.size(); ++p) {
+    if (!(walls[p].leading > 0.0)) continue;
+    const double fraction = walls[p].leading / walls[p].length;
+    load.fz -= fraction * weights.weight[p];
+    load.torque += fraction * weights.moment[p];  // (r × F)_y = −r_x F_z
+    if (!jacobian) continue;
+    for (int j = 0; j < 3; ++j) {
+      const double d_fraction = walls[p].d_leading[static_cast<std::size_t>(j)] / walls[p].length;
+      load.jacobian[static_cast<std::size_t>(3 + j)] -= d_fraction * weights.weight[p];
+      load.jacobian[static_cast<std::size_t>(6 + j)] += d_fraction * weights.moment[p];
+    }
+  }
+}
+
+}  // namespace
+
+PocketWeights pocket_weights(const ElementsView& elements, const PlanarMotion& motion, double surface,
+                             double unit_weight) {
+  const PocketsView& pockets = elements.pockets;
+  PocketWeights out{std::vector<double>(static_cast<std::size_t>(pockets.pockets), 0.0),
+                    std::vector<double>(static_cast<std::size_t>(pockets.pockets), 0.0)};
+  const double c = std::cos(motion.angle), s = std::sin(motion.angle);
+  for (std::size_t k = 0; k < pockets.cells; ++k) {
+    const double px = pockets.cell_centre[2 * k], pz = pockets.cell_centre[2 * k + 1];
+    const double rx = c * px + s * pz, rz = -s * px + c * pz;
+    const double size = std::sqrt(pockets.cell_area[k]);
+    const double below = std::clamp((surface - motion.z - rz) / size + 0.5, 0.0, 1.0);
+    if (below <= 0.0) continue;
+    const double w = unit_weight * pockets.cell_area[k] * elements.width * below;
+    const auto p = static_cast<std::size_t>(pockets.cell_pocket[k]);
+    out.weight[p] += w;
+    out.moment[p] += rx * w;
+  }
+  return out;
+}
+
 BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, double surface,
-                   const Coefficients& table, double regularisation, bool jacobian) {
+                   const Coefficients& table, double regularisation, bool jacobian, const PocketWeights* weights) {
   BodyLoad load{};
   const double c = std::cos(motion.angle), s = std::sin(motion.angle);  // clockwise rotation [[c, s], [−s, c]]
+  const PocketsView& pockets = elements.pockets;
+  const bool carries = pockets.pockets > 0 && table.unit_weight > 0.0;
+  std::vector<PocketWalls> walls(carries ? static_cast<std::size_t>(pockets.pockets) : 0);
   for (std::size_t e = 0; e < elements.count; ++e) {
     const double px = elements.centre[2 * e], pz = elements.centre[2 * e + 1];
     const double rx = c * px + s * pz, rz = -s * px + c * pz;  // the arm r from the frame origin
@@ -51,6 +105,9 @@ BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, dou
     const double vx = motion.vx + motion.omega * rz;  // v + ω (r_z, −r_x)
     const double vz = motion.vz - motion.omega * rx;
     const double normal_speed = nx * vx + nz * vz;
+    PocketWalls* wall = carries && pockets.wall_pocket[e] >= 0
+                            ? &walls[static_cast<std::size_t>(pockets.wall_pocket[e])] : nullptr;
+    if (wall != nullptr) wall->length += elements.length[e];
     if (!(normal_speed > 0.0)) continue;  // a trailing face leaves a cavity
     const double sign = vx < 0.0 ? -1.0 : 1.0;  // a face moving backward is mirrored x → −x
     const double speed = std::hypot(vx, vz);
@@ -63,6 +120,14 @@ BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, dou
     const bool ramp = regularisation > 0.0 && normal_speed < regularisation;
     const double fade = ramp ? normal_speed / regularisation : 1.0;
     const double fx = raw_x * fade, fz = raw_z * fade;
+    if (wall != nullptr) {
+      wall->leading += elements.length[e] * fade;
+      if (ramp && jacobian) {  // ∂fade/∂ξ = Tᵀ n / v_ε, T the element's velocity map below
+        wall->d_leading[0] += elements.length[e] * nx / regularisation;
+        wall->d_leading[1] += elements.length[e] * nz / regularisation;
+        wall->d_leading[2] += elements.length[e] * (rz * nx - rx * nz) / regularisation;
+      }
+    }
     load.fx += fx;
     load.fz += fz;
     load.torque += rz * fx - rx * fz;  // (r × F)_y
@@ -84,6 +149,12 @@ BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, dou
         load.jacobian[static_cast<std::size_t>(3 * i + j)] += sum;
       }
     }
+  }
+  if (carries) {
+    const bool leading = std::any_of(walls.begin(), walls.end(), [](const PocketWalls& w) { return w.leading > 0.0; });
+    if (leading && weights != nullptr) add_carried_grains(walls, *weights, jacobian, load);
+    if (leading && weights == nullptr)
+      add_carried_grains(walls, pocket_weights(elements, motion, surface, table.unit_weight), jacobian, load);
   }
   return load;
 }

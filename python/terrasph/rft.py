@@ -40,6 +40,12 @@ that α̂_z(0, π/2) = 1, and ζ in N/m³; the default ζ of the chapter 3 glass
 each loop is cut at its corners and resampled into chords of about ``element_length``; where loops
 overlap (a leg-wheel's spokes at the hub) the parts of a loop inside another are dropped, so only the
 body's outer surface is loaded.
+
+**Carried grains.** A body's *pockets* (the open regions between its outline and its convex hull: a
+C-leg's cup, an L-leg's corner, the gaps between spokes) carry the grains in them where their walls lead:
+each adds the weight ρ0 g A w of its part below the surface times its walls' leading fraction, ρ0 the
+medium's bulk density (:attr:`RFTCoefficients.density`). No local map gives it: the SPH's reversed C-leg
+carries the grains of its cup as one body (docs/rft.md, "Carried grains").
 """
 
 from __future__ import annotations
@@ -58,8 +64,9 @@ from terrasph import _core
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.options import SHARED
+from terrasph.scene import GRAVITY
 
-__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_ZETA", "MAX_ORDER", "REGULARISATION_SPEED", "TABLE_FORMAT",
+__all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_DENSITY", "GLASS_BEADS_ZETA", "MAX_ORDER", "REGULARISATION_SPEED", "TABLE_FORMAT",
            "TERRAINS", "BodyLoad", "RFTCoefficients", "SurfaceElements", "Term", "body_load", "check_terrain",
            "coefficient_table", "fit_coefficients", "fourier_basis", "load_coefficients", "map_correlation",
            "parse_term", "save_coefficients", "series_names", "term_name"]
@@ -77,6 +84,9 @@ MAX_ORDER = 4
 #: ζ of the chapter 3 glass beads (N/m³): the SPH's stress per unit depth on a horizontal plate pushed
 #: down, k/(L W) = 247.9 N/m / (0.04 m × 0.0254 m) (α = 15.2 ρ0 g; docs/benchmarks.md, plate intrusion)
 GLASS_BEADS_ZETA = 2.44e5
+#: ρ0 of the chapter 3 glass beads (kg/m³): 2600 kg/m³ grains at packing 0.63
+#: (terrasph.scenes.leg_rotation.glass_beads)
+GLASS_BEADS_DENSITY = 2600.0 * 0.63
 
 #: the ``format`` entry of a coefficient table file
 TABLE_FORMAT = "terrasph-rft-coefficients"
@@ -144,6 +154,8 @@ class RFTCoefficients:
     coefficients: dict[str, float]
     zeta: float = GLASS_BEADS_ZETA
     source: str = ""
+    #: the medium's bulk density ρ0 (kg/m³): the grains a body carries in its pockets weigh ρ0 g per m³
+    density: float = GLASS_BEADS_DENSITY
 
     def __post_init__(self) -> None:
         if not isinstance(self.coefficients, dict) or not self.coefficients:
@@ -156,6 +168,10 @@ class RFTCoefficients:
             raise ConfigError(f"RFT coefficient 'zeta' = {self.zeta!r} is invalid: allowed a finite number")
         if not self.zeta > 0:
             raise ConfigError(f"RFT coefficient 'zeta' = {self.zeta!r} is invalid: allowed > 0 (N/m³)")
+        if (isinstance(self.density, bool) or not isinstance(self.density, (int, float))
+                or not (math.isfinite(self.density) and self.density >= 0)):
+            raise ConfigError(f"RFT coefficient 'density' = {self.density!r} is invalid: allowed a finite number "
+                              ">= 0 (kg/m³)")
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -176,9 +192,14 @@ class RFTCoefficients:
             out.append((term.vertical, term.sine, term.m, term.n, float(value)))
         return out
 
+    @property
+    def unit_weight(self) -> float:
+        """ρ0 g (N/m³), the weight per volume of the grains a body's pockets carry."""
+        return self.density * GRAVITY
+
     def with_zeta(self, zeta: float) -> RFTCoefficients:
         """The same map with another scale ζ (N/m³)."""
-        return RFTCoefficients(dict(self.coefficients), zeta=zeta, source=self.source)
+        return dataclasses.replace(self, coefficients=dict(self.coefficients), zeta=zeta)
 
     def alpha(self, beta: np.ndarray | float, gamma: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """(α_x, α_z) in N/m³ at the angles of the module docstring (β, γ in [−π/2, π/2])."""
@@ -222,8 +243,8 @@ def save_coefficients(table: RFTCoefficients, path: str | os.PathLike[str], **ex
     """Writes `table` as JSON (with its units; `extra` entries, e.g. the fit's quality, are kept)."""
     out = pathlib.Path(path)
     document = {"format": TABLE_FORMAT, "version": 1,
-                "units": {"zeta": "N/m^3", "coefficients": "1 (alpha / zeta)"},
-                "zeta": table.zeta, "coefficients": dict(table.coefficients),
+                "units": {"zeta": "N/m^3", "density": "kg/m^3", "coefficients": "1 (alpha / zeta)"},
+                "zeta": table.zeta, "density": table.density, "coefficients": dict(table.coefficients),
                 "source": table.source, **extra}
     out.write_text(json.dumps(document, indent=2) + "\n")
     return out
@@ -245,7 +266,8 @@ def load_coefficients(path: str | os.PathLike[str]) -> RFTCoefficients:
         raise ConfigError(f"RFT coefficient table '{path}' is malformed: allowed \"zeta\" (N/m^3) and "
                           "\"coefficients\", a mapping of term names (e.g. A00, Bm11) to numbers")
     try:
-        return RFTCoefficients(dict(coefficients), zeta=document["zeta"], source=str(document.get("source", path)))
+        return RFTCoefficients(dict(coefficients), zeta=document["zeta"], source=str(document.get("source", path)),
+                               density=document.get("density", GLASS_BEADS_DENSITY))
     except ConfigError as error:
         raise ConfigError(f"RFT coefficient table '{path}': {error}") from None
 
@@ -338,6 +360,84 @@ def _resampled(loop: np.ndarray, length: float) -> np.ndarray:
     return np.concatenate(out)
 
 
+#: a pocket's cells merge this many × this many squares of the element length, at the centroid and with
+#: the area of the squares' centres that lie in the pocket: the carried weight's cost is its cell count
+#: (docs/rft.md, "Carried grains")
+POCKET_CELL_MERGE = 2
+
+
+def _convex_hull(points: np.ndarray) -> np.ndarray:
+    """The convex hull of `points`, counter-clockwise (Andrew's monotone chain)."""
+    ordered = sorted(set(map(tuple, np.round(points, 12))))
+
+    def half(sequence: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        chain: list[tuple[float, float]] = []
+        for p in sequence:
+            while len(chain) >= 2 and ((chain[-1][0] - chain[-2][0]) * (p[1] - chain[-2][1])
+                                       - (chain[-1][1] - chain[-2][1]) * (p[0] - chain[-2][0])) <= 0:
+                chain.pop()
+            chain.append(p)
+        return chain
+
+    lower, upper = half(ordered), half(ordered[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _connected(mask: np.ndarray) -> np.ndarray:
+    """Labels 0, 1, … of the 4-connected regions of a 2D boolean `mask`, −1 outside it."""
+    labels = np.full(mask.shape, -1, dtype=np.int32)
+    count = 0
+    for start in zip(*np.nonzero(mask)):
+        if labels[start] >= 0:
+            continue
+        labels[start] = count
+        stack = [start]
+        while stack:
+            i, j = stack.pop()
+            for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+                if 0 <= a < mask.shape[0] and 0 <= b < mask.shape[1] and mask[a, b] and labels[a, b] < 0:
+                    labels[a, b] = count
+                    stack.append((a, b))
+        count += 1
+    return labels
+
+
+def _pockets(loops: tuple[np.ndarray, ...], centre: np.ndarray, normal: np.ndarray,
+             cell: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The body's pockets, the regions between its outline and its convex hull (a C-leg's cup, the
+    corner of an L-leg, the gaps between a leg-wheel's spokes), as square cells of side `cell` whose
+    centres lie in the hull and outside the body, grouped into 4-connected pockets; each element whose
+    point half a cell outside lies in a pocket's cell is that pocket's wall. Returns (wall_pocket,
+    cell_centre, cell_area, cell_pocket) of :class:`SurfaceElements`."""
+    hull = _convex_hull(np.concatenate(loops))
+    low, high = hull.min(axis=0), hull.max(axis=0)
+    counts = np.maximum(1, np.ceil((high - low) / cell).astype(int))
+    xs = low[0] + (np.arange(counts[0]) + 0.5) * (high[0] - low[0]) / counts[0]
+    zs = low[1] + (np.arange(counts[1]) + 0.5) * (high[1] - low[1]) / counts[1]
+    grid = np.stack(np.meshgrid(xs, zs, indexing="ij"), axis=-1).reshape(-1, 2)
+    in_hull = (_winding(grid, (hull,)) > 0).reshape(counts)
+    labels = _connected(in_hull & (_winding(grid, loops) <= 0).reshape(counts))
+    # a region the body encloses (a rim's hole) holds no grains: a pocket opens onto the hull's outside
+    outside = np.pad(~in_hull, 1, constant_values=True)
+    opening = outside[2:, 1:-1] | outside[:-2, 1:-1] | outside[1:-1, 2:] | outside[1:-1, :-2]
+    open_pockets = np.unique(labels[opening & (labels >= 0)])
+    labels = np.where(np.isin(labels, open_pockets), np.searchsorted(open_pockets, labels), -1).astype(np.int32)
+    size = (high - low) / counts
+    probe = np.floor((centre + 0.5 * size * normal - low) / size).astype(int)
+    within = np.all((probe >= 0) & (probe < counts), axis=1)
+    wall = np.full(len(centre), -1, dtype=np.int32)
+    wall[within] = labels[probe[within, 0], probe[within, 1]]
+    flat = labels.ravel()
+    keep = flat >= 0
+    block = np.stack(np.meshgrid(np.arange(counts[0]), np.arange(counts[1]), indexing="ij"), axis=-1).reshape(-1, 2)
+    block = block[keep] // POCKET_CELL_MERGE
+    key = np.column_stack([flat[keep], block])
+    groups, cell = np.unique(key, axis=0, return_inverse=True)
+    members = np.bincount(cell.ravel(), minlength=len(groups))
+    centroid = np.column_stack([np.bincount(cell.ravel(), weights=grid[keep][:, k]) for k in (0, 1)]) / members[:, None]
+    return wall, centroid, members * float(size[0] * size[1]), groups[:, 0].astype(np.int32)
+
+
 @dataclass(frozen=True)
 class SurfaceElements:
     """The outer surface of a body shape as RFT elements in its own frame.
@@ -353,6 +453,21 @@ class SurfaceElements:
     normal: np.ndarray
     length: np.ndarray
     width: float
+    #: (E,) the pocket each element faces (its wall), −1 for none (:func:`_pockets`)
+    wall_pocket: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int32))
+    #: (C, 2) centres (m) and (C,) areas (m²) of the cells filling the pockets, and each cell's pocket
+    cell_centre: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))
+    cell_area: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    cell_pocket: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int32))
+
+    def __post_init__(self) -> None:
+        if len(self.wall_pocket) != len(self.length):  # built without pockets
+            object.__setattr__(self, "wall_pocket", np.full(len(self.length), -1, dtype=np.int32))
+
+    @property
+    def pockets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(wall_pocket, cell_centre, cell_area, cell_pocket), as the compiled core reads them."""
+        return self.wall_pocket, self.cell_centre, self.cell_area, self.cell_pocket
 
     @classmethod
     def from_shape(cls, shape: BodyShape, element_length: float | None = None,
@@ -384,7 +499,8 @@ class SurfaceElements:
         outer = _winding(probe, loops) <= 0
         if not outer.any():
             raise ConfigError(f"shape {shape.name!r} has no outer surface (every outline face lies inside another loop)")
-        return cls(centre[outer], normal[outer], ell[outer], float(width))
+        centre, normal, ell = centre[outer], normal[outer], ell[outer]
+        return cls(centre, normal, ell, float(width), *_pockets(loops, centre, normal, length))
 
     def __len__(self) -> int:
         return len(self.length)
@@ -417,15 +533,16 @@ def body_load(elements: SurfaceElements, angle: float, origin: tuple[float, floa
 
     Each element below the surface with outward normal n and velocity v (v + ω (r_z, −r_x) at arm r)
     takes σ ℓ w with σ of the module docstring, times min(1, n·v / `regularisation`) for n·v > 0 (0
-    for a trailing face; `regularisation` = 0: the bare map). The torque is Σ (r × F)_y = r_z F_x −
+    for a trailing face; `regularisation` = 0: the bare map); each pocket adds the weight of the grains
+    it carries (the module docstring; ``table.density`` 0: none). The torque is Σ (r × F)_y = r_z F_x −
     r_x F_z (terrasph.robots.mjcf's convention). With `jacobian`, also the load's derivative in the
     body's velocity: through γ (∂γ/∂v = s (v_z, −v_x)/|v|², γ = atan2(−v_z, s v_x)) and through the
     regularisation (∂/∂v (n·v/v_ε) = n/v_ε).
     """
     fx, fz, torque, derivative = _core.rft_body_load(
-        elements.centre, elements.normal, elements.length, elements.width, float(angle), float(origin[0]),
-        float(origin[1]), float(velocity[0]), float(velocity[1]), float(omega), float(surface),
-        table.terms, table.zeta, float(regularisation), bool(jacobian))
+        elements.centre, elements.normal, elements.length, elements.width, elements.pockets, float(angle),
+        float(origin[0]), float(origin[1]), float(velocity[0]), float(velocity[1]), float(omega), float(surface),
+        table.terms, table.zeta, table.unit_weight, float(regularisation), bool(jacobian))
     return BodyLoad(np.array([fx, fz]), torque, np.reshape(derivative, (3, 3)) if jacobian else None)
 
 

@@ -22,10 +22,12 @@ struct Term {
   double value = 0.0;
 };
 
-/// α = ζ α̂(β, γ): the series' terms (dimensionless, α̂_z(0, π/2) = 1) and the scale ζ (N/m³).
+/// α = ζ α̂(β, γ): the series' terms (dimensionless, α̂_z(0, π/2) = 1) and the scale ζ (N/m³); the
+/// medium's unit weight ρ0 g (N/m³), with which the grains a body carries in its pockets load it.
 struct Coefficients {
   std::vector<Term> terms;
   double zeta = 0.0;
+  double unit_weight = 0.0;
 };
 
 /// α̂_x, α̂_z and their derivatives in γ (dax, daz) and in β (dax_dbeta, daz_dbeta) of a map: Σ value ·
@@ -37,6 +39,19 @@ struct AlphaHat {
 
 AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double cosg, double sing);
 
+/// A body's pockets, borrowed: the regions between its outline and its convex hull (terrasph.rft.
+/// SurfaceElements), as cells of `cell_area` (m²) at `cell_centre` ((cells, 2), own frame, m), each
+/// in pocket `cell_pocket` (0 … pockets − 1); `wall_pocket` (one per element) is the pocket an element
+/// faces, or −1. No pockets: cells = pockets = 0.
+struct PocketsView {
+  const int* wall_pocket = nullptr;
+  const double* cell_centre = nullptr;
+  const double* cell_area = nullptr;
+  const int* cell_pocket = nullptr;
+  std::size_t cells = 0;
+  int pockets = 0;
+};
+
 /// A body's surface elements in its own frame, borrowed (the owner keeps the arrays alive):
 /// `centre` and `normal` are (count, 2) row-major (x, z), `length` (count,), all in m.
 struct ElementsView {
@@ -45,6 +60,7 @@ struct ElementsView {
   const double* length = nullptr;
   std::size_t count = 0;
   double width = 0.0;  ///< out-of-plane width (m)
+  PocketsView pockets{};
 };
 
 /// A body's pose and motion in the x–z plane: clockwise `angle` (rad), frame origin (x, z) (m), its
@@ -62,8 +78,21 @@ struct BodyLoad {
 
 /// The load of a flat free surface at z = `surface` on the elements at `motion` (terrasph.rft.body_load):
 /// each element below it whose outward normal leads (n·v > 0) takes σ ℓ w, σ = (−s α_x, α_z) d,
-/// times min(1, n·v / `regularisation`) (0: the bare map).
+/// times min(1, n·v / `regularisation`) (0: the bare map); and each pocket whose walls lead carries
+/// its grains below the surface: their weight ρ0 g A w times the walls' leading fraction.
+/// The weight ρ0 g A w (N) of the grains below the surface in each pocket at a pose, and its moment
+/// Σ r_x ρ0 g A w (N·m) about the frame origin (a cell's share fades over its own height): they depend
+/// on the pose alone, so a step whose Newton iterations keep the pose computes them once.
+struct PocketWeights {
+  std::vector<double> weight, moment;
+};
+
+PocketWeights pocket_weights(const ElementsView& elements, const PlanarMotion& motion, double surface,
+                             double unit_weight);
+
+/// `weights`: pocket_weights() at this pose, or nullptr to compute them here.
 BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, double surface,
-                   const Coefficients& table, double regularisation, bool jacobian);
+                   const Coefficients& table, double regularisation, bool jacobian,
+                   const PocketWeights* weights = nullptr);
 
 }  // namespace terrasph::rft

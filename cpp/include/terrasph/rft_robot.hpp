@@ -14,13 +14,19 @@
 
 namespace terrasph::rft {
 
-/// A body of the robot that meets the terrain: MuJoCo body id and its surface elements (own frame;
-/// `centre`, `normal` (count, 2) row-major, `length` (count,), m).
+/// A body of the robot that meets the terrain: MuJoCo body id, its surface elements (own frame;
+/// `centre`, `normal` (count, 2) row-major, `length` (count,), m) and its pockets (PocketsView).
 struct RobotBody {
   int body_id = 0;
   std::vector<double> centre, normal, length;
   double width = 0.0;
-  ElementsView view() const { return {centre.data(), normal.data(), length.data(), length.size(), width}; }
+  std::vector<int> wall_pocket, cell_pocket;
+  std::vector<double> cell_centre, cell_area;
+  int pockets = 0;
+  ElementsView view() const {
+    return {centre.data(), normal.data(), length.data(), length.size(), width,
+            {wall_pocket.data(), cell_centre.data(), cell_area.data(), cell_pocket.data(), cell_area.size(), pockets}};
+  }
 };
 
 /// A torque-limited velocity servo (MJCF <velocity> with a forcerange): force kv (command − gear q̇)

@@ -103,9 +103,11 @@ class RFTCoupling(RobotStepper):
                           for b in robot.coupled}
         self._native = _core.PlanarRobotStepper(
             mujoco_library(), robot.model._address, robot.data._address,
-            [(b.body_id, e.centre, e.normal, e.length, e.width) for b, e in zip(robot.coupled, self._elements.values())],
+            [(b.body_id, e.centre, e.normal, e.length, e.width, e.pockets)
+             for b, e in zip(robot.coupled, self._elements.values())],
             [(s.actuator, s.dof, s.kv, s.gear, s.lower, s.upper) for s in velocity_servos(robot)],
-            self.surface_level, self.table.terms, self.table.zeta, self._dt, rft.REGULARISATION_SPEED,
+            self.surface_level, self.table.terms, self.table.zeta, self.table.unit_weight, self._dt,
+            rft.REGULARISATION_SPEED,
             NEWTON_ITERATIONS, NEWTON_HALVINGS, NEWTON_TOLERANCE)
         self._span = self._dt
         self._since = float(robot.data.time)
