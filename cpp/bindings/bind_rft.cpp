@@ -36,10 +36,16 @@ using TermTuple = std::tuple<bool, bool, int, int, double>;
 
 tr::Coefficients coefficients(const std::vector<TermTuple>& terms, double zeta, double unit_weight = 0.0) {
   tr::Coefficients out;
+  out.order_beta = out.order_gamma = 0;
   for (const auto& [vertical, sine, m, n, value] : terms) {
     if (std::abs(m) > tr::kMaxOrder || n < 0 || n > tr::kMaxOrder)
       throw py::value_error("RFT coefficients: a term's order exceeds " + std::to_string(tr::kMaxOrder));
-    out.terms.push_back({vertical, sine, m, n, value});
+    auto same = std::find_if(out.terms.begin(), out.terms.end(),
+                             [m = m, n = n](const tr::Term& t) { return t.m == m && t.n == n; });
+    tr::Term& term = same != out.terms.end() ? *same : out.terms.emplace_back(tr::Term{m, n});
+    (vertical ? (sine ? term.z_sin : term.z_cos) : (sine ? term.x_sin : term.x_cos)) += value;
+    out.order_beta = std::max(out.order_beta, std::abs(m));
+    out.order_gamma = std::max(out.order_gamma, n);
   }
   out.zeta = zeta;
   out.unit_weight = unit_weight;

@@ -10,11 +10,13 @@ namespace terrasph::rft {
 
 // The multiples of the angles by angle addition.
 AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double cosg, double sing) {
-  std::array<double, kMaxOrder + 1> cb{}, sb{}, cg{}, sg{};  // cos, sin of 2mβ and nγ, m, n = 0 … kMaxOrder
+  std::array<double, kMaxOrder + 1> cb{}, sb{}, cg{}, sg{};  // cos, sin of 2mβ and nγ, m, n = 0 … the table's order
   cb[0] = cg[0] = 1.0;
-  for (int k = 1; k <= kMaxOrder; ++k) {
+  for (std::size_t k = 1; k <= static_cast<std::size_t>(table.order_beta); ++k) {
     cb[k] = cb[k - 1] * cos2b - sb[k - 1] * sin2b;
     sb[k] = sb[k - 1] * cos2b + cb[k - 1] * sin2b;
+  }
+  for (std::size_t k = 1; k <= static_cast<std::size_t>(table.order_gamma); ++k) {
     cg[k] = cg[k - 1] * cosg - sg[k - 1] * sing;
     sg[k] = sg[k - 1] * cosg + cg[k - 1] * sing;
   }
@@ -23,17 +25,14 @@ AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double
     const std::size_t m = static_cast<std::size_t>(std::abs(t.m)), n = static_cast<std::size_t>(t.n);
     const double cm = cb[m], sm = t.m < 0 ? -sb[m] : sb[m];
     const double cos_arg = cm * cg[n] - sm * sg[n], sin_arg = sm * cg[n] + cm * sg[n];  // of 2mβ + nγ
-    const double value = t.sine ? sin_arg : cos_arg;
-    const double rate = t.sine ? cos_arg : -sin_arg;  // ∂/∂(2mβ + nγ)
-    if (t.vertical) {
-      out.az += t.value * value;
-      out.daz += t.value * t.n * rate;
-      out.daz_dbeta += t.value * 2 * t.m * rate;
-    } else {
-      out.ax += t.value * value;
-      out.dax += t.value * t.n * rate;
-      out.dax_dbeta += t.value * 2 * t.m * rate;
-    }
+    const double rate_z = t.z_sin * cos_arg - t.z_cos * sin_arg;  // ∂/∂(2mβ + nγ)
+    const double rate_x = t.x_sin * cos_arg - t.x_cos * sin_arg;
+    out.az += t.z_cos * cos_arg + t.z_sin * sin_arg;
+    out.ax += t.x_cos * cos_arg + t.x_sin * sin_arg;
+    out.daz += t.n * rate_z;
+    out.dax += t.n * rate_x;
+    out.daz_dbeta += 2 * t.m * rate_z;
+    out.dax_dbeta += 2 * t.m * rate_x;
   }
   return out;
 }
@@ -110,7 +109,7 @@ BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, dou
     if (wall != nullptr) wall->length += elements.length[e];
     if (!(normal_speed > 0.0)) continue;  // a trailing face leaves a cavity
     const double sign = vx < 0.0 ? -1.0 : 1.0;  // a face moving backward is mirrored x → −x
-    const double speed = std::hypot(vx, vz);
+    const double speed = std::sqrt(vx * vx + vz * vz);  // std::hypot costs several square roots; no overflow at m/s
     const double cosg = sign * vx / speed, sing = -vz / speed;
     const double tx = nz, tz = -sign * nx;  // the face's tangent (cos β, sin β) up to sign
     const double cos2b = tx * tx - tz * tz, sin2b = 2.0 * tx * tz;

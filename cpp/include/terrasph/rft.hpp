@@ -13,13 +13,12 @@ namespace terrasph::rft {
 /// The largest multiple m of 2β and n of γ a map's series may hold.
 constexpr int kMaxOrder = 4;
 
-/// One term of the map's Fourier series (terrasph.rft): `value` × cos or sin(2mβ + nγ), in α̂_z
-/// (`vertical`) or α̂_x. Li et al.'s nine coefficients are the terms with |m| ≤ 1, n ≤ 1.
+/// The terms of the map's Fourier series (terrasph.rft) of one multiple (m, n): α̂_z gets z_cos cos
+/// + z_sin sin(2mβ + nγ), α̂_x x_cos cos + x_sin sin (the letters A, B, C, D of one multiple share its
+/// angle). Li et al.'s nine coefficients are the terms with |m| ≤ 1, n ≤ 1.
 struct Term {
-  bool vertical = true;
-  bool sine = false;
-  int m = 0, n = 0;  ///< |m|, n ≤ kMaxOrder (checked by the Python caller)
-  double value = 0.0;
+  int m = 0, n = 0;  ///< |m|, n ≤ kMaxOrder (checked by the caller)
+  double z_cos = 0.0, z_sin = 0.0, x_cos = 0.0, x_sin = 0.0;
 };
 
 /// α = ζ α̂(β, γ): the series' terms (dimensionless, α̂_z(0, π/2) = 1) and the scale ζ (N/m³); the
@@ -28,6 +27,7 @@ struct Coefficients {
   std::vector<Term> terms;
   double zeta = 0.0;
   double unit_weight = 0.0;
+  int order_beta = kMaxOrder, order_gamma = kMaxOrder;  ///< the largest |m|, n of the terms (≤ kMaxOrder)
 };
 
 /// α̂_x, α̂_z and their derivatives in γ (dax, daz) and in β (dax_dbeta, daz_dbeta) of a map: Σ value ·
