@@ -53,28 +53,12 @@ def occluded(config: LegRotation, poses: int = 31) -> tuple[int, int]:
     return loaded, shadowed
 
 
-def _hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull, counter-clockwise (Andrew's monotone chain)."""
-    ordered = sorted(map(tuple, points))
-
-    def chain(sequence: list[tuple[float, float]]) -> list[tuple[float, float]]:
-        out: list[tuple[float, float]] = []
-        for p in sequence:
-            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
-                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
-                out.pop()
-            out.append(p)
-        return out
-
-    return np.array(chain(ordered)[:-1] + chain(ordered[::-1])[:-1])
-
-
 def peaks(config: LegRotation, table: rft.RFTCoefficients, filled: bool) -> tuple[float, float]:
     """Peak lift and thrust (N) of the RFT sweep, the leg as it is or its convex hull."""
     shape = config.shape()
     if filled:
         shape = bodies.BodyShape(shape.name, shape.position, shape.normal, shape.spacing, shape.thickness,
-                                 shape.width, shape.radius, (_hull(np.concatenate(shape.outline)),))
+                                 shape.width, shape.radius, (rft.convex_hull(np.concatenate(shape.outline)),))
     elements = rft.SurfaceElements.from_shape(shape, width=config.width)
     sweep = config.end_angle - config.start_angle
     count = max(1, round(config.samples_per_radian * sweep))

@@ -30,7 +30,7 @@ def main() -> None:
     config = LegRotation(**{k: v for k, v in fields.items() if k in LegRotation.__dataclass_fields__})
     shape = config.shape()
     elements = rft.SurfaceElements.from_shape(shape)
-    hull = rft._convex_hull(np.concatenate(shape.outline))
+    hull = rft.convex_hull(np.concatenate(shape.outline))
     grain_weight = glass_beads().reference_density * config.grid_spacing ** 2 * config.width * GRAVITY
     print(f"{args.run}: {config.leg}; pocket area {1e4 * elements.cell_area.sum():.2f} cm²")
     print("θ (rad) | grains in the pockets | below the surface | |v − v_rigid| / |v_rigid| | weight (N)")

@@ -68,7 +68,7 @@ from terrasph.scene import GRAVITY
 
 __all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_DENSITY", "GLASS_BEADS_ZETA", "MAX_ORDER", "REGULARISATION_SPEED", "TABLE_FORMAT",
            "TERRAINS", "BodyLoad", "RFTCoefficients", "SurfaceElements", "Term", "body_load", "check_terrain",
-           "coefficient_table", "fit_coefficients", "fourier_basis", "load_coefficients", "map_correlation",
+           "coefficient_table", "convex_hull", "fit_coefficients", "fourier_basis", "load_coefficients", "map_correlation",
            "parse_term", "save_coefficients", "series_names", "term_name"]
 
 #: the terrains a scene runs on: the SPH bed, or RFT on a flat surface (this module); the choices of
@@ -366,7 +366,7 @@ def _resampled(loop: np.ndarray, length: float) -> np.ndarray:
 POCKET_CELL_MERGE = 2
 
 
-def _convex_hull(points: np.ndarray) -> np.ndarray:
+def convex_hull(points: np.ndarray) -> np.ndarray:
     """The convex hull of `points`, counter-clockwise (Andrew's monotone chain)."""
     ordered = sorted(set(map(tuple, np.round(points, 12))))
 
@@ -409,7 +409,7 @@ def _pockets(loops: tuple[np.ndarray, ...], centre: np.ndarray, normal: np.ndarr
     centres lie in the hull and outside the body, grouped into 4-connected pockets; each element whose
     point half a cell outside lies in a pocket's cell is that pocket's wall. Returns (wall_pocket,
     cell_centre, cell_area, cell_pocket) of :class:`SurfaceElements`."""
-    hull = _convex_hull(np.concatenate(loops))
+    hull = convex_hull(np.concatenate(loops))
     low, high = hull.min(axis=0), hull.max(axis=0)
     counts = np.maximum(1, np.ceil((high - low) / cell).astype(int))
     xs = low[0] + (np.arange(counts[0]) + 0.5) * (high[0] - low[0]) / counts[0]
