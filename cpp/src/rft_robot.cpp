@@ -37,7 +37,7 @@ struct PlanarRobotStepper::Impl {
   std::vector<Matrix> twists;  // each body's ∂(v_x, v_z, ω)/∂q̇ at the step's start (3 × nv)
   std::vector<double> commands;
   std::vector<BodyLoad> loads;
-  std::vector<PocketWeights> carried;  // each body's pocket weights at the step's start pose
+  std::vector<Immersion> immersions;  // each body's immersion at the step's start pose
   Vector generalised;
   Matrix stiffness;
 
@@ -47,15 +47,15 @@ struct PlanarRobotStepper::Impl {
       : api(library), m(reinterpret_cast<mjModel*>(model)), d(reinterpret_cast<mjData*>(data)),
         bodies(std::move(bodies_)), servos(std::move(servos_)), surface(surface_), regularisation(regularisation_),
         table(table_), newton(newton_), nv(static_cast<int>(m->nv)), twists(bodies.size(), Matrix::Zero(3, m->nv)),
-        commands(servos.size()), loads(bodies.size()), carried(bodies.size()), generalised(m->nv),
+        commands(servos.size()), loads(bodies.size()), immersions(bodies.size()), generalised(m->nv),
         stiffness(m->nv, m->nv) {}
 
-  /// Each body's pocket weights at the step's start pose (the pose its Newton iterations keep).
-  void take_pocket_weights(const std::vector<double>& angles) {
+  /// Each body's immersion at the step's start pose (the pose its Newton iterations keep).
+  void take_immersions(const std::vector<double>& angles) {
     for (std::size_t b = 0; b < bodies.size(); ++b) {
       const int id = bodies[b].body_id;
       const PlanarMotion pose{angles[b], d->xpos[3 * id], d->xpos[3 * id + 2], 0.0, 0.0, 0.0};
-      carried[b] = pocket_weights(bodies[b].view(), pose, surface, table.unit_weight);
+      immerse(bodies[b].view(), pose, surface, table, immersions[b]);
     }
   }
 
@@ -82,7 +82,7 @@ struct PlanarRobotStepper::Impl {
       const int id = bodies[b].body_id;
       const Eigen::Vector3d twist = twists[b] * qvel;
       const PlanarMotion motion{angles[b], d->xpos[3 * id], d->xpos[3 * id + 2], twist[0], twist[1], twist[2]};
-      loads[b] = body_load(bodies[b].view(), motion, surface, table, regularisation, true, &carried[b]);
+      loads[b] = body_load(immersions[b], motion, table, regularisation, true);
       const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> jacobian(loads[b].jacobian.data());
       generalised += twists[b].transpose() * Eigen::Vector3d(loads[b].fx, loads[b].fz, loads[b].torque);
       stiffness += twists[b].transpose() * jacobian * twists[b];
@@ -177,7 +177,7 @@ PlanarRobotStepper::~PlanarRobotStepper() = default;
 void PlanarRobotStepper::step() {
   Impl& s = *impl_;
   s.take_twists();
-  s.take_pocket_weights(angles_);
+  s.take_immersions(angles_);
   const Vector start = Eigen::Map<const Vector>(s.d->qvel, s.nv);
   for (std::size_t k = 0; k < s.servos.size(); ++k) s.commands[k] = s.d->ctrl[s.servos[k].actuator];
   s.evaluate(angles_, start);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstdlib>
 #include <cstddef>
 #include <vector>
 
@@ -37,7 +38,34 @@ struct AlphaHat {
   double ax, az, dax, daz, dax_dbeta, daz_dbeta;
 };
 
-AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double cosg, double sing);
+/// The multiples of the angles by angle addition; inline: the loads' innermost loop.
+inline AlphaHat alpha_hat(const Coefficients& table, double cos2b, double sin2b, double cosg, double sing) {
+  std::array<double, kMaxOrder + 1> cb{}, sb{}, cg{}, sg{};  // cos, sin of 2mβ and nγ, m, n = 0 … the table's order
+  cb[0] = cg[0] = 1.0;
+  for (std::size_t k = 1; k <= static_cast<std::size_t>(table.order_beta); ++k) {
+    cb[k] = cb[k - 1] * cos2b - sb[k - 1] * sin2b;
+    sb[k] = sb[k - 1] * cos2b + cb[k - 1] * sin2b;
+  }
+  for (std::size_t k = 1; k <= static_cast<std::size_t>(table.order_gamma); ++k) {
+    cg[k] = cg[k - 1] * cosg - sg[k - 1] * sing;
+    sg[k] = sg[k - 1] * cosg + cg[k - 1] * sing;
+  }
+  AlphaHat out{};
+  for (const Term& t : table.terms) {
+    const std::size_t m = static_cast<std::size_t>(std::abs(t.m)), n = static_cast<std::size_t>(t.n);
+    const double cm = cb[m], sm = t.m < 0 ? -sb[m] : sb[m];
+    const double cos_arg = cm * cg[n] - sm * sg[n], sin_arg = sm * cg[n] + cm * sg[n];  // of 2mβ + nγ
+    const double rate_z = t.z_sin * cos_arg - t.z_cos * sin_arg;  // ∂/∂(2mβ + nγ)
+    const double rate_x = t.x_sin * cos_arg - t.x_cos * sin_arg;
+    out.az += t.z_cos * cos_arg + t.z_sin * sin_arg;
+    out.ax += t.x_cos * cos_arg + t.x_sin * sin_arg;
+    out.daz += t.n * rate_z;
+    out.dax += t.n * rate_x;
+    out.daz_dbeta += 2 * t.m * rate_z;
+    out.dax_dbeta += 2 * t.m * rate_x;
+  }
+  return out;
+}
 
 /// A body's pockets, borrowed: the regions between its outline and its convex hull (terrasph.rft.
 /// SurfaceElements), as cells of `cell_area` (m²) at `cell_centre` ((cells, 2), own frame, m), each
@@ -76,23 +104,36 @@ struct BodyLoad {
   std::array<double, 9> jacobian{};
 };
 
-/// The load of a flat free surface at z = `surface` on the elements at `motion` (terrasph.rft.body_load):
-/// each element below it whose outward normal leads (n·v > 0) takes σ ℓ w, σ = (−s α_x, α_z) d,
-/// times min(1, n·v / `regularisation`) (0: the bare map); and each pocket whose walls lead carries
-/// its grains below the surface: their weight ρ0 g A w times the walls' leading fraction.
-/// The weight ρ0 g A w (N) of the grains below the surface in each pocket at a pose, and its moment
-/// Σ r_x ρ0 g A w (N·m) about the frame origin (a cell's share fades over its own height): they depend
-/// on the pose alone, so a step whose Newton iterations keep the pose computes them once.
-struct PocketWeights {
-  std::vector<double> weight, moment;
+/// What of a body's load depends on its pose alone, found once per pose (a step's Newton iterations
+/// keep the pose and change the velocities only; MuJoCo's position stage before its velocity stage):
+/// the elements below a flat free surface, each with its arm r (m) from the frame origin, outward
+/// normal n, ζ d ℓ w (N/m: the map's scale times depth, length and width) and the pocket it faces
+/// (−1: none, or the grains are not carried); per pocket, its walls' length below the surface (m) and
+/// the weight ρ0 g A w (N) of its grains below the surface with their moment Σ r_x ρ0 g A w (N·m) about
+/// the frame origin (a cell's share fades over its own height).
+struct Immersion {
+  struct Element {
+    double rx, rz, nx, nz, scaled_depth, length;
+    int pocket;
+  };
+  std::vector<Element> elements;
+  std::vector<double> wall_length, pocket_weight, pocket_moment;
 };
 
-PocketWeights pocket_weights(const ElementsView& elements, const PlanarMotion& motion, double surface,
-                             double unit_weight);
+/// Fills `out` (its storage reused) for the elements at `pose` (its velocities unused) under the
+/// surface at z = `surface`; the grains are carried if the body has pockets and `table.unit_weight` > 0.
+void immerse(const ElementsView& elements, const PlanarMotion& pose, double surface, const Coefficients& table,
+             Immersion& out);
 
-/// `weights`: pocket_weights() at this pose, or nullptr to compute them here.
+/// The load of the surface on an immersed body moving at `motion` (its pose that of the immersion;
+/// terrasph.rft.body_load): each element whose outward normal leads (n·v > 0) takes σ ℓ w,
+/// σ = (−s α_x, α_z) d, times min(1, n·v / `regularisation`) (0: the bare map); and each pocket whose
+/// walls lead carries its grains below the surface: their weight times the walls' leading fraction.
+BodyLoad body_load(const Immersion& immersion, const PlanarMotion& motion, const Coefficients& table,
+                   double regularisation, bool jacobian);
+
+/// Both stages at once: immerse() at `motion`'s pose, then body_load().
 BodyLoad body_load(const ElementsView& elements, const PlanarMotion& motion, double surface,
-                   const Coefficients& table, double regularisation, bool jacobian,
-                   const PocketWeights* weights = nullptr);
+                   const Coefficients& table, double regularisation, bool jacobian);
 
 }  // namespace terrasph::rft
