@@ -5,8 +5,8 @@ commanded as in the scene) stepped by the native stepper alone, without the run 
         [--rft-table generic|TABLE.json]
 
 Prints per wheel the steps, the CPU time of the stepping (``time.process_time``: a machine shared
-with other jobs does not inflate it as it does the wall time), the simulated seconds per CPU second
-and the CPU time per step.
+with other jobs does not inflate it as it does the wall time), the simulated seconds per CPU second,
+the CPU time per step and the load evaluations per step (the start's and the Newton iterates').
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ def main() -> None:
     parser.add_argument("--t-end", type=float, default=6.0)
     parser.add_argument("--rft-table", default="generic", help="a table with density 0 steps without the carried grains")
     args = parser.parse_args()
-    print("| wheel | steps | stepping CPU (s) | simulated s per CPU s | CPU per step (µs) |")
-    print("|---|---|---|---|---|")
+    print("| wheel | steps | stepping CPU (s) | simulated s per CPU s | CPU per step (µs) | load evaluations per step |")
+    print("|---|---|---|---|---|---|")
     for wheel in args.wheels:
         config = LegWheel(wheel=wheel, terrain="rft", t_end=args.t_end, rft_table=args.rft_table)
         coupled = build_leg_wheel(config)
@@ -36,7 +36,8 @@ def main() -> None:
         coupled.advance(args.t_end, control=motor)
         cpu = time.process_time() - start
         print(f"| {wheel} | {coupled.step_count} | {cpu:.3f} | {args.t_end / cpu:.0f} | "
-              f"{1e6 * cpu / coupled.step_count:.1f} |", flush=True)
+              f"{1e6 * cpu / coupled.step_count:.1f} | {coupled._native.load_evaluations / coupled.step_count:.2f} |",
+              flush=True)
 
 
 if __name__ == "__main__":

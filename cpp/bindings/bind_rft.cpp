@@ -144,8 +144,9 @@ void bind_rft(py::module_& m) {
            py::arg("surface"), py::arg("coefficients"), py::arg("zeta"), py::arg("unit_weight"),
            py::arg("time_step"), py::arg("regularisation"), py::arg("iterations"), py::arg("halvings"),
            py::arg("tolerance"))
-      .def("step", &tr::PlanarRobotStepper::step, "one step")
-      .def("steps", &tr::PlanarRobotStepper::steps, py::arg("count"), "`count` steps")
+      .def("step", &tr::PlanarRobotStepper::step,
+           "one step; returns MuJoCo's count of the states it could not integrate (and reset) so far")
+      .def("steps", &tr::PlanarRobotStepper::steps, py::arg("count"), "`count` steps; returns step()'s count")
       .def_property(
           "angles", [](tr::PlanarRobotStepper& s) { return s.angles(); },
           [](tr::PlanarRobotStepper& s, const std::vector<double>& v) {
@@ -160,7 +161,9 @@ void bind_rft(py::module_& m) {
             s.load_sums() = v;
           },
           "each body's (F_x, F_z, torque) integrated over time since cleared (N s, N m s)")
-      .def_property("step_count", &tr::PlanarRobotStepper::step_count, &tr::PlanarRobotStepper::set_step_count);
+      .def_property("step_count", &tr::PlanarRobotStepper::step_count, &tr::PlanarRobotStepper::set_step_count)
+      .def_property_readonly("load_evaluations", &tr::PlanarRobotStepper::load_evaluations,
+                             "how many times the steps evaluated the loads and their Jacobian");
 
   m.def(
       "rft3d_element_loads",
@@ -212,8 +215,9 @@ void bind_rft(py::module_& m) {
            py::arg("library"), py::arg("model"), py::arg("data"), py::arg("bodies"), py::arg("servos"),
            py::arg("surface"), py::arg("coefficients"), py::arg("zeta"), py::arg("time_step"),
            py::arg("regularisation"), py::arg("iterations"), py::arg("halvings"), py::arg("tolerance"))
-      .def("step", &tr::Robot3DStepper::step, "one step")
-      .def("steps", &tr::Robot3DStepper::steps, py::arg("count"), "`count` steps")
+      .def("step", &tr::Robot3DStepper::step,
+           "one step; returns MuJoCo's count of the states it could not integrate (and reset) so far")
+      .def("steps", &tr::Robot3DStepper::steps, py::arg("count"), "`count` steps; returns step()'s count")
       .def_property(
           "load_sums", [](tr::Robot3DStepper& s) { return s.load_sums(); },
           [](tr::Robot3DStepper& s, const std::vector<double>& v) {

@@ -30,6 +30,12 @@ struct MujocoApi {
   explicit MujocoApi(const std::string& library);
 };
 
+/// How many times MuJoCo has met a state it could not integrate (bad qacc, qpos or qvel) and reset
+/// `d` (terrasph.robots.coupling.divergences).
+inline int divergence_count(const mjData* d) {
+  return d->warning[mjWARN_BADQACC].number + d->warning[mjWARN_BADQPOS].number + d->warning[mjWARN_BADQVEL].number;
+}
+
 /// The servo's force kv (command − gear q̇) held within its limits at the joint's velocity
 /// `joint_velocity`, and its derivative in it (−kv gear within the limits, 0 at them).
 inline std::pair<double, double> servo_force(const VelocityServo& servo, double command, double joint_velocity) {

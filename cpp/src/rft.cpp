@@ -42,9 +42,13 @@ void add_carried_grains(const std::vector<PocketWalls>& walls, const Immersion& 
 void weigh_pockets(const ElementsView& elements, double c, double s, const PlanarMotion& pose, double surface,
                    double unit_weight, Immersion& out) {
   const PocketsView& pockets = elements.pockets;
+  if (pockets.cells == 0) return;
+  // a cell whose centre lies half the largest cell's height above the surface holds none below it
+  const double reach = 0.5 * std::sqrt(*std::max_element(pockets.cell_area, pockets.cell_area + pockets.cells));
   for (std::size_t k = 0; k < pockets.cells; ++k) {
     const double px = pockets.cell_centre[2 * k], pz = pockets.cell_centre[2 * k + 1];
     const double rx = c * px + s * pz, rz = -s * px + c * pz;
+    if (surface - pose.z - rz <= -reach) continue;
     const double size = std::sqrt(pockets.cell_area[k]);
     const double below = std::clamp((surface - pose.z - rz) / size + 0.5, 0.0, 1.0);
     if (below <= 0.0) continue;
@@ -93,8 +97,8 @@ BodyLoad body_load(const Immersion& immersion, const PlanarMotion& motion, const
     const double normal_speed = nx * vx + nz * vz;
     if (!(normal_speed > 0.0)) continue;  // a trailing face leaves a cavity
     const double sign = vx < 0.0 ? -1.0 : 1.0;  // a face moving backward is mirrored x → −x
-    const double speed = std::sqrt(vx * vx + vz * vz);  // std::hypot costs several square roots; no overflow at m/s
-    const double cosg = sign * vx / speed, sing = -vz / speed;
+    const double inv_speed = 1.0 / std::sqrt(vx * vx + vz * vz);  // no overflow guard (std::hypot's) needed at m/s
+    const double cosg = sign * vx * inv_speed, sing = -vz * inv_speed;
     const double tx = nz, tz = -sign * nx;  // the face's tangent (cos β, sin β) up to sign
     const double cos2b = tx * tx - tz * tz, sin2b = 2.0 * tx * tz;
     const AlphaHat a = alpha_hat(table, cos2b, sin2b, cosg, sing);
@@ -117,7 +121,7 @@ BodyLoad body_load(const Immersion& immersion, const PlanarMotion& motion, const
     load.torque += rz * fx - rx * fz;  // (r × F)_y
     if (!jacobian) continue;
     // ∂F/∂v of the element: through γ (∂γ/∂v = s (v_z, −v_x)/|v|²) and through the ramp (n / v_ε)
-    const double g0 = sign * vz / (speed * speed), g1 = -sign * vx / (speed * speed);
+    const double g0 = sign * vz * inv_speed * inv_speed, g1 = -sign * vx * inv_speed * inv_speed;
     const double draw_x = -sign * a.dax * weight, draw_z = a.daz * weight;
     const double f0 = ramp ? nx / regularisation : 0.0, f1 = ramp ? nz / regularisation : 0.0;
     const double e00 = draw_x * g0 * fade + raw_x * f0, e01 = draw_x * g1 * fade + raw_x * f1;

@@ -183,7 +183,7 @@ Robot3DStepper::Robot3DStepper(const std::string& library, std::uintptr_t model,
 
 Robot3DStepper::~Robot3DStepper() = default;
 
-void Robot3DStepper::step() {
+int Robot3DStepper::step() {
   Impl& s = *impl_;
   mjModel* m = s.m;
   mjData* d = s.d;
@@ -200,6 +200,7 @@ void Robot3DStepper::step() {
   s.api.com_positions(m, d);
   s.api.com_velocities(m, d);
   ++steps_;
+  return divergence_count(impl_->d);
 }
 
 void Robot3DStepper::implicit_step() {
@@ -231,8 +232,9 @@ void Robot3DStepper::implicit_step() {
     for (std::size_t c = 0; c < 6; ++c) sums_[6 * s.sub.owners[i] + c] += s.wrenches[i][static_cast<Eigen::Index>(c)] * dt_;
 }
 
-void Robot3DStepper::steps(long count) {
+int Robot3DStepper::steps(long count) {
   for (long k = 0; k < count; ++k) step();
+  return divergence_count(impl_->d);
 }
 
 }  // namespace terrasph::rft

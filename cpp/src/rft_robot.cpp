@@ -18,6 +18,11 @@ namespace {
 using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 using Vector = Eigen::VectorXd;
 
+/// How often Newton's method from the linearly implicit step tries each step (halving it) before it
+/// starts again from q̇*: 3 took the fewest load evaluations per step on the flat, L and reversed C
+/// leg-wheels (1: 3.5, 6.0, 4.5; 2: 3.5, 5.9, 4.5; 3: 3.5, 5.6, 4.3; 6: 3.8, 6.0, 4.7; docs/rft.md "Cost").
+constexpr int kLinearisedTries = 3;
+
 double unwrapped(double previous, double wrapped) {
   return previous + std::remainder(wrapped - previous, 2.0 * M_PI);
 }
@@ -40,6 +45,7 @@ struct PlanarRobotStepper::Impl {
   std::vector<Immersion> immersions;  // each body's immersion at the step's start pose
   Vector generalised;
   Matrix stiffness;
+  long evaluations = 0;  // of the loads, since construction
 
   Impl(const std::string& library, std::uintptr_t model, std::uintptr_t data, std::vector<RobotBody> bodies_,
        std::vector<VelocityServo> servos_, double surface_, Coefficients table_, double regularisation_,
@@ -76,6 +82,7 @@ struct PlanarRobotStepper::Impl {
   /// The RFT loads at the step's start poses and joint velocities `qvel`, their generalised force
   /// with the servos' (Σ Jᵀ (F, τ) + servo forces) in `generalised` and its derivative in q̇ in `stiffness`.
   void evaluate(const std::vector<double>& angles, const Vector& qvel) {
+    ++evaluations;
     generalised.setZero();
     stiffness.setZero();
     for (std::size_t b = 0; b < bodies.size(); ++b) {
@@ -84,8 +91,8 @@ struct PlanarRobotStepper::Impl {
       const PlanarMotion motion{angles[b], d->xpos[3 * id], d->xpos[3 * id + 2], twist[0], twist[1], twist[2]};
       loads[b] = body_load(immersions[b], motion, table, regularisation, true);
       const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> jacobian(loads[b].jacobian.data());
-      generalised += twists[b].transpose() * Eigen::Vector3d(loads[b].fx, loads[b].fz, loads[b].torque);
-      stiffness += twists[b].transpose() * jacobian * twists[b];
+      generalised.noalias() += twists[b].transpose() * Eigen::Vector3d(loads[b].fx, loads[b].fz, loads[b].torque);
+      stiffness.noalias() += twists[b].transpose() * (jacobian * twists[b]);
     }
     for (std::size_t k = 0; k < servos.size(); ++k) {
       const auto [force, slope] = servo_force(servos[k], commands[k], qvel[servos[k].dof]);
@@ -115,8 +122,12 @@ struct PlanarRobotStepper::Impl {
   }
 
   /// Backward Euler in the loads and servo forces: M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)) by Newton's
-  /// method (RFTCoupling's docstring), the positions moved by dt (q̇ − q̇*).
-  void implicit_step(const std::vector<double>& angles, const Vector& applied, double dt) {
+  /// method (RFTCoupling's docstring), G(q̇_n) = `applied` and K_n = ∂G/∂q̇ = `start_stiffness` at
+  /// q̇_n = `start_qvel`; the positions moved by dt (q̇ − q̇*). Newton starts from the linearly
+  /// implicit step, each step tried kLinearisedTries times; if that does not converge (a kink of the
+  /// regularisation between the two), it starts again from q̇* with the settings' halvings.
+  void implicit_step(const std::vector<double>& angles, const Vector& applied, const Vector& start_qvel,
+                     const Matrix& start_stiffness, double dt) {
     Matrix mass(nv, nv);
     api.full_mass(m, d, mass.data());  // qM is still that of the step's start
     for (int j = 0; j < nv; ++j) mass(j, j) += dt * m->dof_damping[j];
@@ -126,31 +137,44 @@ struct PlanarRobotStepper::Impl {
       evaluate(angles, qvel);
       return mass * (qvel - explicit_qvel) - dt * (generalised - applied);
     };
-    Vector qvel = explicit_qvel;
-    Vector r = residual(qvel);
-    std::vector<BodyLoad> best = loads;
-    Matrix best_stiffness = stiffness;
-    for (int iteration = 0; iteration < newton.iterations; ++iteration) {
-      if (r.cwiseAbs().maxCoeff() <= newton.tolerance * scale) break;
-      Vector step = Matrix(mass - dt * best_stiffness).partialPivLu().solve(r);
-      bool reduced = false;
-      Vector trial, r_trial;
-      for (int halving = 0; halving < newton.halvings; ++halving) {  // halve while the residual does not fall
-        trial = qvel - step;
-        r_trial = residual(trial);
-        if (r_trial.cwiseAbs().maxCoeff() < r.cwiseAbs().maxCoeff()) {
-          reduced = true;
-          break;
+    // Newton from `qvel`, each step tried at most `tries` times (halved after each try that does not
+    // lower the residual): true if converged; `qvel` and `loads` end at the best iterate
+    auto solve = [&](Vector& qvel, int tries) -> bool {
+      Vector r = residual(qvel);
+      std::vector<BodyLoad> best = loads;
+      Matrix best_stiffness = stiffness;
+      bool converged = false;
+      for (int iteration = 0; iteration < newton.iterations; ++iteration) {
+        converged = r.cwiseAbs().maxCoeff() <= newton.tolerance * scale;
+        if (converged) break;
+        Vector step = Matrix(mass - dt * best_stiffness).partialPivLu().solve(r);
+        bool reduced = false;
+        Vector trial, r_trial;
+        for (int halving = 0; halving < tries; ++halving) {
+          trial = qvel - step;
+          r_trial = residual(trial);
+          if (r_trial.cwiseAbs().maxCoeff() < r.cwiseAbs().maxCoeff()) {
+            reduced = true;
+            break;
+          }
+          step *= 0.5;
         }
-        step *= 0.5;
+        if (!reduced) break;  // at a kink of the regularisation no step reduces it: keep the best so far
+        qvel = trial;
+        r = r_trial;
+        best = loads;
+        best_stiffness = stiffness;
       }
-      if (!reduced) break;  // at a kink of the regularisation no step reduces it: keep the best so far
-      qvel = trial;
-      r = r_trial;
-      best = loads;
-      best_stiffness = stiffness;
+      loads = best;
+      return converged || r.cwiseAbs().maxCoeff() <= newton.tolerance * scale;
+    };
+    // G linearised at q̇_n: (M − dt K_n)(q̇ − q̇*) = dt K_n (q̇* − q̇_n), the linearly implicit Euler step
+    const Matrix linearised = mass - dt * start_stiffness;
+    Vector qvel = explicit_qvel + linearised.partialPivLu().solve(dt * start_stiffness * (explicit_qvel - start_qvel));
+    if (!solve(qvel, kLinearisedTries)) {
+      qvel = explicit_qvel;
+      solve(qvel, newton.halvings);
     }
-    loads = best;
     const Vector change = qvel - explicit_qvel;
     api.integrate_positions(m, d->qpos, change.data(), dt);
     Eigen::Map<Vector>(d->qvel, nv) = qvel;
@@ -174,7 +198,9 @@ PlanarRobotStepper::PlanarRobotStepper(const std::string& library, std::uintptr_
 
 PlanarRobotStepper::~PlanarRobotStepper() = default;
 
-void PlanarRobotStepper::step() {
+long PlanarRobotStepper::load_evaluations() const { return impl_->evaluations; }
+
+int PlanarRobotStepper::step() {
   Impl& s = *impl_;
   s.take_twists();
   s.take_immersions(angles_);
@@ -183,8 +209,9 @@ void PlanarRobotStepper::step() {
   s.evaluate(angles_, start);
   const Vector applied = s.generalised;
   const bool stiff = s.stiffness.cwiseAbs().maxCoeff() > 0.0;
+  const Matrix start_stiffness = s.stiffness;
   s.mujoco_step(start, dt_);
-  if (stiff) s.implicit_step(angles_, applied, dt_);
+  if (stiff) s.implicit_step(angles_, applied, start, start_stiffness, dt_);
   for (std::size_t b = 0; b < s.bodies.size(); ++b) {
     sums_[3 * b] += s.loads[b].fx * dt_;
     sums_[3 * b + 1] += s.loads[b].fz * dt_;
@@ -198,10 +225,12 @@ void PlanarRobotStepper::step() {
     angles_[b] = unwrapped(angles_[b], std::atan2(rotation[2], rotation[0]));
   }
   ++steps_;
+  return divergence_count(impl_->d);
 }
 
-void PlanarRobotStepper::steps(long count) {
+int PlanarRobotStepper::steps(long count) {
   for (long k = 0; k < count; ++k) step();
+  return divergence_count(impl_->d);
 }
 
 }  // namespace terrasph::rft

@@ -35,9 +35,10 @@ class Robot3DStepper {
 
   /// One step of `time_step`, MuJoCo's frames and body velocities (mj_kinematics, mj_comPos,
   /// mj_comVel) then brought to the state reached.
-  void step();
-  /// Steps `count` times.
-  void steps(long count);
+  /// Returns MuJoCo's count of the states it could not integrate and reset, so far.
+  int step();
+  /// Steps `count` times; returns step()'s count.
+  int steps(long count);
 
   /// Each body's wrench integrated over time since cleared: (F, τ about the centre of mass) × s,
   /// world frame, six per body.

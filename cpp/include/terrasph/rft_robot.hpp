@@ -56,15 +56,18 @@ class PlanarRobotStepper {
   PlanarRobotStepper& operator=(const PlanarRobotStepper&) = delete;
 
   /// One step of `time_step`.
-  void step();
-  /// Steps `count` times.
-  void steps(long count);
+  /// Returns MuJoCo's count of the states it could not integrate and reset, so far.
+  int step();
+  /// Steps `count` times; returns step()'s count.
+  int steps(long count);
 
   /// Each body's clockwise angle (rad), continuous over turns.
   std::vector<double>& angles() { return angles_; }
   /// Each body's load integrated over time since it was last cleared: (F_x, F_z, τ) × s per body.
   std::vector<double>& load_sums() { return sums_; }
   long step_count() const { return steps_; }
+  /// How many times the steps evaluated the loads (and their Jacobian), since construction.
+  long load_evaluations() const;
   void set_step_count(long count) { steps_ = count; }
   double time_step() const { return dt_; }
 

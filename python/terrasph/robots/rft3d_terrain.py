@@ -46,9 +46,9 @@ import numpy as np
 from terrasph import _core, rft
 from terrasph.config import ConfigError
 from terrasph.rft3d import BodyElements, body_wrench
-from terrasph.robots.coupling import _velocity_servos, divergence_error, divergences, mujoco_state, restore_mujoco_state
+from terrasph.robots.coupling import _velocity_servos, divergences, mujoco_state, restore_mujoco_state
 from terrasph.robots.metrics import slip
-from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, advance_native, mujoco_library
+from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, advance_native, check_integrated, mujoco_library
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = ["RFT3D_TIME_STEP", "ROVER4", "RFT3DCoupling", "Robot3D", "RobotLoads3D", "WHEEL_BALANCE", "rft_robot",
@@ -155,16 +155,8 @@ class RFT3DCoupling:
     def step(self) -> float:
         """One step (module docstring); returns its dt."""
         time, steps = self.time, self.step_count
-        self._native.step()
-        self._check_integrated(time, steps)
+        check_integrated(self, time, steps, self._native.step())
         return self._dt
-
-    def _check_integrated(self, time: float, steps: int) -> None:
-        """Raises :class:`terrasph.InstabilityError` if MuJoCo met a state it could not integrate (and
-        reset the robot) in the steps taken since `time` (s), step `steps`; the error's time and step
-        are those of the start of that call."""
-        if divergences(self.robot.data) > self._divergences:
-            raise divergence_error(f"within steps {steps}–{self.step_count}", steps, time)
 
     def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
         """Steps until `t_end` (s) is reached or passed, at most `max_steps`, many steps per call of the

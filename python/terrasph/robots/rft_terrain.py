@@ -10,7 +10,9 @@ z = ``surface`` and keeps no state. Each step of dt:
    actuators (each servo a plain force for the step), and lets MuJoCo advance by dt: velocities q̇*;
 2. makes the step backward Euler in those forces: M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)), G the
    generalised RFT loads and servo forces at the step's poses, solved by Newton's method with their
-   Jacobian (:attr:`terrasph.rft.BodyLoad.jacobian`), and moves the positions by dt (q̇ − q̇*).
+   Jacobian (:attr:`terrasph.rft.BodyLoad.jacobian`) from the linearly implicit step (G linearised
+   at q̇_n: (M − dt K_n)(q̇ − q̇*) = dt K_n (q̇* − q̇_n), K_n = ∂G/∂q̇ there; one load evaluation
+   fewer per step than starting from q̇*, docs/rft.md "Cost"), and moves the positions by dt (q̇ − q̇*).
 
 Why implicit: RFT's stress depends on the direction of motion only (a body at rest under load, a
 wheel's legs reversing), so held over a step it flips sign step by step — a wheel of 3·10⁻⁴ kg·m²
@@ -46,7 +48,7 @@ from terrasph.config import ConfigError
 from terrasph.robots.coupling import RobotStepper, divergence_error, divergences, mujoco_state, restore_mujoco_state, velocity_servos
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
-__all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "advance_native", "mujoco_library"]
+__all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "advance_native", "check_integrated", "mujoco_library"]
 
 #: MuJoCo's step on the RFT terrain (s): the flat-leg and C-leg wheels' slip and sinkage at 2e-3 s are
 #: within 0.004 and 0.3 mm of those at 5e-4 s; at 5e-3 s the flat-leg wheel's spin runs away (docs/rft.md)
@@ -141,16 +143,8 @@ class RFTCoupling(RobotStepper):
     def step(self) -> float:
         """One step (module docstring); returns its dt."""
         time, steps = self.time, self.step_count
-        self._native.step()
-        self._check_integrated(time, steps)
+        check_integrated(self, time, steps, self._native.step())
         return self._dt
-
-    def _check_integrated(self, time: float, steps: int) -> None:
-        """Raises :class:`terrasph.InstabilityError` if MuJoCo met a state it could not integrate (and
-        reset the robot: its time back to 0) in the steps taken since `time` (s), step `steps`, as the
-        SPH coupling does; the error's time and step are those of the start of that call."""
-        if divergences(self.robot.data) > self._divergences:
-            raise divergence_error(f"within steps {steps}–{self.step_count}", steps, time)
 
     def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
         """Steps until `t_end` (s) is reached or passed, at most `max_steps`, many steps per call of the
@@ -267,6 +261,16 @@ class RFTCoupling(RobotStepper):
         self._since = float(saved["since"])
 
 
+def check_integrated(stepper: Any, time: float, steps: int, divergences_now: int) -> None:
+    """Raises :class:`terrasph.InstabilityError` if MuJoCo met a state it could not integrate (and
+    reset the robot: its time back to 0) in the steps a native RFT stepper took since `time` (s),
+    step `steps`, as the SPH coupling does: `divergences_now` is the count its ``_native.step`` or
+    ``steps`` returned, against the count at its start (``_divergences``). The error's time and step
+    are those of the start of that call."""
+    if divergences_now > stepper._divergences:
+        raise divergence_error(f"within steps {steps}–{stepper.step_count}", steps, time)
+
+
 def advance_native(stepper: Any, t_end: float, max_steps: int, control: Callable[[Any], None] | None) -> int:
     """The `advance` of a native RFT stepper (:class:`RFTCoupling`, terrasph.robots.rft3d_terrain.
     RFT3DCoupling): many steps per call of its compiled ``_native.steps``, the controller called every
@@ -282,7 +286,6 @@ def advance_native(stepper: Any, t_end: float, max_steps: int, control: Callable
             stepper._span = count * stepper._dt
             control(stepper)
         time, steps = stepper.time, stepper.step_count
-        stepper._native.steps(count)
-        stepper._check_integrated(time, steps)
+        check_integrated(stepper, time, steps, stepper._native.steps(count))
         taken += count
     return taken
