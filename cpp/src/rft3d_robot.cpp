@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "backward_euler.hpp"
 #include "mujoco_api.hpp"
 #include "terrasph/rft3d.hpp"
 
@@ -15,8 +16,6 @@ namespace terrasph::rft {
 
 namespace {
 
-using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-using Vector = Eigen::VectorXd;
 using Matrix3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 using Matrix6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
 using Vector6 = Eigen::Matrix<double, 6, 1>;
@@ -132,45 +131,17 @@ struct Robot3DStepper::Impl {
     }
   }
 
-  /// Backward Euler in the RFT wrenches and servo forces: the q̇ that solves M (q̇ − q̇*) = dt (G(q̇) − G_n)
-  /// by Newton's method with step halvings (RFT3DCoupling's docstring), from q̇ = q̇*; the wrenches
-  /// are left at the q̇ returned.
-  Vector implicit_velocities(const Vector& explicit_qvel, const Vector& applied, double dt) {
-    // the residual's scale: the step's RFT and servo impulse, and a millionth of the momentum
-    const double scale = dt * applied.norm() + (mass * explicit_qvel).norm() * 1e-6 + 1e-300;
-    auto residual = [&](const Vector& qvel, bool jacobian) -> Vector {
-      evaluate(qvel, jacobian);
-      return mass * (qvel - explicit_qvel) - dt * (generalised - applied);
-    };
-    Vector qvel = explicit_qvel;
-    Vector r = residual(qvel, true);
-    bool stiffness_at_qvel = true;  // trials are evaluated without the Jacobian, taken once a step needs it
-    std::vector<Vector6> best = wrenches;
-    for (int iteration = 0; iteration < newton.iterations; ++iteration) {
-      const double size = r.norm();
-      if (size <= newton.tolerance * scale) break;
-      if (!stiffness_at_qvel) evaluate(qvel, true);
-      Vector delta = Matrix(mass - dt * stiffness).partialPivLu().solve(-r);
-      bool reduced = false;
-      Vector trial, r_trial;
-      for (int halving = 0; halving < newton.halvings; ++halving) {  // halve while the residual does not fall
-        trial = qvel + delta;
-        r_trial = residual(trial, false);
-        if (r_trial.norm() < size) {
-          reduced = true;
-          break;
-        }
-        delta *= 0.5;
-      }
-      if (!reduced) break;  // at a kink of the regularisation no step reduces it: keep the best so far
-      qvel = trial;
-      r = r_trial;
-      best = wrenches;
-      stiffness_at_qvel = false;
-    }
-    wrenches = best;
-    return qvel;
-  }
+  /// The wrenches at the step's start pose as backward_euler() evaluates them.
+  struct StepLoads {
+    Impl& robot;
+    Vector& generalised;
+    Matrix& stiffness;
+    std::vector<Vector6> best;
+    static constexpr bool kCheapJacobian = false;  // the 3D law's costs several loads
+    void evaluate(const Vector& qvel, bool jacobian) { robot.evaluate(qvel, jacobian); }
+    void keep() { best = robot.wrenches; }
+    void restore() { robot.wrenches = best; }
+  };
 };
 
 Robot3DStepper::Robot3DStepper(const std::string& library, std::uintptr_t model, std::uintptr_t data,
@@ -223,7 +194,8 @@ void Robot3DStepper::implicit_step() {
   s.api.step(m, d);
   set_servos(m, d, s.servos, nullptr, s.commands);
   const Vector explicit_qvel = Eigen::Map<const Vector>(d->qvel, s.nv);
-  const Vector qvel = s.implicit_velocities(explicit_qvel, applied, dt_);
+  Impl::StepLoads loads{s, s.generalised, s.stiffness, {}};
+  const Vector qvel = backward_euler(loads, s.mass, explicit_qvel, applied, start, nullptr, dt_, s.newton);
   const Vector change = qvel - explicit_qvel;
   s.api.integrate_positions(m, d->qpos, change.data(), dt_);  // q moves by dt (q̇ − q̇*)
   Eigen::Map<Vector>(d->qvel, s.nv) = qvel;

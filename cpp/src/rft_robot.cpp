@@ -9,19 +9,12 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "backward_euler.hpp"
 #include "mujoco_api.hpp"
 
 namespace terrasph::rft {
 
 namespace {
-
-using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-using Vector = Eigen::VectorXd;
-
-/// How often Newton's method from the linearly implicit step tries each step (halving it) before it
-/// starts again from q̇*: 3 took the fewest load evaluations per step on the flat, L and reversed C
-/// leg-wheels (1: 3.5, 6.0, 4.5; 2: 3.5, 5.9, 4.5; 3: 3.5, 5.6, 4.3; 6: 3.8, 6.0, 4.7; docs/rft.md "Cost").
-constexpr int kLinearisedTries = 3;
 
 double unwrapped(double previous, double wrapped) {
   return previous + std::remainder(wrapped - previous, 2.0 * M_PI);
@@ -121,60 +114,29 @@ struct PlanarRobotStepper::Impl {
     set_servos(m, d, servos, nullptr, commands);
   }
 
-  /// Backward Euler in the loads and servo forces: M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)) by Newton's
-  /// method (RFTCoupling's docstring), G(q̇_n) = `applied` and K_n = ∂G/∂q̇ = `start_stiffness` at
-  /// q̇_n = `start_qvel`; the positions moved by dt (q̇ − q̇*). Newton starts from the linearly
-  /// implicit step, each step tried kLinearisedTries times; if that does not converge (a kink of the
-  /// regularisation between the two), it starts again from q̇* with the settings' halvings.
+  /// The loads at the step's start poses as backward_euler() evaluates them.
+  struct StepLoads {
+    Impl& robot;
+    const std::vector<double>& angles;
+    Vector& generalised;
+    Matrix& stiffness;
+    std::vector<BodyLoad> best;
+    static constexpr bool kCheapJacobian = true;  // the planar law's: taken with every load
+    void evaluate(const Vector& qvel, bool /*jacobian*/) { robot.evaluate(angles, qvel); }
+    void keep() { best = robot.loads; }
+    void restore() { robot.loads = best; }
+  };
+
+  /// Backward Euler in the loads and servo forces (backward_euler(); RFTCoupling's docstring) from
+  /// G_n = `applied` and K_n = `start_stiffness` at q̇_n = `start_qvel`; the positions moved by dt (q̇ − q̇*).
   void implicit_step(const std::vector<double>& angles, const Vector& applied, const Vector& start_qvel,
                      const Matrix& start_stiffness, double dt) {
     Matrix mass(nv, nv);
     api.full_mass(m, d, mass.data());  // qM is still that of the step's start
     for (int j = 0; j < nv; ++j) mass(j, j) += dt * m->dof_damping[j];
     const Vector explicit_qvel = Eigen::Map<const Vector>(d->qvel, nv);
-    const double scale = (mass * explicit_qvel).cwiseAbs().maxCoeff() + dt * applied.cwiseAbs().maxCoeff() + 1e-300;
-    auto residual = [&](const Vector& qvel) -> Vector {
-      evaluate(angles, qvel);
-      return mass * (qvel - explicit_qvel) - dt * (generalised - applied);
-    };
-    // Newton from `qvel`, each step tried at most `tries` times (halved after each try that does not
-    // lower the residual): true if converged; `qvel` and `loads` end at the best iterate
-    auto solve = [&](Vector& qvel, int tries) -> bool {
-      Vector r = residual(qvel);
-      std::vector<BodyLoad> best = loads;
-      Matrix best_stiffness = stiffness;
-      bool converged = false;
-      for (int iteration = 0; iteration < newton.iterations; ++iteration) {
-        converged = r.cwiseAbs().maxCoeff() <= newton.tolerance * scale;
-        if (converged) break;
-        Vector step = Matrix(mass - dt * best_stiffness).partialPivLu().solve(r);
-        bool reduced = false;
-        Vector trial, r_trial;
-        for (int halving = 0; halving < tries; ++halving) {
-          trial = qvel - step;
-          r_trial = residual(trial);
-          if (r_trial.cwiseAbs().maxCoeff() < r.cwiseAbs().maxCoeff()) {
-            reduced = true;
-            break;
-          }
-          step *= 0.5;
-        }
-        if (!reduced) break;  // at a kink of the regularisation no step reduces it: keep the best so far
-        qvel = trial;
-        r = r_trial;
-        best = loads;
-        best_stiffness = stiffness;
-      }
-      loads = best;
-      return converged || r.cwiseAbs().maxCoeff() <= newton.tolerance * scale;
-    };
-    // G linearised at q̇_n: (M − dt K_n)(q̇ − q̇*) = dt K_n (q̇* − q̇_n), the linearly implicit Euler step
-    const Matrix linearised = mass - dt * start_stiffness;
-    Vector qvel = explicit_qvel + linearised.partialPivLu().solve(dt * start_stiffness * (explicit_qvel - start_qvel));
-    if (!solve(qvel, kLinearisedTries)) {
-      qvel = explicit_qvel;
-      solve(qvel, newton.halvings);
-    }
+    StepLoads step_loads{*this, angles, generalised, stiffness, {}};
+    const Vector qvel = backward_euler(step_loads, mass, explicit_qvel, applied, start_qvel, &start_stiffness, dt, newton);
     const Vector change = qvel - explicit_qvel;
     api.integrate_positions(m, d->qpos, change.data(), dt);
     Eigen::Map<Vector>(d->qvel, nv) = qvel;

@@ -62,7 +62,8 @@ RFT_CONTROL_INTERVAL = 1e-2
 
 #: Newton iterations of the implicit load per step at most, the halvings of an iteration's step that
 #: may fail to reduce the residual before the iterations stop (the best velocities kept), and the
-#: residual (relative to the step's momentum change) at which they stop
+#: residual (its largest component relative to the larger of the step's momentum M q̇* and
+#: impulse dt G_n; the solver, shared by the planar and 3D steppers: cpp/src/backward_euler.hpp) at which they stop
 NEWTON_ITERATIONS = 20
 NEWTON_HALVINGS = 6
 NEWTON_TOLERANCE = 1e-8
