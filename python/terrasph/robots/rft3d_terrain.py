@@ -63,8 +63,8 @@ ROVER4 = pathlib.Path(__file__).with_name("models") / "rover4.xml"
 RFT3D_TIME_STEP = 1e-3
 
 #: Newton iterations per step at most, halvings of a step that fails to reduce the residual, and the
-#: residual (its largest component relative to the larger of the step's momentum M q̇* and
-#: impulse dt G_n; the solver, shared by the planar and 3D steppers: cpp/src/backward_euler.hpp) at which the iterations stop
+#: residual (its largest component relative to the larger of the step's momentum M q̇* and impulse
+#: dt G_n) at which the iterations stop; the solver, shared by both steppers: cpp/src/backward_euler.hpp
 NEWTON_ITERATIONS = 12
 NEWTON_HALVINGS = 6
 NEWTON_TOLERANCE = 1e-8

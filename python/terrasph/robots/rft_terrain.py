@@ -48,7 +48,8 @@ from terrasph.config import ConfigError
 from terrasph.robots.coupling import RobotStepper, divergence_error, divergences, mujoco_state, restore_mujoco_state, velocity_servos
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
-__all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "advance_native", "check_integrated", "mujoco_library"]
+__all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "advance_native", "check_integrated",
+           "mujoco_library"]
 
 #: MuJoCo's step on the RFT terrain (s): the flat-leg and C-leg wheels' slip and sinkage at 2e-3 s are
 #: within 0.004 and 0.3 mm of those at 5e-4 s; at 5e-3 s the flat-leg wheel's spin runs away (docs/rft.md)
@@ -62,8 +63,8 @@ RFT_CONTROL_INTERVAL = 1e-2
 
 #: Newton iterations of the implicit load per step at most, the halvings of an iteration's step that
 #: may fail to reduce the residual before the iterations stop (the best velocities kept), and the
-#: residual (its largest component relative to the larger of the step's momentum M q̇* and
-#: impulse dt G_n; the solver, shared by the planar and 3D steppers: cpp/src/backward_euler.hpp) at which they stop
+#: residual (its largest component relative to the larger of the step's momentum M q̇* and impulse
+#: dt G_n) at which they stop; the solver, shared by both steppers: cpp/src/backward_euler.hpp
 NEWTON_ITERATIONS = 20
 NEWTON_HALVINGS = 6
 NEWTON_TOLERANCE = 1e-8
