@@ -16,6 +16,6 @@ from terrasph import threads as _threads
 with _threads.runtime_spin():
     from terrasph import _core  # noqa: F401  (the OpenMP runtime reads its spin once, as it loads)
 from terrasph._core import InstabilityError
+from terrasph._version import __version__
 
 __all__ = ["InstabilityError", "__version__"]
-__version__ = "0.1.0"
