@@ -6,7 +6,6 @@ something (not a blank picture), and draw the run's body in its body colour and 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import h5py

@@ -169,7 +169,7 @@ def test_minimum_thickness_matches_wall_layers():
     with pytest.raises(ValueError, match=r"thickness.*0\.0064.*minimum allowed 0\.008"):
         bodies.check_thickness(0.0064, 0.002, 2.0)
     thin = bodies.flat_leg(R, 0.003, W, 0.002)
-    with pytest.raises(ValueError, match="thickness of 'flat-leg'.*minimum allowed 0.006"):
+    with pytest.raises(ValueError, match=r"thickness of 'flat-leg'.*minimum allowed 0.006"):
         bodies.check_thickness(thin, h_factor=1.3)
 
 

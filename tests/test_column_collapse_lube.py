@@ -30,7 +30,7 @@ from terrasph.scenes.column_collapse import ColumnCollapse, build_column_collaps
 from terrasph.simulation import Simulation
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "validation"))
-from column_runout_lube import column, lube_fit  # noqa: E402
+from column_runout_lube import column, lube_fit
 
 pytestmark = pytest.mark.slow
 

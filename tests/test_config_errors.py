@@ -136,7 +136,7 @@ def test_particle_inside_a_wall(no_core) -> None:
 def test_spacing_mismatch_and_empty_scene(no_core) -> None:
     with pytest.raises(ConfigError, match=r"'numerics\.spacing'"):
         Simulation(block_scene(), Material(), Numerics(spacing=2 * DX))
-    with pytest.raises(ConfigError, match="no particles|no granular"):
+    with pytest.raises(ConfigError, match=r"no particles|no granular"):
         Simulation(Scene(spacing=DX), Material(), Numerics(spacing=DX))
 
 

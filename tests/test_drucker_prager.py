@@ -127,7 +127,7 @@ def test_tension_returns_to_the_apex() -> None:
 
 
 def test_a_dilatancy_angle_above_the_friction_angle_is_refused() -> None:
-    with pytest.raises(ConfigError, match="material.dilatancy_angle"):
+    with pytest.raises(ConfigError, match=r"material.dilatancy_angle"):
         Material(model="drucker_prager", dilatancy_angle=math.radians(25))
     Material(model="drucker_prager", dilatancy_angle=math.radians(20))  # below φ = 21°: accepted
 

@@ -79,7 +79,6 @@ def test_every_leg_rotation_tier_keeps_the_bed_at_rest_during_the_pause(tier) ->
     Mass scaling 16 at C = 0.9 (the fast tier until 2026-12-05) erupted here: the top grains 5 mm
     higher and 0.18 m/s after 0.1 s, the bed 2–4 cm higher for the whole sweep (docs/fidelity.md)."""
     import numpy as np
-
     from terrasph.scenes.leg_rotation import build_leg_rotation
     from terrasph.simulation import Simulation
 

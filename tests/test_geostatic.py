@@ -93,5 +93,5 @@ def test_density_diffusion_with_the_full_weight_undoes_the_geostatic_start() -> 
 
 @pytest.mark.parametrize("model", ["mu_i_rate", "mu_i_strain"])
 def test_geostatic_needs_a_model_with_stress_state(model: str) -> None:
-    with pytest.raises(ConfigError, match="'geostatic'.*mu_i_hypoelastic, drucker_prager"):
+    with pytest.raises(ConfigError, match=r"'geostatic'.*mu_i_hypoelastic, drucker_prager"):
         _bed(Material(model=model), geostatic=True)

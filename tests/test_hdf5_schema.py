@@ -63,7 +63,7 @@ def test_static_and_frame_fields(files) -> None:
     for path in scene_files(files):
         with h5py.File(path, "r") as f:
             static = set()
-            f["static"].visititems(lambda name, item: static.add(f"static/{name}")
+            f["static"].visititems(lambda name, item: static.add(f"static/{name}")  # noqa: B023 (called here)
                                    if isinstance(item, h5py.Dataset) else None)
             with_bodies = "bodies" in f["series"]
             body_names = {"static/bodies/index", "static/bodies/id", "body_position", "body_velocity"}
@@ -98,7 +98,7 @@ def test_results_of_each_scene(files, scene: str) -> None:
     with h5py.File(files[scene], "r") as f:
         written = set(f["results"].attrs)
     assert written == documented(f"#### {scene}"), scene
-    assert COMMON_RESULTS <= written
+    assert written >= COMMON_RESULTS
 
 
 def test_plate_summary_fit_is_the_documented_one(files) -> None:

@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "validation"))
-from inclined_plane import run_angle  # noqa: E402
+from inclined_plane import run_angle
 
 pytestmark = pytest.mark.slow
 

@@ -142,7 +142,7 @@ def test_bad_input_is_refused_before_any_work() -> None:
         LegRotation(settle_time=-1.0)
     with pytest.raises(ConfigError, match="hip_height"):
         LegRotation(hip_height=0.1)  # above the toe's reach: the leg would never touch the beads
-    with pytest.raises(ConfigError, match="thinner than allowed|below the minimum"):
+    with pytest.raises(ConfigError, match=r"thinner than allowed|below the minimum"):
         # 6.4 mm at Δx = 3 mm holds two layers; the kernel needs three
         scene, _, numerics = build_leg_rotation(LegRotation(spacing=0.003))
         scene.validate(numerics)

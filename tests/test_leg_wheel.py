@@ -9,14 +9,13 @@ import json
 
 import numpy as np
 import pytest
+from robot_helpers import assert_same_series, run_interrupted
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
 from terrasph.robots import shape_inertial
 from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
 from terrasph.simulation import checkpoint_path
-
-from robot_helpers import assert_same_series, run_interrupted
 
 TINY = ["--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04", "--bed-width", "0.2",
         "--bed-depth", "0.04", "--start-x", "0.08", "--settle-time", "0.1", "--t-end", "0.16", "--omega", "1.5",

@@ -51,7 +51,7 @@ def test_good_file_loads(good: bytes) -> None:
 def test_truncated_file(good: bytes, cut: int) -> None:
     lstm = core_lstm()
     data = good[:cut]
-    with pytest.raises(lstm.LstmFormatError, match="too short|truncated|magic"):
+    with pytest.raises(lstm.LstmFormatError, match=r"too short|truncated|magic"):
         load_both(data)
     with pytest.raises(ModelFileError):
         read_model_bytes(data)

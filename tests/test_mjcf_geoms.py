@@ -7,6 +7,7 @@ normals (each surface particle's normal leads out of the union of the parts)."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import mujoco
@@ -96,7 +97,7 @@ def test_normals_of_a_union_lead_out_of_it() -> None:
         (x0, z0), (x1, z1) = loop.min(axis=0), loop.max(axis=0)
         t = np.linspace(0, 1, 2001)[:, None]
         corners = [(x0, z0), (x1, z0), (x1, z1), (x0, z1), (x0, z0)]
-        return np.concatenate([np.array(p) + t * (np.array(q) - np.array(p)) for p, q in zip(corners, corners[1:])])
+        return np.concatenate([np.array(p) + t * (np.array(q) - np.array(p)) for p, q in itertools.pairwise(corners)])
 
     # the union's outer surface, brute force: each side's points not strictly inside the other part
     outer = np.concatenate([perimeter(a)[~inside(perimeter(a), b)], perimeter(b)[~inside(perimeter(b), a)]])
@@ -159,7 +160,7 @@ def test_bad_specs_are_refused_naming_ctrl(spec: str, message: str) -> None:
 
 def test_unknown_or_repeated_actuators_are_refused() -> None:
     data = mujoco.MjData(ARM)
-    with pytest.raises(ConfigError, match="actuator 'knee'.*its actuators: \\['hip/#0'\\]"):
+    with pytest.raises(ConfigError, match=r"actuator 'knee'.*its actuators: \['hip/#0'\]"):
         spec_controller(["knee=1"], ARM, data)
     with pytest.raises(ConfigError, match="twice"):
         spec_controller(["hip=1", "#0=2"], ARM, data)

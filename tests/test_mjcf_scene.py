@@ -14,13 +14,12 @@ import os
 import mujoco
 import numpy as np
 import pytest
+from robot_helpers import assert_same_series, run_interrupted
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
 from terrasph.robots.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
 from terrasph.robots.terrain_robot import terrain_robot
-
-from robot_helpers import assert_same_series, run_interrupted
 
 gymnasium = pytest.importorskip("gymnasium")
 ASSETS = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets")

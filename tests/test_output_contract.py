@@ -36,10 +36,10 @@ from terrasph.io import read_run
 from terrasph.robots.leg_wheel import LegWheel
 from terrasph.robots.mjcf_scene import MjcfScene
 from terrasph.robots.rft3d_terrain import ROVER4
-from terrasph.scenes.plate_drag import PlateDrag
 from terrasph.robots.rover import Rover
 from terrasph.run_loop import checkpoint_path, claimed_output
 from terrasph.scenes import SCENES, ColumnCollapse, LegRotation, PlateIntrusion
+from terrasph.scenes.plate_drag import PlateDrag
 
 #: Tiny versions of every registered scene (a few seconds each on one thread), the end time T1 of
 #: the first run, and the later end time T2 that the continued runs and the reference reach.
@@ -227,18 +227,16 @@ def test_a_second_writer_refuses_and_the_first_file_stays_whole(tmp_path, capsys
 
 def test_a_claim_is_released_when_the_run_cannot_start(tmp_path) -> None:
     out = tmp_path / "run.h5"
-    with pytest.raises(ValueError):
-        with claimed_output(out, force=False):
-            raise ValueError("the scene cannot be built")
+    with pytest.raises(ValueError), claimed_output(out, force=False):
+        raise ValueError("the scene cannot be built")
     assert not out.exists()
 
 
 def test_a_stale_checkpoint_is_refused_without_force(tmp_path) -> None:
     out = tmp_path / "run.h5"
     checkpoint_path(out).write_bytes(b"")
-    with pytest.raises(FileExistsError, match="checkpoint"):
-        with claimed_output(out, force=False):
-            pass
+    with pytest.raises(FileExistsError, match="checkpoint"), claimed_output(out, force=False):
+        pass
     with claimed_output(out, force=True):
         assert not checkpoint_path(out).exists()
 

@@ -37,13 +37,13 @@ BURIED = dict(buried_depth=0.03, pull_distance=0.004, settle_time=0.2, bed_width
 
 @pytest.mark.parametrize("depth", [0.0, 0.001, 0.06, float("nan")])
 def test_bad_burial_depth_is_refused(depth: float) -> None:
-    with pytest.raises(ConfigError, match="'buried_depth'.*allowed"):
+    with pytest.raises(ConfigError, match=r"'buried_depth'.*allowed"):
         PlateIntrusion(**{**BURIED, "buried_depth": depth})
 
 
 @pytest.mark.parametrize("distance", [0.0, -0.01, 0.2])
 def test_bad_pull_distance_is_refused(distance: float) -> None:
-    with pytest.raises(ConfigError, match="'pull_distance'.*allowed"):
+    with pytest.raises(ConfigError, match=r"'pull_distance'.*allowed"):
         PlateIntrusion(**{**BURIED, "pull_distance": distance})
 
 

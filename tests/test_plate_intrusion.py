@@ -54,24 +54,24 @@ def intrusion(tmp_path_factory) -> tuple[PlateResult, object]:
 # -- fast: input validation and scene geometry -------------------------------------------------
 @pytest.mark.parametrize("speed", [-0.02, 0.0, float("nan")])
 def test_bad_speed_is_refused(speed: float) -> None:
-    with pytest.raises(ConfigError, match="'speed'.*allowed"):
+    with pytest.raises(ConfigError, match=r"'speed'.*allowed"):
         PlateIntrusion(speed=speed)
 
 
 @pytest.mark.parametrize("depth", [0.0, -0.01])
 def test_depth_must_be_positive(depth: float) -> None:
-    with pytest.raises(ConfigError, match="'max_depth'.*allowed"):
+    with pytest.raises(ConfigError, match=r"'max_depth'.*allowed"):
         PlateIntrusion(max_depth=depth)
 
 
 def test_depth_must_keep_clear_of_the_floor() -> None:
-    with pytest.raises(ConfigError, match="'max_depth'.*allowed \\(0, "):
+    with pytest.raises(ConfigError, match=r"'max_depth'.*allowed \(0, "):
         PlateIntrusion(max_depth=0.095)
 
 
 def test_thin_plate_is_refused() -> None:
     # three rows of Δx = 2.5 mm fill the kernel support 2h = 2.6Δx; two rows do not
-    with pytest.raises(ConfigError, match="'thickness'.*allowed \\[0.0075"):
+    with pytest.raises(ConfigError, match=r"'thickness'.*allowed \[0.0075"):
         PlateIntrusion(thickness=0.005)
 
 

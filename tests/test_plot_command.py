@@ -44,7 +44,7 @@ def test_fields_show_the_strain_of_the_frame_nearest_the_time(sheared_run, monke
     drawn = {}
 
     def capture(position, fields, **kwargs):
-        drawn.update(position=position, fields=dict((label, values) for values, label in fields), **kwargs)
+        drawn.update(position=position, fields={label: values for values, label in fields}, **kwargs)
 
     monkeypatch.setattr(plotting, "plot_fields", capture)
     assert main(["plot", str(sheared_run), "--force", "--fields", "--time", "0.19"]) == 0  # nearest frame: t = 0.2

@@ -59,19 +59,19 @@ _BUILDERS = {"column-collapse": "build_column_collapse", "leg-rotation": "build_
              "plate-intrusion": "build_plate_intrusion"}
 
 # Restores a checkpoint in a fresh interpreter, takes N steps and checkpoints again.
-_CONTINUE = """
+_CONTINUE = f"""
 import json, sys
 import terrasph.scenes as scenes
 from terrasph.simulation import Simulation
 name, config_json, source, target, steps = sys.argv[1:6]
 entry = scenes.SCENES[name]
 config = entry.config_from(json.loads(config_json))
-scene, material, numerics = getattr(scenes, {builders!r}[name])(config)
+scene, material, numerics = getattr(scenes, {_BUILDERS!r}[name])(config)
 sim = Simulation(scene, material, numerics, width=config.width)
 sim.restore(source)
 sim.advance(1e9, max_steps=int(steps))
 sim.checkpoint(target)
-""".format(builders=_BUILDERS)
+"""
 
 
 def build(name: str) -> Simulation:

@@ -9,7 +9,6 @@ import math
 
 import numpy as np
 import pytest
-
 import robot_helpers
 from terrasph import bodies, rft
 from terrasph.config import ConfigError
@@ -198,7 +197,7 @@ def test_overlapping_spokes_keep_only_the_outer_surface():
     parts (less than the sum of the loops, more than the sum minus the spokes' inner ends)."""
     shape = bodies.leg_wheel("flat-leg", 3, 0.08, 0.006, 0.1, 0.002)
     elements = rft.SurfaceElements.from_shape(shape)
-    loops = sum(float(np.sum(np.hypot(*np.diff(np.vstack([l, l[:1]]), axis=0).T))) for l in shape.outline)
+    loops = sum(float(np.sum(np.hypot(*np.diff(np.vstack([loop, loop[:1]]), axis=0).T))) for loop in shape.outline)
     assert loops - 3 * 3 * 0.006 < elements.length.sum() < loops - 0.006
     # the plain wheel's rim: both loops (outer surface and the hole's) are surface
     rim = bodies.wheel(0.08, 0.006, 0.1, 0.002)
@@ -355,7 +354,7 @@ def test_leg_rotation_on_rft_and_its_bad_input():
         with pytest.raises(ConfigError, match=f"'{name}' = .* on the RFT terrain"):
             LegWheel(terrain="rft", **{name: value})
         LegWheel(terrain="sph", **{name: value})
-    with pytest.raises(ConfigError, match="'bed_depth' = .* on the RFT terrain"):
+    with pytest.raises(ConfigError, match=r"'bed_depth' = .* on the RFT terrain"):
         LegRotation(terrain="rft", bed_depth=0.08)
     with pytest.raises(ConfigError, match="no element"):
         run_leg_rotation(LegRotation(terrain="rft", hip_height=0.06, start_angle=-1.2, end_angle=-1.1),

@@ -9,12 +9,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-
 import terrasph
 from terrasph import _core, rft, rft3d
 from terrasph.config import ConfigError
-from terrasph.robots.geoms import body_shape, geom_surface
 from terrasph.robots import rft_terrain
+from terrasph.robots.geoms import body_shape, geom_surface
 from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, rft_robot
 
 ROVER = Path(terrasph.__file__).parent / "robots" / "models" / "rover4.xml"
@@ -196,7 +195,7 @@ def test_rft3d_checkpoint_continues_bit_for_bit(tmp_path):
 
 def test_rft3d_stepper_calls_its_controller_at_the_control_rate():
     # the native stepper takes a control interval's steps per call; the controller is called at its multiples
-    robot, stepper = _tumbling_box(0.01)
+    _, stepper = _tumbling_box(0.01)
     calls = []
     taken = stepper.advance(0.05, control=lambda run: calls.append((run.time, run.control_span())))
     interval = rft_terrain.RFT_CONTROL_INTERVAL

@@ -42,7 +42,7 @@ def test_free_fall_matches_the_integrator_to_round_off() -> None:
     dt, steps, z0 = 5e-5, 2000, 0.3
     body = '<body name="plate" pos="0.4 0 0.3">{joints}<geom type="box" size="0.02 0.025 0.0075" mass="0.5"/></body>'
     coupled = couple(mjcf(body), {"plate": PLATE}, far_grains_scene(), Numerics(spacing=DX, fixed_dt=dt))
-    for n in range(1, steps + 1):
+    for _ in range(steps):
         coupled.step()
         state = coupled.sim.body_state("plate")
         assert np.all(state["force_now"] == 0.0) and state["torque_now"] == 0.0
@@ -375,8 +375,8 @@ def test_the_granular_load_balances_the_grains_momentum_with_the_container_share
     4e-15]."""
     scene = Scene(spacing=DX)
     surface, _ = scene.add_bed_in_container(0.1, 0.03, 0.05, layers=wall_layers_needed(1.3))
-    foot = ('<body name="foot" pos="0.04 0 {z!r}">{{joints}}<geom type="box" size="0.03 0.025 0.0075" '
-            'mass="0.2"/></body>').format(z=surface + 1.5 * DX + 0.01)
+    foot = (f'<body name="foot" pos="0.04 0 {surface + 1.5 * DX + 0.01!r}">{{joints}}<geom type="box" size="0.03 0.025 0.0075" '
+            'mass="0.2"/></body>')
     coupled = couple(mjcf(foot), {"foot": plate(0.06, 3 * DX, 0.05, DX)}, scene)
     coupled.sim.track_wall_loads(about=(0.05, 0.0))
     foot_body = coupled.robot.coupled[0]

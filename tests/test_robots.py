@@ -82,7 +82,7 @@ def test_an_actuator_on_a_missing_joint_is_named() -> None:
 
 
 def test_couplings_must_name_a_body_with_a_shape() -> None:
-    with pytest.raises(ConfigError, match="coupled body 'ghost'.*not a body"):
+    with pytest.raises(ConfigError, match=r"coupled body 'ghost'.*not a body"):
         PlanarRobot(mjcf(ARM), {"ghost": PLATE})
     with pytest.raises(ConfigError, match="coupled body 'arm' has no shape"):
         PlanarRobot(mjcf(ARM), {"arm": None})

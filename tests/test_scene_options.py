@@ -101,8 +101,8 @@ def test_the_step_estimate_matches_the_cores_first_step() -> None:
 
 def test_old_field_names_still_read() -> None:
     """Run files and SPECs written before the rename (duration → t_end) give the same configuration."""
-    from terrasph.sweeps.spec import parse_spec
     from sweep_helpers import TINY_FIXED
+    from terrasph.sweeps.spec import parse_spec
 
     entry = SCENES["leg-wheel"]
     assert entry.config_from({"duration": 0.5, "settle_time": 0.1}) == entry.config_from({"t_end": 0.5,

@@ -24,7 +24,6 @@ import numpy as np
 import pytest
 from terrasph.scenes.column_collapse import ColumnCollapse, build_column_collapse
 from terrasph.simulation import Simulation
-
 from test_active_domain import PUSH_START, PUSH_TIME, bed_with_plate
 
 

@@ -90,7 +90,7 @@ def test_idle_cores_is_a_fraction_of_the_machine() -> None:
     if idle is None:
         pytest.skip("no /proc/stat on this system")
     assert 0.0 <= idle <= (os.cpu_count() or 1) + 1e-9
-    assert 1 <= default_threads()
+    assert default_threads() >= 1
 
 
 class FakeMachine:

@@ -7,6 +7,7 @@ of travel; wall layers go on the right.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -89,7 +90,7 @@ def _nearest_on_polyline(points: np.ndarray, vertices: np.ndarray) -> tuple[np.n
     """Distance from each point to a polyline and the nearest point on it."""
     best = np.full(len(points), np.inf)
     nearest_best = np.zeros_like(points)
-    for a, b in zip(vertices[:-1], vertices[1:]):
+    for a, b in itertools.pairwise(vertices):
         ab = b - a
         t = np.clip(((points - a) @ ab) / float(ab @ ab), 0.0, 1.0)
         nearest = a + t[:, None] * ab

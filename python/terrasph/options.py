@@ -45,7 +45,7 @@ class Option:
     parse: Callable[[str], Any] | None = None  #: argparse type of a repeated value (a pair for a dict)
 
 
-def option(default: Any = dataclasses.MISSING, *, help: str, unit: str = "",  # noqa: A002 (argparse's word)
+def option(default: Any = dataclasses.MISSING, *, help: str, unit: str = "",
            choices: tuple[str, ...] | list[str] | None = None, cli: str | tuple[str, ...] | None = None,
            default_text: str | None = None, presets: Mapping[str, float] | None = None, positional: bool = False,
            repeat: bool = False, parse: Callable[[str], Any] | None = None,

@@ -50,11 +50,11 @@ carries the grains of its cup as one body (docs/rft.md, "Carried grains").
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
 import pathlib
-import dataclasses
 from dataclasses import dataclass
 from typing import Any
 

@@ -27,8 +27,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("sweep", metavar="SWEEP", help="the sweep directory (its manifest.json)")
     p.add_argument("--out", required=True, help="the coefficient table to write (.json)")
     p.add_argument("--order", type=int, nargs=2, default=None, metavar=("M", "N"),
-                   help="the series' order in 2beta and gamma, each 1..%d (default: the order of ORDERS whose "
-                        "leave-one-out error is least)" % MAX_ORDER_CHOICE)
+                   help=f"the series' order in 2beta and gamma, each 1..{MAX_ORDER_CHOICE} (default: the order of ORDERS "
+                        "whose leave-one-out error is least)")
     p.add_argument("--plot", default=None, metavar="PNG", help="also draw the fitted and generic maps side by side")
     p.set_defaults(handler=_cmd_calibrate)
 

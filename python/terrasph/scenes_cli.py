@@ -12,8 +12,13 @@ import argparse
 import json
 from typing import Any
 
-from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
-                                 numerics_overrides)
+from terrasph.cli_common import (
+    add_force_option,
+    add_numerics_option,
+    add_threads_option,
+    check_output_file,
+    numerics_overrides,
+)
 from terrasph.config import ConfigError
 from terrasph.io import defined_values
 from terrasph.options import add_config_options, config_values, with_option_names

@@ -27,7 +27,7 @@ import numpy as np
 from terrasph.config import ConfigError
 from terrasph.schedules import check_knots, evaluate
 
-__all__ = ["FORMS", "Controller", "ActuatorSpec", "parse_spec", "spec_controller"]
+__all__ = ["FORMS", "ActuatorSpec", "Controller", "parse_spec", "spec_controller"]
 
 #: a controller: (time s, model, data) -> the ctrl vector (model.nu values)
 Controller = Callable[[float, mujoco.MjModel, mujoco.MjData], np.ndarray]

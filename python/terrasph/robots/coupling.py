@@ -41,8 +41,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import warnings
 import pathlib
+import warnings
 from collections.abc import Callable
 from typing import Any
 

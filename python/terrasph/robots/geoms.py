@@ -21,6 +21,7 @@ the geometry resistive force theory reads too.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -259,7 +260,7 @@ def _zone(radius: float, z_low: float, z_high: float, length: float) -> tuple[np
     bands = max(1, math.ceil(arc / length))
     edges = np.linspace(z_low, z_high, bands + 1)
     points, areas = [], []
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    for lo, hi in itertools.pairwise(edges):
         z = 0.5 * (lo + hi)
         ring = math.sqrt(max(0.0, 1.0 - z * z))
         sectors = max(3, math.ceil(2 * math.pi * radius * ring / length))
@@ -275,7 +276,7 @@ def _disc(radius: float, z: float, up: bool, length: float) -> tuple[np.ndarray,
     rings = max(1, math.ceil(radius / length))
     edges = np.linspace(0.0, radius, rings + 1)
     points, areas = [], []
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    for lo, hi in itertools.pairwise(edges):
         middle = math.sqrt(0.5 * (lo * lo + hi * hi))  # halves the ring's area
         sectors = max(3, math.ceil(2 * math.pi * middle / length))
         phi = 2 * math.pi * (np.arange(sectors) + 0.5) / sectors

@@ -51,8 +51,16 @@ from terrasph.robots.metrics import slip
 from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, advance_native, check_integrated, mujoco_library
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
-__all__ = ["RFT3D_TIME_STEP", "ROVER4", "RFT3DCoupling", "Robot3D", "RobotLoads3D", "WHEEL_BALANCE", "rft_robot",
-           "wheel_radii"]
+__all__ = [
+    "RFT3D_TIME_STEP",
+    "ROVER4",
+    "WHEEL_BALANCE",
+    "RFT3DCoupling",
+    "Robot3D",
+    "RobotLoads3D",
+    "rft_robot",
+    "wheel_radii",
+]
 
 #: the example non-planar robot shipped with the package: a four-wheeled rover on a free joint (see the file)
 ROVER4 = pathlib.Path(__file__).with_name("models") / "rover4.xml"
@@ -279,9 +287,9 @@ def wheel_radii(robot: Robot3D) -> dict[int, tuple[int, float]]:
             continue
         axis = model.jnt_axis[joint] / np.linalg.norm(model.jnt_axis[joint])  # all in the body's frame
 
-        def off_axis(points: np.ndarray) -> np.ndarray:
-            arm = np.atleast_2d(points) - model.jnt_pos[joint]
-            return np.linalg.norm(arm - np.outer(arm @ axis, axis), axis=1)
+        def off_axis(points: np.ndarray) -> np.ndarray:  # uses this iteration's joint and axis; called within it
+            arm = np.atleast_2d(points) - model.jnt_pos[joint]  # noqa: B023
+            return np.linalg.norm(arm - np.outer(arm @ axis, axis), axis=1)  # noqa: B023
 
         radius = float(off_axis(body.elements.centre).max())
         if off_axis(model.body_ipos[b])[0] <= WHEEL_BALANCE * radius:

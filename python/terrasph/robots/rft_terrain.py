@@ -45,7 +45,14 @@ import numpy as np
 
 from terrasph import _core, rft
 from terrasph.config import ConfigError
-from terrasph.robots.coupling import RobotStepper, divergence_error, divergences, mujoco_state, restore_mujoco_state, velocity_servos
+from terrasph.robots.coupling import (
+    RobotStepper,
+    divergence_error,
+    divergences,
+    mujoco_state,
+    restore_mujoco_state,
+    velocity_servos,
+)
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
 __all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "advance_native", "check_integrated",

@@ -19,8 +19,7 @@ from terrasph.config import ConfigError
 from terrasph.io import write_results
 from terrasph.options import option, redefault
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import (WheelScene, bed_and_wheel, check_wheel_config, wheel_footprint,
-                                       wheel_shape)
+from terrasph.robots.leg_wheel import WheelScene, bed_and_wheel, check_wheel_config, wheel_footprint, wheel_shape
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
 from terrasph.robots.plots import plot_robot

@@ -28,7 +28,7 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
-from terrasph.robots.mjcf import Coupling, PlanarRobot, load_model, coupled_body_id
+from terrasph.robots.mjcf import Coupling, PlanarRobot, coupled_body_id, load_model
 
 if TYPE_CHECKING:  # the 3D RFT terrain builds on this module
     from terrasph.robots.rft3d_terrain import Robot3D

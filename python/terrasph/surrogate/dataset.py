@@ -18,6 +18,7 @@ parameter, repeated at every step. Targets must be series.
 
 from __future__ import annotations
 
+import contextlib
 import json
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -170,10 +171,8 @@ def read_run(path: str | Path, body: str | None = None) -> Run:
                 units[key] = str(ds.attrs["units"])
         params: dict[str, float] = {}
         if "config_json" in f.attrs:
-            try:
+            with contextlib.suppress(TypeError, ValueError):  # an unreadable configuration only hides its parameters
                 params.update(_flatten(json.loads(f.attrs["config_json"])))
-            except (TypeError, ValueError):
-                pass  # an unreadable configuration only hides its parameters
         params.update(_numeric_attrs(f.attrs))
         params.update(_numeric_attrs(g.attrs))
     return Run(name=path.stem, time=time, series=series, params=params, units=units)

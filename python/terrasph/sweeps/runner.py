@@ -94,7 +94,7 @@ def run_one(scene: str, case: Case, out_dir: str, omp_threads: int, session: str
             raise RuntimeError(f"the run of {scene} ended without a finished /run status in its file")
         _publish(staging, final)
         record.update(status="completed", summary=summary)
-    except Exception as error:  # noqa: BLE001 — a failed case is recorded, the sweep goes on
+    except Exception as error:
         shutil.rmtree(staging, ignore_errors=True)
         record.update(status="failed", error=f"{type(error).__name__}: {error}",
                       traceback=traceback.format_exc(limit=4))
