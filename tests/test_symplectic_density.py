@@ -92,7 +92,7 @@ def coarse_leg_wheel_outcome(cfl: float) -> dict[str, float]:
 def test_the_leg_wheel_at_twice_the_step_keeps_its_slip_and_sinkage() -> None:
     """With the density advanced first the step can pass C = 0.5 (numerics.cfl up to 1): the robot
     scene at C = 0.9 gives the mean slip and sinkage of C = 0.35 (a 2.6 times finer step, within the
-    range where the step moved them by under 1 %, docs/speed_history.md) within the defaults' 2 % bound.
+    range where the step moved them by under 1 %, docs/archive/speed_history.md) within the defaults' 2 % bound.
     Measured when written (3 s runs): C = 0.5, 0.7, 0.9 and 1.0 within 0.6 % of the default run."""
     fine, coarse = coarse_leg_wheel_outcome(0.35), coarse_leg_wheel_outcome(0.9)
     assert coarse["leaked_particles"] == 0

@@ -17,7 +17,7 @@ run, 9.85 s, with ``--until 0``; then the peak lift and thrust are printed too).
 simulated second of a stretch of the run stands for the whole run's only as far as its steps
 do: the step count per simulated second is printed, and it holds within 1 % over the run (the
 step is bound by the sound speed, the grains' speeds are small against it). ``--scene leg-wheel``:
-the second round's coarse leg-wheel (docs/speed_history.md; Δx = 5 mm, 3 s with ``--until 0``), its
+the second round's coarse leg-wheel (docs/archive/speed_history.md; Δx = 5 mm, 3 s with ``--until 0``), its
 mean slip, mean sinkage and final sinkage when the install's summary has them; ``--scene
 leg-wheel-default``: the same scene at its default resolution (Δx = 1.67 mm, 6 s with ``--until 0``).
 """

@@ -2,7 +2,9 @@
 
 Runs the collapse at several resolutions, each until at rest, and prints a table of interior
 particles, Δx, steps, wall time, CPU time of this process, L*, H* and their change against the
-finest (last) run; writes the table as JSON and a plot of the changes against CPU time.
+finest (last) run; writes the table as JSON, with the date, commit, CPU, thread count and command
+that measured it (``provenance``; the manual's tables are rendered from it), and a plot of the
+changes against CPU time.
 
     python benchmarks/validation/bench_column_convergence.py [--levels coarse fit fine finer] [--threads 2]
     python benchmarks/validation/bench_column_convergence.py --water-content 0.005 --levels 0.005 coarse fit fine \\
@@ -18,11 +20,17 @@ with other processes' load than wall time).
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
+import os
+import platform
+import subprocess
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
+import terrasph
 from terrasph import _core
 from terrasph.plotting import plot_convergence
 from terrasph.scenes import RESOLUTIONS, ColumnCollapse, run_column_collapse
@@ -32,6 +40,37 @@ def column_config(level: str, args: argparse.Namespace) -> ColumnCollapse:
     """The collapse of one level: a resolution key or a spacing in m."""
     size = {"resolution": level} if level in RESOLUTIONS else {"spacing": float(level)}
     return ColumnCollapse(t_end=args.t_end, water_content=args.water_content, model=args.model, **size)
+
+
+def provenance(threads: int) -> dict[str, str | int]:
+    """When, on what and by which command the results were measured (no host name)."""
+    root = Path(__file__).resolve().parents[2]
+    git = ["git", "-C", str(root)]
+    commit = subprocess.run([*git, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    dirty = subprocess.run([*git, "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                           text=True).stdout.strip()
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").exists() \
+        else platform.processor()
+    return {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d"),
+            "commit": commit + ("+changes" if dirty else ""), "terrasph": terrasph.__version__,
+            "cpu": cpu, "cores": os.cpu_count() or 0, "threads": threads,
+            "command": " ".join(["python", "benchmarks/validation/bench_column_convergence.py", *_arguments()])}
+
+
+def _arguments() -> list[str]:
+    """This run's arguments without ``--out DIR`` (where the file went is no property of the result)."""
+    args, kept = sys.argv[1:], []
+    skip = False
+    for arg in args:
+        if skip or arg.startswith("--out="):
+            skip = False
+            continue
+        if arg == "--out":
+            skip = True
+            continue
+        kept.append(arg)
+    return kept
 
 
 def main() -> None:
@@ -68,7 +107,8 @@ def main() -> None:
               f"{r['wall_time']:.1f} | {r['cpu_time']:.1f} | {r['runout_normalised']:.3f} | "
               f"{r['final_height_normalised']:.3f} | {100 * r['runout_change']:.1f}% | {100 * r['height_change']:.1f}% | "
               f"{r['status']} |")
-    (args.out / f"{args.name}_convergence.json").write_text(json.dumps(rows, indent=2))
+    result = {"provenance": provenance(args.threads), "rows": rows}
+    (args.out / f"{args.name}_convergence.json").write_text(json.dumps(result, indent=2) + "\n")
     if len(rows) < 2:
         return  # nothing to plot against the finest
     plot_rows = [{"CPU time (s)": r["cpu_time"], "relative change of L* vs finest": r["runout_change"],

@@ -29,7 +29,7 @@ joint's inertia). Where kv dt > M that jump carries the speed past the servo's l
 |ω_cmd − ω| < τ_max/kv to the limit on the other side, and the servo can lock into a swing of
 ±τ_max dt/M every step: a C-leg wheel of 4 cm legs at Δx = 5 mm (kv dt/M = 6–19), commanded
 1.5 rad/s, swung between ±2.4 rad/s and barely advanced (slip 0.97 instead of 0.44) once the step
-passed C = 0.55 on the wave speed (docs/speed_history.md, eleventh round). So a servo whose force at
+passed C = 0.55 on the wave speed (docs/archive/speed_history.md, eleventh round). So a servo whose force at
 the step's start would be clamped takes the step as a plain force: the limit, or the smaller force
 M·(ω_cmd − ω)/dt that brings the speed to the command by the step's end (the other loads aside),
 which cannot carry it past. Within the limits it stays MuJoCo's servo, its damping implicit. The
