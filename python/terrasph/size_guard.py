@@ -8,8 +8,8 @@ is refused within a second, where the build alone would take minutes and the mem
 * Particles: N = A/Δx² + L·layers/Δx (the lattice of the grains, the wall rows).
 * Memory: N · :data:`BYTES_PER_PARTICLE` + the interpreter's own.
 * Steps: t_end / Δt with Δt = cfl · h · √f / c0 (the core's stable step without the flow's own
-  speed, Eq. 2.46's artificial sound speed c0, mass scaling f), so a lower bound on the steps
-  except with ``step_at_wave_speed`` (whose larger step the estimate does not see).
+  speed, Eq. 2.46's artificial sound speed c0, mass scaling f), so a lower bound on the steps: the
+  core's step divides by max(c0, the model's wave speed) + |v|, which only makes it smaller.
 * Time: N · steps · :data:`SECONDS_PER_PARTICLE_STEP` / threads (perfect scaling: a lower bound).
 
 The constants are measured (docs/cli.md, "The size guard", gives the command and figures).
