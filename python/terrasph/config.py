@@ -14,7 +14,7 @@ import dataclasses
 import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 import numpy as np
 
@@ -110,6 +110,13 @@ class _ParameterGroup:
     _group: ClassVar[str]
     _core_class: ClassVar[type]
     _parameters: ClassVar[tuple[Parameter, ...]]
+
+    if TYPE_CHECKING:
+        # The fields are made from the core's parameter table as the module loads (_from_table),
+        # so a type checker sees a dataclass whose attributes are any parameter's value.
+        __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
+
+        def __getattr__(self, name: str) -> Any: ...
 
     def __new__(cls, *args: Any, **kwargs: Any) -> Any:
         _reject_unknown(cls, kwargs)
