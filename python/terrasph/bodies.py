@@ -472,7 +472,9 @@ def leg_wheel(spoke: Callable[..., BodyShape] | str, n_spokes: int, radius: floa
     if isinstance(n_spokes, bool) or not isinstance(n_spokes, (int, np.integer)) or n_spokes < 1:
         raise ValueError(f"n_spokes = {n_spokes!r} must be an integer >= 1")
     leg = make(radius, thickness, width, spacing, **kw)
-    positions, normals, loops = [], [], []
+    positions: list[np.ndarray] = []
+    normals: list[np.ndarray] = []
+    loops: list[np.ndarray] = []
     for k in range(int(n_spokes)):
         p, n = leg.transformed(2 * math.pi * k / n_spokes, (0.0, 0.0))
         positions.append(p)

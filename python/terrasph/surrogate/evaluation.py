@@ -51,7 +51,7 @@ def baseline_predictors(train_runs: Sequence[Run], features: Sequence[str],
     overall = np.mean([y[:length] for ys in by_wheel.values() for y in ys], axis=0)
 
     def mean_trajectory(run: Run) -> np.ndarray:
-        mean = mean_of.get(_morphology(run), overall)
+        mean = np.asarray(mean_of.get(_morphology(run), overall))
         return np.concatenate([mean, np.repeat(mean[-1:], max(run.length - length, 0), axis=0)])[: run.length]
 
     design = np.concatenate([np.column_stack([np.ones(r.length), r.matrix(features)]) for r in train_runs])

@@ -147,7 +147,8 @@ def parse_spec(raw: Any) -> SweepSpec:
         if input_spec is not None:
             kind = varied.pop("input_kind")
             rng = np.random.default_rng([seed, index])
-            knots = schedules.draw(kind, rng, input_spec["duration"], *input_spec["range"], input_spec["segments"])
+            lower, upper = input_spec["range"]
+            knots = schedules.draw(kind, rng, input_spec["duration"], lower, upper, input_spec["segments"])
             varied = {**varied, "input_kind": kind, input_spec["parameter"]: [list(k) for k in knots]}
         config = build(varied)
         digest = hashlib.sha256(json.dumps([entry.name, config], sort_keys=True).encode()).hexdigest()[:10]
