@@ -1,0 +1,357 @@
+// terrasph's 3D RFT terrain as a MuJoCo engine plugin, "terrasph.rft": a passive force (mjpPlugin
+// with mjPLUGIN_PASSIVE) that adds to qfrc_passive, for every coupled body, the load of a flat
+// granular surface on its collision geoms' surface elements (the law of terrasph/rft3d.hpp,
+// body_wrench(); the elements of terrasph/rft3d_surface.hpp, built when MuJoCo makes an mjData).
+// The load is explicit: it is evaluated at the state MuJoCo passes, whatever its integrator; the
+// steps at which that is stable and accurate are measured in docs/mujoco_plugin.md.
+//
+// Per instance and mjData: the elements and scratch arrays (plugin_data, freed with the mjData,
+// copied with it), and in plugin_state each coupled body's last wrench (F, τ about its centre of
+// mass; N, N m; world frame). No global state besides the registration.
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "terrasph/rft.hpp"
+#include "terrasph/rft3d.hpp"
+#include "terrasph/rft3d_surface.hpp"
+
+namespace terrasph::rft {
+
+namespace {
+
+constexpr const char* kName = "terrasph.rft";
+constexpr std::array<const char*, 6> kAttributes = {"table", "zeta", "surface", "element_length", "regularisation",
+                                                    "coefficients"};
+
+/// terrasph.rft.REGULARISATION_SPEED (m/s): the default speed below which a leading face's load fades
+/// with its normal speed (tests/test_mujoco_plugin.py checks the two agree).
+constexpr double kRegularisationSpeed = 1e-4;
+/// terrasph.rft.GLASS_BEADS_ZETA (N/m³), the generic map's default scale.
+constexpr double kGlassBeadsZeta = 2.44e5;
+/// terrasph.robots.rft3d's ELEMENT_FRACTION: the default element size as a fraction of the body's
+/// largest geom's bounding radius.
+constexpr double kElementFraction = 0.1;
+/// Li, Zhang & Goldman 2013 (Science 339:1408), supplementary Table S2, as terrasph.rft.GENERIC.
+constexpr const char* kGenericTerms = "A00=0.206 A10=0.169 B11=0.212 B01=0.358 Bm11=0.055 C11=-0.124 C01=0.253 "
+                                      "Cm11=0.007 D10=0.088";
+
+/// A bad configuration: the message names the attribute and what is allowed.
+struct ConfigError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// The attribute `name` of `instance`, "" when not set.
+std::string attribute(const mjModel* m, int instance, const char* name) {
+  const char* value = mj_getPluginConfig(m, instance, name);
+  return value ? std::string(value) : std::string();
+}
+
+/// A finite number from attribute `name`, `fallback` if unset; ConfigError unless it is > `above`.
+double number(const mjModel* m, int instance, const char* name, double fallback, double above, const char* unit) {
+  const std::string text = attribute(m, instance, name);
+  if (text.empty()) return fallback;
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != '\0' || !std::isfinite(value) || !(value > above))
+    throw ConfigError(std::string("attribute '") + name + "' = '" + text + "' is invalid: allowed a finite number > " +
+                      std::to_string(above) + " (" + unit + ")");
+  return value;
+}
+
+/// Adds the term named `name` (terrasph.rft.parse_term: A, B, C or D, then m (m1 for −1) and n)
+/// with `value` to `table`.
+void add_term(Coefficients& table, const std::string& name, double value) {
+  const bool negative = name.size() == 4 && name[1] == 'm';
+  const std::string digits = name.substr(negative ? 2 : 1);
+  const char letter = name.empty() ? '?' : name[0];
+  if (std::string("ABCD").find(letter) == std::string::npos || digits.size() != 2 || !std::isdigit(digits[0]) ||
+      !std::isdigit(digits[1]) || (negative && digits[0] == '0'))
+    throw ConfigError("coefficient '" + name + "' is not a term's name: allowed A, B, C or D, then m (m1 for -1) and "
+                      "n, each 0..4 (e.g. A00, Bm11)");
+  const int m = (negative ? -1 : 1) * (digits[0] - '0'), n = digits[1] - '0';
+  if (std::abs(m) > kMaxOrder || n > kMaxOrder)
+    throw ConfigError("coefficient '" + name + "' exceeds the order " + std::to_string(kMaxOrder));
+  Term* term = nullptr;
+  for (Term& t : table.terms)
+    if (t.m == m && t.n == n) term = &t;
+  if (term == nullptr) term = &table.terms.emplace_back(Term{m, n});
+  // A: α̂_z cos, B: α̂_z sin, C: α̂_x cos, D: α̂_x sin (terrasph.rft's naming, Li et al. Eq. S2)
+  (letter == 'A' ? term->z_cos : letter == 'B' ? term->z_sin : letter == 'C' ? term->x_cos : term->x_sin) += value;
+  table.order_beta = std::max(table.order_beta, std::abs(m));
+  table.order_gamma = std::max(table.order_gamma, n);
+}
+
+/// A map from "NAME=value NAME=value ..." (whitespace or commas between the pairs).
+Coefficients parse_terms(const std::string& text, const char* attribute_name) {
+  Coefficients table;
+  table.order_beta = table.order_gamma = 0;
+  std::string pairs = text;
+  for (char& c : pairs)
+    if (c == ',') c = ' ';
+  std::istringstream in(pairs);
+  std::string pair;
+  while (in >> pair) {
+    const auto equals = pair.find('=');
+    char* end = nullptr;
+    const std::string value = equals == std::string::npos ? "" : pair.substr(equals + 1);
+    const double v = std::strtod(value.c_str(), &end);
+    if (equals == std::string::npos || value.empty() || *end != '\0' || !std::isfinite(v))
+      throw ConfigError(std::string("attribute '") + attribute_name + "': '" + pair +
+                        "' is invalid: allowed NAME=number pairs, e.g. 'A00=0.206 B01=0.358'");
+    add_term(table, pair.substr(0, equals), v);
+  }
+  if (table.terms.empty())
+    throw ConfigError(std::string("attribute '") + attribute_name + "' holds no coefficient");
+  return table;
+}
+
+/// The coefficients and ζ of a table file written by terrasph.rft.save_coefficients (JSON with
+/// "format": "terrasph-rft-coefficients", "zeta" and a flat "coefficients" object).
+Coefficients read_table_file(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) throw ConfigError("attribute 'table' = '" + path + "': the file cannot be read");
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const auto malformed = [&](const std::string& what) {
+    return ConfigError("attribute 'table' = '" + path + "' is malformed: " + what +
+                       " (allowed a table written by terrasph rft-calibrate)");
+  };
+  if (text.find("\"terrasph-rft-coefficients\"") == std::string::npos) throw malformed("no \"format\"");
+  const auto value_after = [&](const std::string& key, std::size_t from) {
+    const auto at = text.find("\"" + key + "\"", from);
+    if (at == std::string::npos) throw malformed("no \"" + key + "\"");
+    const auto colon = text.find(':', at);
+    if (colon == std::string::npos) throw malformed("no value of \"" + key + "\"");
+    return colon + 1;
+  };
+  const auto block = value_after("coefficients", 0);
+  const auto open = text.find('{', block), close = text.find('}', block);
+  if (open == std::string::npos || close == std::string::npos) throw malformed("\"coefficients\" is not an object");
+  std::string pairs;
+  for (std::size_t i = open + 1; i < close; ++i) {
+    const char c = text[i];
+    pairs += c == ':' ? '=' : (c == '"' || std::isspace(static_cast<unsigned char>(c))) ? '\0' : c;
+  }
+  pairs.erase(std::remove(pairs.begin(), pairs.end(), '\0'), pairs.end());
+  Coefficients table = parse_terms(pairs, "table");
+  const std::string zeta_text = text.substr(value_after("zeta", 0));
+  const double zeta = std::strtod(zeta_text.c_str(), nullptr);
+  if (!(std::isfinite(zeta) && zeta > 0)) throw malformed("\"zeta\" is not a number > 0");
+  table.zeta = zeta;
+  return table;
+}
+
+/// The map of the instance's "table" (generic, or the path of a JSON table), or its "coefficients"
+/// ("A00=... B01=..."); "zeta" (N/m³) replaces the scale.
+Coefficients read_map(const mjModel* m, int instance) {
+  const std::string name = attribute(m, instance, "table"), terms = attribute(m, instance, "coefficients");
+  Coefficients table;
+  if (!terms.empty()) {
+    if (!name.empty()) throw ConfigError("attributes 'table' and 'coefficients' are both set: allowed one of them");
+    table = parse_terms(terms, "coefficients");
+    table.zeta = kGlassBeadsZeta;
+  } else if (name.empty() || name == "generic") {
+    table = parse_terms(kGenericTerms, "table");
+    table.zeta = kGlassBeadsZeta;
+  } else if (name.size() > 5 && name.compare(name.size() - 5, 5, ".json") == 0) {
+    table = read_table_file(name);
+  } else {
+    throw ConfigError("attribute 'table' = '" + name + "' is invalid: allowed 'generic' or the path of a JSON "
+                      "coefficient table (terrasph rft-calibrate)");
+  }
+  table.zeta = number(m, instance, "zeta", table.zeta, 0.0, "N/m^3");
+  return table;
+}
+
+bool is_collision(const mjModel* m, int geom) { return m->geom_contype[geom] || m->geom_conaffinity[geom]; }
+
+/// The bodies the instance loads: those whose MJCF names the instance (<body><plugin instance=.../>),
+/// or, if none does, every body that can move (not welded to the world) with a collision geom.
+std::vector<int> coupled_bodies(const mjModel* m, int instance) {
+  std::vector<int> named, automatic;
+  for (int b = 1; b < m->nbody; ++b) {
+    if (m->body_plugin[b] == instance) named.push_back(b);
+    bool collides = false;
+    for (int g = m->body_geomadr[b]; g >= 0 && g < m->body_geomadr[b] + m->body_geomnum[b]; ++g)
+      collides = collides || is_collision(m, g);
+    if (collides && m->body_weldid[b] != 0) automatic.push_back(b);
+  }
+  return named.empty() ? automatic : named;
+}
+
+std::string name_of(const mjModel* m, mjtObj kind, int id) {
+  const char* name = mj_id2name(m, kind, id);
+  return name ? std::string(name) : "#" + std::to_string(id);
+}
+
+/// One coupled body: its id and elements in its frame.
+struct Body {
+  int id = 0;
+  std::vector<Vec3> centre, normal;
+  std::vector<double> area;
+};
+
+/// The elements of body `b` from its collision geoms, about `length` m across (0: the default).
+Body body_elements(const mjModel* m, int b, double length) {
+  std::vector<GeomSolid> solids;
+  double bound = 0.0;
+  for (int g = m->body_geomadr[b]; g >= 0 && g < m->body_geomadr[b] + m->body_geomnum[b]; ++g) {
+    bound = std::max(bound, static_cast<double>(m->geom_rbound[g]));
+    if (!is_collision(m, g)) continue;
+    GeomSolid solid;
+    solid.kind = m->geom_type[g];
+    if (!is_solid_kind(solid.kind))
+      throw ConfigError("geom '" + name_of(m, mjOBJ_GEOM, g) + "' of body '" + name_of(m, mjOBJ_BODY, b) +
+                        "' is not a solid the sand can load (allowed sphere, capsule, cylinder, ellipsoid, box, "
+                        "mesh): switch its contacts off (contype=conaffinity=0) or name the coupled bodies");
+    for (int i = 0; i < 3; ++i) {
+      solid.size[i] = m->geom_size[3 * g + i];
+      solid.position[i] = m->geom_pos[3 * g + i];
+    }
+    mju_quat2Mat(solid.rotation.data(), m->geom_quat + 4 * g);
+    if (solid.kind == kMesh) {
+      const int mesh = m->geom_dataid[g];
+      solid.vertices = m->mesh_vert + 3 * m->mesh_vertadr[mesh];
+      solid.vertex_count = m->mesh_vertnum[mesh];
+      solid.faces = m->mesh_face + 3 * m->mesh_faceadr[mesh];
+      solid.face_count = m->mesh_facenum[mesh];
+    }
+    solids.push_back(solid);
+  }
+  if (solids.empty())
+    throw ConfigError("body '" + name_of(m, mjOBJ_BODY, b) + "' names the sand but has no collision geom");
+  const SurfacePatches patches = body_surface(solids, length > 0 ? length : kElementFraction * bound);
+  Body out;
+  out.id = b;
+  for (std::size_t e = 0; e < patches.size(); ++e) {
+    out.centre.push_back({patches.centre[3 * e], patches.centre[3 * e + 1], patches.centre[3 * e + 2]});
+    out.normal.push_back({patches.normal[3 * e], patches.normal[3 * e + 1], patches.normal[3 * e + 2]});
+    out.area.push_back(patches.area[e]);
+  }
+  return out;
+}
+
+/// An instance's terrain on one mjData.
+struct Sand {
+  Coefficients table;
+  double surface = 0.0, regularisation = kRegularisationSpeed;
+  std::vector<Body> bodies;
+  // the submerged elements of the body in hand (scratch, reused)
+  std::vector<Vec3> arm, normal;
+  std::vector<double> depth, area;
+
+  Sand(const mjModel* m, int instance)
+      : table(read_map(m, instance)),
+        surface(number(m, instance, "surface", 0.0, -HUGE_VAL, "m")),
+        regularisation(number(m, instance, "regularisation", kRegularisationSpeed, 0.0, "m/s")) {
+    const double length = number(m, instance, "element_length", 0.0, 0.0, "m");
+    for (const int b : coupled_bodies(m, instance)) bodies.push_back(body_elements(m, b, length));
+  }
+
+  /// Adds each body's load to qfrc_passive and writes its wrench to `wrenches` (6 per body).
+  void compute(const mjModel* m, mjData* d, mjtNum* wrenches) {
+    for (std::size_t k = 0; k < bodies.size(); ++k) {
+      const Body& body = bodies[k];
+      const int id = body.id;
+      const mjtNum* rotation = d->xmat + 9 * id;  // body axes as columns
+      const mjtNum* origin = d->xpos + 3 * id;
+      const mjtNum* com = d->xipos + 3 * id;
+      arm.clear();
+      normal.clear();
+      depth.clear();
+      area.clear();
+      for (std::size_t e = 0; e < body.area.size(); ++e) {  // centre c = x_b + R c_b, depth z_s − c_z
+        const Vec3& c = body.centre[e];
+        const double z = origin[2] + rotation[6] * c[0] + rotation[7] * c[1] + rotation[8] * c[2];
+        if (!(surface - z > 0.0)) continue;
+        Vec3 r{}, n{};
+        for (int i = 0; i < 3; ++i) {
+          r[i] = origin[i] + rotation[3 * i] * c[0] + rotation[3 * i + 1] * c[1] + rotation[3 * i + 2] * c[2] - com[i];
+          n[i] = rotation[3 * i] * body.normal[e][0] + rotation[3 * i + 1] * body.normal[e][1] +
+                 rotation[3 * i + 2] * body.normal[e][2];
+        }
+        arm.push_back(r);
+        normal.push_back(n);
+        depth.push_back(surface - z);
+        area.push_back(body.area[e]);
+      }
+      mjtNum* wrench = wrenches + 6 * k;
+      std::fill(wrench, wrench + 6, 0.0);
+      if (arm.empty()) continue;
+      mjtNum twist[6];  // [ω, v] at the centre of mass, world frame
+      mj_objectVelocity(m, d, mjOBJ_BODY, id, twist, 0);
+      const SubmergedElements elements{arm.data(), normal.data(), depth.data(), area.data(), arm.size()};
+      const BodyWrench load = body_wrench(elements, {twist[3], twist[4], twist[5]}, {twist[0], twist[1], twist[2]},
+                                          table, regularisation, false);
+      std::copy(load.wrench.begin(), load.wrench.end(), wrench);
+      mj_applyFT(m, d, wrench, wrench + 3, com, id, d->qfrc_passive);
+    }
+  }
+};
+
+Sand* sand_of(const mjData* d, int instance) { return reinterpret_cast<Sand*>(d->plugin_data[instance]); }
+
+int nstate(const mjModel* m, int instance) { return 6 * static_cast<int>(coupled_bodies(m, instance).size()); }
+
+int init(const mjModel* m, mjData* d, int instance) {
+  std::string error;
+  try {
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(new Sand(m, instance));
+    return 0;
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  mju_warning("%s: %s", kName, error.c_str());  // MuJoCo then fails the mjData's creation
+  return -1;
+}
+
+void destroy(mjData* d, int instance) {
+  delete sand_of(d, instance);
+  d->plugin_data[instance] = 0;
+}
+
+void copy(mjData* dest, const mjModel*, const mjData* src, int instance) {
+  delete sand_of(dest, instance);
+  dest->plugin_data[instance] = reinterpret_cast<uintptr_t>(new Sand(*sand_of(src, instance)));
+}
+
+void reset(const mjModel* m, mjtNum* state, void*, int instance) {
+  std::fill(state, state + m->plugin_statenum[instance], 0.0);
+}
+
+void compute(const mjModel* m, mjData* d, int instance, int capability) {
+  if (!(capability & mjPLUGIN_PASSIVE)) return;
+  sand_of(d, instance)->compute(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+}
+
+}  // namespace
+
+}  // namespace terrasph::rft
+
+mjPLUGIN_LIB_INIT(terrasph_rft) {
+  namespace tr = terrasph::rft;
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = tr::kName;
+  plugin.nattribute = static_cast<int>(tr::kAttributes.size());
+  plugin.attributes = tr::kAttributes.data();
+  plugin.capabilityflags = mjPLUGIN_PASSIVE;
+  plugin.nstate = tr::nstate;
+  plugin.init = tr::init;
+  plugin.destroy = tr::destroy;
+  plugin.copy = tr::copy;
+  plugin.reset = tr::reset;
+  plugin.compute = tr::compute;
+  mjp_registerPlugin(&plugin);
+}
