@@ -23,6 +23,9 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
+
+#include "backward_euler.hpp"
 #include "terrasph/rft.hpp"
 #include "terrasph/rft3d.hpp"
 #include "terrasph/rft3d_surface.hpp"
@@ -32,8 +35,8 @@ namespace terrasph::rft {
 namespace {
 
 constexpr const char* kName = "terrasph.rft";
-constexpr std::array<const char*, 6> kAttributes = {"table", "zeta", "surface", "element_length", "regularisation",
-                                                    "coefficients"};
+constexpr std::array<const char*, 7> kAttributes = {"table", "zeta", "surface", "element_length", "regularisation",
+                                                    "coefficients", "implicit"};
 
 /// terrasph.rft.REGULARISATION_SPEED (m/s): the default speed below which a leading face's load fades
 /// with its normal speed (tests/test_mujoco_plugin.py checks the two agree).
@@ -43,6 +46,9 @@ constexpr double kGlassBeadsZeta = 2.44e5;
 /// terrasph.robots.rft3d's ELEMENT_FRACTION: the default element size as a fraction of the body's
 /// largest geom's bounding radius.
 constexpr double kElementFraction = 0.1;
+/// terrasph.robots.rft3d_terrain's NEWTON_ITERATIONS, NEWTON_HALVINGS, NEWTON_TOLERANCE: the implicit
+/// correction's Newton iterations per step at most, halvings of a step, and relative tolerance.
+constexpr NewtonSettings kNewton{12, 6, 1e-8};
 /// Li, Zhang & Goldman 2013 (Science 339:1408), supplementary Table S2, as terrasph.rft.GENERIC.
 constexpr const char* kGenericTerms = "A00=0.206 A10=0.169 B11=0.212 B01=0.358 Bm11=0.055 C11=-0.124 C01=0.253 "
                                       "Cm11=0.007 D10=0.088";
@@ -91,6 +97,15 @@ void add_term(Coefficients& table, const std::string& name, double value) {
   (letter == 'A' ? term->z_cos : letter == 'B' ? term->z_sin : letter == 'C' ? term->x_cos : term->x_sin) += value;
   table.order_beta = std::max(table.order_beta, std::abs(m));
   table.order_gamma = std::max(table.order_gamma, n);
+}
+
+/// A yes/no attribute `name` ("true"/"false"), `fallback` if unset.
+bool flag(const mjModel* m, int instance, const char* name, bool fallback) {
+  const std::string text = attribute(m, instance, name);
+  if (text.empty()) return fallback;
+  if (text == "true") return true;
+  if (text == "false") return false;
+  throw ConfigError(std::string("attribute '") + name + "' = '" + text + "' is invalid: allowed true or false");
 }
 
 /// A map from "NAME=value NAME=value ..." (whitespace or commas between the pairs).
@@ -242,36 +257,61 @@ Body body_elements(const mjModel* m, int b, double length) {
   return out;
 }
 
+using Matrix6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
+using Vector6 = Eigen::Matrix<double, 6, 1>;
+
 /// An instance's terrain on one mjData.
+///
+/// compute() (MuJoCo's passive stage of a step's start state t_n) adds each coupled body's load
+/// W_n = W(q_n, q̇_n) to qfrc_passive: the explicit load. advance() (after MuJoCo's integrator has
+/// taken the step to q̇*, q*, its frames still those of t_n) makes the step backward Euler in the
+/// load, as terrasph's RFT stepper does (terrasph.robots.rft3d_terrain, cpp/src/rft3d_robot.cpp, with
+/// the same solver, backward_euler.hpp): M (q̇ − q̇*) = dt (G(q̇) − G_n), G = Σ Jᵀ W(J q̇) at t_n's
+/// pose, and the positions move by dt (q̇ − q̇*). MuJoCo's RK4 integrator evaluates the forces at
+/// other states than t_n's, so there the load stays explicit.
 struct Sand {
   Coefficients table;
   double surface = 0.0, regularisation = kRegularisationSpeed;
+  bool implicit = true;
   std::vector<Body> bodies;
-  // the submerged elements of the body in hand (scratch, reused)
+  // the submerged elements of the step's start state, body by body (scratch, reused)
+  std::vector<std::size_t> owners, first;  // index into bodies; an owner's elements [first[i], first[i + 1])
   std::vector<Vec3> arm, normal;
   std::vector<double> depth, area;
+  // what compute() leaves for advance(): the time it saw, the generalised load G_n
+  double start_time = std::nan("");
+  Vector start_load;
+  // the correction's arrays: each owner's 6 × nv Jacobian (v_com, ω), wrench, G, ∂G/∂q̇, M
+  std::vector<Matrix> jacobians;
+  std::vector<Vector6> wrenches;
+  Vector generalised;
+  Matrix stiffness, mass;
+  std::vector<mjtNum> linear, angular;
 
   Sand(const mjModel* m, int instance)
       : table(read_map(m, instance)),
         surface(number(m, instance, "surface", 0.0, -HUGE_VAL, "m")),
-        regularisation(number(m, instance, "regularisation", kRegularisationSpeed, 0.0, "m/s")) {
+        regularisation(number(m, instance, "regularisation", kRegularisationSpeed, 0.0, "m/s")),
+        implicit(flag(m, instance, "implicit", true)) {
     const double length = number(m, instance, "element_length", 0.0, 0.0, "m");
     for (const int b : coupled_bodies(m, instance)) bodies.push_back(body_elements(m, b, length));
   }
 
-  /// Adds each body's load to qfrc_passive and writes its wrench to `wrenches` (6 per body).
-  void compute(const mjModel* m, mjData* d, mjtNum* wrenches) {
+  /// The elements below the surface at the current frames: centre c = x_b + R c_b, depth z_s − c_z,
+  /// arm c − x_com, normal R n_b (R = xmat, body axes as columns).
+  void submerge(const mjData* d) {
+    owners.clear();
+    first.assign(1, 0);
+    arm.clear();
+    normal.clear();
+    depth.clear();
+    area.clear();
     for (std::size_t k = 0; k < bodies.size(); ++k) {
       const Body& body = bodies[k];
-      const int id = body.id;
-      const mjtNum* rotation = d->xmat + 9 * id;  // body axes as columns
-      const mjtNum* origin = d->xpos + 3 * id;
-      const mjtNum* com = d->xipos + 3 * id;
-      arm.clear();
-      normal.clear();
-      depth.clear();
-      area.clear();
-      for (std::size_t e = 0; e < body.area.size(); ++e) {  // centre c = x_b + R c_b, depth z_s − c_z
+      const mjtNum* rotation = d->xmat + 9 * body.id;
+      const mjtNum* origin = d->xpos + 3 * body.id;
+      const mjtNum* com = d->xipos + 3 * body.id;
+      for (std::size_t e = 0; e < body.area.size(); ++e) {
         const Vec3& c = body.centre[e];
         const double z = origin[2] + rotation[6] * c[0] + rotation[7] * c[1] + rotation[8] * c[2];
         if (!(surface - z > 0.0)) continue;
@@ -286,17 +326,99 @@ struct Sand {
         depth.push_back(surface - z);
         area.push_back(body.area[e]);
       }
-      mjtNum* wrench = wrenches + 6 * k;
-      std::fill(wrench, wrench + 6, 0.0);
-      if (arm.empty()) continue;
+      if (arm.size() > first.back()) {
+        owners.push_back(k);
+        first.push_back(arm.size());
+      }
+    }
+  }
+
+  SubmergedElements elements_of(std::size_t i) const {
+    return {&arm[first[i]], &normal[first[i]], &depth[first[i]], &area[first[i]], first[i + 1] - first[i]};
+  }
+
+  /// Writes the owners' wrenches into `state` (6 per coupled body, 0 for the others).
+  void record(mjtNum* state) const {
+    std::fill(state, state + 6 * bodies.size(), 0.0);
+    for (std::size_t i = 0; i < owners.size(); ++i)
+      std::copy(wrenches[i].data(), wrenches[i].data() + 6, state + 6 * owners[i]);
+  }
+
+  /// The explicit load at the current state: each owner's wrench W(v_com, ω) into qfrc_passive.
+  void compute(const mjModel* m, mjData* d, mjtNum* state) {
+    submerge(d);
+    wrenches.assign(owners.size(), Vector6::Zero());
+    start_load = Vector::Zero(m->nv);
+    for (std::size_t i = 0; i < owners.size(); ++i) {
+      const int id = bodies[owners[i]].id;
       mjtNum twist[6];  // [ω, v] at the centre of mass, world frame
       mj_objectVelocity(m, d, mjOBJ_BODY, id, twist, 0);
-      const SubmergedElements elements{arm.data(), normal.data(), depth.data(), area.data(), arm.size()};
-      const BodyWrench load = body_wrench(elements, {twist[3], twist[4], twist[5]}, {twist[0], twist[1], twist[2]},
-                                          table, regularisation, false);
-      std::copy(load.wrench.begin(), load.wrench.end(), wrench);
-      mj_applyFT(m, d, wrench, wrench + 3, com, id, d->qfrc_passive);
+      const BodyWrench load = body_wrench(elements_of(i), {twist[3], twist[4], twist[5]},
+                                          {twist[0], twist[1], twist[2]}, table, regularisation, false);
+      wrenches[i] = Eigen::Map<const Vector6>(load.wrench.data());
+      // G_n = Jᵀ W at the centre of mass (mj_applyFT adds it to qfrc_passive and to start_load)
+      mj_applyFT(m, d, load.wrench.data(), load.wrench.data() + 3, d->xipos + 3 * id, id, d->qfrc_passive);
+      mj_applyFT(m, d, load.wrench.data(), load.wrench.data() + 3, d->xipos + 3 * id, id, start_load.data());
     }
+    start_time = d->time;
+    record(state);
+  }
+
+  /// The owners' wrenches at joint velocities `qvel` into `wrenches`, G = Σ Jᵀ W into `generalised`
+  /// and, if asked for, ∂G/∂q̇ = Σ Jᵀ ∂W/∂ξ J into `stiffness` (rft3d_robot.cpp's evaluate()).
+  void evaluate(const Vector& qvel, bool jacobian) {
+    generalised.setZero();
+    if (jacobian) stiffness.setZero();
+    for (std::size_t i = 0; i < owners.size(); ++i) {
+      const Vector6 twist = jacobians[i] * qvel;
+      const BodyWrench load = body_wrench(elements_of(i), {twist[0], twist[1], twist[2]},
+                                          {twist[3], twist[4], twist[5]}, table, regularisation, jacobian);
+      wrenches[i] = Eigen::Map<const Vector6>(load.wrench.data());
+      generalised.noalias() += jacobians[i].transpose() * wrenches[i];
+      if (jacobian)
+        stiffness.noalias() += jacobians[i].transpose() * (Eigen::Map<const Matrix6>(load.jacobian.data()) * jacobians[i]);
+    }
+  }
+
+  /// backward_euler()'s view of the loads.
+  struct StepLoads {
+    Sand& sand;
+    Vector& generalised;
+    Matrix& stiffness;
+    std::vector<Vector6> best;
+    static constexpr bool kCheapJacobian = false;  // the 3D law's Jacobian costs several loads
+    void evaluate(const Vector& qvel, bool jacobian) { sand.evaluate(qvel, jacobian); }
+    void keep() { best = sand.wrenches; }
+    void restore() { sand.wrenches = best; }
+  };
+
+  /// The backward-Euler correction of the step just integrated (the class comment).
+  void advance(const mjModel* m, mjData* d, mjtNum* state) {
+    const double dt = m->opt.timestep;
+    // only right after the step whose start compute() saw, with an integrator that evaluated the
+    // forces there once
+    if (!implicit || m->opt.integrator == mjINT_RK4 || owners.empty() || !(start_time + dt == d->time)) return;
+    const int nv = static_cast<int>(m->nv);
+    jacobians.resize(owners.size());
+    linear.resize(static_cast<std::size_t>(3 * nv));
+    angular.resize(static_cast<std::size_t>(3 * nv));
+    for (std::size_t i = 0; i < owners.size(); ++i) {  // the frames are still t_n's
+      mj_jacBodyCom(m, d, linear.data(), angular.data(), bodies[owners[i]].id);
+      jacobians[i].resize(6, nv);
+      jacobians[i].topRows(3) = Eigen::Map<const Matrix>(linear.data(), 3, nv);
+      jacobians[i].bottomRows(3) = Eigen::Map<const Matrix>(angular.data(), 3, nv);
+    }
+    mass.resize(nv, nv);
+    mj_fullM(m, d, mass.data());
+    generalised.resize(nv);
+    stiffness.resize(nv, nv);
+    const Vector explicit_qvel = Eigen::Map<const Vector>(d->qvel, nv);
+    StepLoads loads{*this, generalised, stiffness, {}};
+    const Vector qvel = backward_euler(loads, mass, explicit_qvel, start_load, explicit_qvel, nullptr, dt, kNewton);
+    const Vector change = qvel - explicit_qvel;
+    mj_integratePos(m, d->qpos, change.data(), dt);  // q moves by dt (q̇ − q̇*)
+    Eigen::Map<Vector>(d->qvel, nv) = qvel;
+    record(state);
   }
 };
 
@@ -335,6 +457,10 @@ void compute(const mjModel* m, mjData* d, int instance, int capability) {
   sand_of(d, instance)->compute(m, d, d->plugin_state + m->plugin_stateadr[instance]);
 }
 
+void advance(const mjModel* m, mjData* d, int instance) {
+  sand_of(d, instance)->advance(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+}
+
 }  // namespace
 
 }  // namespace terrasph::rft
@@ -353,5 +479,6 @@ mjPLUGIN_LIB_INIT(terrasph_rft) {
   plugin.copy = tr::copy;
   plugin.reset = tr::reset;
   plugin.compute = tr::compute;
+  plugin.advance = tr::advance;
   mjp_registerPlugin(&plugin);
 }
