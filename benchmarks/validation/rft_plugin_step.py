@@ -2,12 +2,15 @@
 gymnasium's ant on the generic sand under a fixed random action sequence, at several MuJoCo steps.
 
     OMP_NUM_THREADS=1 python benchmarks/validation/rft_plugin_step.py [--steps 1e-2 5e-3 2e-3 1e-3 5e-4]
-        [--t-end 3] [--seed 0] [--out benchmarks/results/rft_plugin_step.json]
+        [--reference-step 2.5e-4] [--seed 0] [--out benchmarks/results/rft_plugin_step.json]
 
 The ant is gymnasium's ``ant.xml`` with only the plugin named in it and the floor's contacts switched
 off (``contype="0" conaffinity="0"`` on the floor geom). It drops from the file's pose onto the sand
-and is driven by uniform random actions in [−1, 1], each held 0.05 s (Ant-v5's control interval,
-5 × the file's 0.01 s). Variants, each at every step dt:
+with zero actions and settles for 1 s; then it stands for 0.5 s (phase ``stand``, still zero actions)
+and is driven for 1 s (phase ``walk``) by uniform random actions in [−1, 1], each held 0.05 s
+(Ant-v5's control interval, 5 × the file's 0.01 s; a random walk of this light ant, 0.91 kg under
+150 N m motors, is chaotic: over 3 s the paths of any two steps part by decimetres, so the horizon is
+1 s). Variants, each at every step dt:
 
 * ``rk4-explicit``: the file as it is (integrator RK4); the plugin's load is explicit there;
 * ``euler-explicit``: integrator Euler, the plugin's correction switched off (``implicit=false``);
@@ -15,10 +18,13 @@ and is driven by uniform random actions in [−1, 1], each held 0.05 s (Ant-v5's
 * ``reference``: terrasph's implicit stepper (terrasph.robots.rft3d_terrain.RFT3DCoupling) on the same
   bodies and elements, integrator Euler, at the same dt;
 
-and the converged reference: the implicit stepper at ``--reference-step`` (default 2.5e-4 s).
-Each run reports: stable (no NaN, no MuJoCo reset, torso speed below 100 m/s), the torso's path
-error against the converged reference (RMS over the run and at the end, m), the total vertical RFT
-load's relative RMS error over 0.05 s windows and its mean over the ant's weight, and its chatter:
+and the converged reference: the implicit stepper at ``--reference-step`` (default 2.5e-4 s) with the
+file's integrator (RK4), whose own uncertainty the row ``reference-euler`` gives (the same with Euler).
+Each run reports, per phase: stable (no NaN, no MuJoCo reset, torso speed below 100 m/s), the torso's
+path error against the converged reference (RMS over the phase and at its end, m), the total vertical RFT
+load's relative RMS error over 0.05 s windows and its mean over the ant's weight, and its chatter
+(the load of each step from the change of the ant's momentum, F_z = W + ΔP_z/dt, so that every
+variant is measured alike, RK4's four evaluations included):
 the mean change of the total vertical load from one step to the next, over the weight (an explicit
 load that flips between full and none each step reads about 1; a smooth one, a few per cent). Writes the table as JSON with the machine,
 the date and the commit.
@@ -34,12 +40,12 @@ import pathlib
 import platform
 import subprocess
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import gymnasium
 import mujoco
 import numpy as np
-
 from terrasph import mujoco_plugin
 from terrasph.rft3d import BodyElements
 from terrasph.robots.rft3d_terrain import Body3D, RFT3DCoupling, Robot3D
@@ -85,59 +91,62 @@ def _windows(dt: float, t_end: float) -> tuple[int, int]:
     return per, round(t_end / CONTROL_INTERVAL)
 
 
+def _momentum_z(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """The ant's vertical momentum (N s) at the data's state (its frames and velocities brought to it
+    first; the state itself is not touched)."""
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    mujoco.mj_comVel(model, data)
+    mujoco.mj_subtreeVel(model, data)
+    return float(model.body_subtreemass[1] * data.subtree_linvel[1, 2])
+
+
+def drive(model: mujoco.MjModel, data: mujoco.MjData, step: Callable[[], None], dt: float, t_end: float,
+          actions: np.ndarray) -> Trace:
+    """Steps with `step` under `actions` (one row per control interval). The vertical RFT load of each
+    step is read from the momentum, F_z = W + ΔP_z / dt (the sand and gravity are the only external
+    loads once the floor is off): the load MuJoCo integrated, whatever the integrator's stages."""
+    per, windows = _windows(dt, t_end)
+    weight = float(model.body_subtreemass[1] * -model.opt.gravity[2])
+    path, load, chatter, stable = [], [], [], True
+    momentum, previous = _momentum_z(model, data), math.nan
+    start = time.process_time()
+    for w in range(windows):
+        data.ctrl[:] = actions[w]
+        fz = np.empty(per)
+        for k in range(per):
+            step()
+            now = _momentum_z(model, data)
+            fz[k], momentum = weight + (now - momentum) / dt, now
+        stable = stable and _stable(data)
+        if not stable:
+            break
+        path.append(data.qpos[:3].copy())
+        load.append(fz.mean())
+        chatter.append(np.nanmean(np.abs(np.diff(np.concatenate([[previous], fz])))))
+        previous = fz[-1]
+    return Trace(np.array(path), np.array(load), np.array(chatter), stable, time.process_time() - start)
+
+
 def run_plugin(dt: float, t_end: float, actions: np.ndarray, integrator: str | None, implicit: bool) -> Trace:
     """The ant with the plugin in a plain mj_step loop."""
     model = mujoco.MjModel.from_xml_string(ant_on_sand(integrator, implicit))
     model.opt.timestep = dt
     data = mujoco.MjData(model)
-    state = slice(int(model.plugin_stateadr[0]), int(model.plugin_stateadr[0] + model.plugin_statenum[0]))
-    per, windows = _windows(dt, t_end)
-    path, load, chatter, stable = [], [], [], True
-    previous = math.nan
-    start = time.process_time()
-    for w in range(windows):
-        data.ctrl[:] = actions[w]
-        fz = np.empty(per)
-        for k in range(per):
-            mujoco.mj_step(model, data)
-            fz[k] = data.plugin_state[state].reshape(-1, 6)[:, 2].sum()
-        stable = stable and _stable(data)
-        if not stable:
-            break
-        path.append(data.qpos[:3].copy())
-        load.append(fz.mean())
-        chatter.append(np.nanmean(np.abs(np.diff(np.concatenate([[previous], fz])))))
-        previous = fz[-1]
-    return Trace(np.array(path), np.array(load), np.array(chatter), stable, time.process_time() - start)
+    return drive(model, data, lambda: mujoco.mj_step(model, data), dt, t_end, actions)
 
 
-def run_reference(dt: float, t_end: float, actions: np.ndarray, bodies: list[int]) -> Trace:
-    """The ant on terrasph's implicit stepper (integrator Euler), the plugin's bodies and elements."""
-    model = mujoco.MjModel.from_xml_string(ant_on_sand("Euler", plugin=False))
+def run_reference(dt: float, t_end: float, actions: np.ndarray, bodies: list[int],
+                  integrator: str | None = "Euler") -> Trace:
+    """The ant on terrasph's implicit stepper (`integrator`, None: the file's), the plugin's bodies and
+    elements."""
+    model = mujoco.MjModel.from_xml_string(ant_on_sand(integrator, plugin=False))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     coupled = [Body3D(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"#{b}", b,
                       BodyElements.from_body(model, b)) for b in bodies]
     stepper = RFT3DCoupling(Robot3D(model, data, coupled, 0.0), time_step=dt)
-    per, windows = _windows(dt, t_end)
-    path, load, chatter, stable = [], [], [], True
-    previous = math.nan
-    start = time.process_time()
-    for w in range(windows):
-        data.ctrl[:] = actions[w]
-        fz = np.empty(per)
-        for k in range(per):
-            stepper.reset_body_means()
-            stepper.step()
-            fz[k] = sum(stepper.body_sample(i)["force"][2] for i in range(len(coupled)))
-        stable = stable and _stable(data)
-        if not stable:
-            break
-        path.append(data.qpos[:3].copy())
-        load.append(fz.mean())
-        chatter.append(np.nanmean(np.abs(np.diff(np.concatenate([[previous], fz])))))
-        previous = fz[-1]
-    return Trace(np.array(path), np.array(load), np.array(chatter), stable, time.process_time() - start)
+    return drive(model, data, stepper.step, dt, t_end, actions)
 
 
 def _stable(data: mujoco.MjData) -> bool:
@@ -173,11 +182,15 @@ def provenance() -> dict[str, str]:
             "commit": commit, "mujoco": mujoco.__version__}
 
 
+#: the phases: their start and end (s) and whether the actions are random (else zero); before the
+#: first, the drop and the settling
+PHASES = {"stand": (1.0, 1.5, False), "walk": (1.5, 2.5, True)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", nargs="+", type=float, default=[1e-2, 5e-3, 2e-3, 1e-3, 5e-4])
     parser.add_argument("--reference-step", type=float, default=2.5e-4)
-    parser.add_argument("--t-end", type=float, default=3.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("benchmarks/results/rft_plugin_step.json"))
     args = parser.parse_args()
@@ -185,44 +198,67 @@ def main() -> None:
     model = mujoco.MjModel.from_xml_string(ant_on_sand())
     bodies = mujoco_plugin.coupled_bodies(model)
     weight = float(model.body_subtreemass[1] * -model.opt.gravity[2])
-    actions = np.random.default_rng(args.seed).uniform(-1.0, 1.0, (round(args.t_end / CONTROL_INTERVAL), model.nu))
-    converged = run_reference(args.reference_step, args.t_end, actions, bodies)
-    assert converged.stable, "the converged reference blew up"
-    rows = [{"variant": "reference", "dt": args.reference_step, **compare(converged, converged, weight)}]
-    print("| variant | dt (ms) | stable | path RMS (mm) | path end (mm) | load RMS error | mean load / weight | "
+    t_end = max(end for _, end, _ in PHASES.values())
+    windows = round(t_end / CONTROL_INTERVAL)
+    actions = np.zeros((windows, model.nu))
+    rng = np.random.default_rng(args.seed)
+    for begin, end, random in PHASES.values():
+        if random:
+            span = slice(round(begin / CONTROL_INTERVAL), round(end / CONTROL_INTERVAL))
+            actions[span] = rng.uniform(-1.0, 1.0, (span.stop - span.start, model.nu))
+    print("| phase | variant | dt (ms) | stable | path RMS (mm) | path end (mm) | load RMS error | mean load / weight | "
           "load chatter / weight | CPU (s) |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
 
     def show(row: dict) -> None:
         def fmt(value: float | None, scale: float = 1.0, digits: str = ".3g") -> str:
             return "—" if value is None else format(scale * value, digits)
-        print(f"| {row['variant']} | {1e3 * row['dt']:g} | {'yes' if row['stable'] else 'no'} | "
+        print(f"| {row['phase']} | {row['variant']} | {1e3 * row['dt']:g} | {'yes' if row['stable'] else 'no'} | "
               f"{fmt(row['path_rms_m'], 1e3)} | {fmt(row['path_end_m'], 1e3)} | {fmt(row['load_rms_rel'])} | "
               f"{fmt(row['load_mean_over_weight'])} | {fmt(row['load_chatter_over_weight'])} | {row['cpu_s']:.2f} |",
               flush=True)
 
-    show(rows[0])
+    def record(variant: str, dt: float, trace: Trace) -> list[dict]:
+        out = []
+        for phase, (begin, end, _) in PHASES.items():
+            span = slice(round(begin / CONTROL_INTERVAL), round(end / CONTROL_INTERVAL))
+            part = Trace(trace.path[span], trace.load[span], trace.chatter[span],
+                         trace.stable and len(trace.path) >= span.stop, trace.cpu)
+            whole = Trace(converged.path[span], converged.load[span], converged.chatter[span], True, 0.0)
+            out.append({"phase": phase, "variant": variant, "dt": dt, **compare(part, whole, weight)})
+            show(out[-1])
+        rows.extend(out)
+        return out
+
+    rows: list[dict] = []
+    converged = run_reference(args.reference_step, t_end, actions, bodies, None)
+    assert converged.stable, "the converged reference blew up"
+    record("reference-rk4", args.reference_step, converged)
+    record("reference-euler", args.reference_step, run_reference(args.reference_step, t_end, actions, bodies))
     for dt in args.steps:
-        runs = {"rk4-explicit": lambda: run_plugin(dt, args.t_end, actions, None, False),
-                "euler-explicit": lambda: run_plugin(dt, args.t_end, actions, "Euler", False),
-                "euler-implicit": lambda: run_plugin(dt, args.t_end, actions, "Euler", True),
-                "reference": lambda: run_reference(dt, args.t_end, actions, bodies)}
-        traces = {}
+        runs = {"rk4-explicit": lambda dt=dt: run_plugin(dt, t_end, actions, None, False),
+                "euler-explicit": lambda dt=dt: run_plugin(dt, t_end, actions, "Euler", False),
+                "euler-implicit": lambda dt=dt: run_plugin(dt, t_end, actions, "Euler", True),
+                "reference": lambda dt=dt: run_reference(dt, t_end, actions, bodies)}
+        traces, recorded = {}, {}
         for variant, run in runs.items():
             traces[variant] = run()
-            rows.append({"variant": variant, "dt": dt, **compare(traces[variant], converged, weight)})
-            show(rows[-1])
+            recorded[variant] = record(variant, dt, traces[variant])
         plugin, same_step = traces["euler-implicit"], traces["reference"]
         if plugin.stable and same_step.stable:  # the plugin's correction against the stepper at the same dt
-            rows[-2]["path_against_stepper_same_dt_m"] = float(np.abs(plugin.path - same_step.path).max())
-            rows[-2]["load_against_stepper_same_dt_rel"] = float(np.abs(plugin.load - same_step.load).max() / weight)
-            print(f"|  euler-implicit vs reference at {1e3 * dt:g} ms: path {rows[-2]['path_against_stepper_same_dt_m']:.2e} m, "
-                  f"load {rows[-2]['load_against_stepper_same_dt_rel']:.2e} × weight |")
+            path = float(np.abs(plugin.path - same_step.path).max())
+            load = float(np.abs(plugin.load - same_step.load).max() / weight)
+            for row in recorded["euler-implicit"]:
+                row.update({"path_against_stepper_same_dt_m": path, "load_against_stepper_same_dt_rel": load})
+            print(f"| all | euler-implicit − reference | {1e3 * dt:g} | | {path:.1e} m (max) | | "
+                  f"{load:.1e} × weight (max) | | | |")
     result = {**provenance(), "command": "python benchmarks/validation/rft_plugin_step.py " + " ".join(
         [f"--steps {' '.join(f'{s:g}' for s in args.steps)}", f"--reference-step {args.reference_step:g}",
-         f"--t-end {args.t_end:g}", f"--seed {args.seed}"]),
+         f"--seed {args.seed}"]),
         "model": "gymnasium ant.xml, floor contacts off, plugin terrasph.rft (generic map, surface 0)",
-        "weight_n": weight, "control_interval_s": CONTROL_INTERVAL, "t_end_s": args.t_end, "rows": rows}
+        "weight_n": weight, "control_interval_s": CONTROL_INTERVAL,
+        "phases": {name: {"start_s": b, "end_s": e, "random_actions": r} for name, (b, e, r) in PHASES.items()},
+        "rows": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=1) + "\n")
     print(f"wrote {args.out}")

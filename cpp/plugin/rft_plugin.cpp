@@ -125,7 +125,11 @@ Coefficients parse_terms(const std::string& text, const char* attribute_name) {
     if (equals == std::string::npos || value.empty() || *end != '\0' || !std::isfinite(v))
       throw ConfigError(std::string("attribute '") + attribute_name + "': '" + pair +
                         "' is invalid: allowed NAME=number pairs, e.g. 'A00=0.206 B01=0.358'");
-    add_term(table, pair.substr(0, equals), v);
+    try {
+      add_term(table, pair.substr(0, equals), v);
+    } catch (const ConfigError& error) {
+      throw ConfigError(std::string("attribute '") + attribute_name + "': " + error.what());
+    }
   }
   if (table.terms.empty())
     throw ConfigError(std::string("attribute '") + attribute_name + "' holds no coefficient");
@@ -143,25 +147,28 @@ Coefficients read_table_file(const std::string& path) {
                        " (allowed a table written by terrasph rft-calibrate)");
   };
   if (text.find("\"terrasph-rft-coefficients\"") == std::string::npos) throw malformed("no \"format\"");
-  const auto value_after = [&](const std::string& key, std::size_t from) {
-    const auto at = text.find("\"" + key + "\"", from);
-    if (at == std::string::npos) throw malformed("no \"" + key + "\"");
-    const auto colon = text.find(':', at);
-    if (colon == std::string::npos) throw malformed("no value of \"" + key + "\"");
-    return colon + 1;
+  // the value of the first "key" whose value starts as `accepts` allows (the units' entries are strings)
+  const auto value_of = [&](const std::string& key, const auto& accepts) {
+    for (auto at = text.find("\"" + key + "\""); at != std::string::npos; at = text.find("\"" + key + "\"", at + 1)) {
+      const auto colon = text.find_first_not_of(" \t\r\n", at + key.size() + 2);
+      if (colon == std::string::npos || text[colon] != ':') continue;
+      const auto value = text.find_first_not_of(" \t\r\n", colon + 1);
+      if (value != std::string::npos && accepts(text[value])) return value;
+    }
+    throw malformed("no \"" + key + "\" of the right kind");
   };
-  const auto block = value_after("coefficients", 0);
-  const auto open = text.find('{', block), close = text.find('}', block);
-  if (open == std::string::npos || close == std::string::npos) throw malformed("\"coefficients\" is not an object");
+  const auto open = value_of("coefficients", [](char c) { return c == '{'; });
+  const auto close = text.find('}', open);
+  if (close == std::string::npos) throw malformed("\"coefficients\" is not closed");
   std::string pairs;
   for (std::size_t i = open + 1; i < close; ++i) {
     const char c = text[i];
-    pairs += c == ':' ? '=' : (c == '"' || std::isspace(static_cast<unsigned char>(c))) ? '\0' : c;
+    if (c == ':') pairs += '=';
+    else if (c != '"' && !std::isspace(static_cast<unsigned char>(c))) pairs += c;
   }
-  pairs.erase(std::remove(pairs.begin(), pairs.end(), '\0'), pairs.end());
   Coefficients table = parse_terms(pairs, "table");
-  const std::string zeta_text = text.substr(value_after("zeta", 0));
-  const double zeta = std::strtod(zeta_text.c_str(), nullptr);
+  const auto at = value_of("zeta", [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
+  const double zeta = std::strtod(text.c_str() + at, nullptr);
   if (!(std::isfinite(zeta) && zeta > 0)) throw malformed("\"zeta\" is not a number > 0");
   table.zeta = zeta;
   return table;
@@ -434,7 +441,7 @@ int init(const mjModel* m, mjData* d, int instance) {
   } catch (const std::exception& e) {
     error = e.what();
   }
-  mju_warning("%s: %s", kName, error.c_str());  // MuJoCo then fails the mjData's creation
+  mju_error("%s: %s", kName, error.c_str());  // MuJoCo's compiler, or the caller's handler, reports it
   return -1;
 }
 
