@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import pathlib
 import re
+import shutil
 import subprocess
 import sys
 
@@ -211,6 +212,13 @@ def test_bad_configuration_fails_naming_the_attribute(config, message):
         mujoco.MjModel.from_xml_string(scattered_bodies(config))
 
 
+def test_gravity_off_the_vertical_is_refused():
+    xml = scattered_bodies().replace("<asset>", '<option gravity="0 -9.81 0"/><asset>', 1)
+    with pytest.raises(ValueError, match=re.escape("terrasph.rft: option gravity = (0.000000, -9.810000, 0.000000) is "
+                                                   "invalid for the sand: allowed along -z")):
+        mujoco.MjModel.from_xml_string(xml)
+
+
 def test_sdf_geom_on_a_coupled_body_is_refused_by_name():
     # MuJoCo keeps planes and height fields on static bodies; a signed distance field (MuJoCo's own
     # torus plugin) may move, and the sand has no surface elements for it
@@ -277,3 +285,22 @@ def test_entry_point_registers_the_plugin_when_mujoco_is_imported(tmp_path):
     out = subprocess.run([sys.executable, "-c", code, scattered_bodies()], capture_output=True, text=True, env=env,
                          check=True)
     assert out.stdout.split() == ["1", "True"]
+
+
+def test_cpp_program_loads_the_plugin(tmp_path):
+    # cpp/examples/rft_plugin_step.cpp, linked to the mujoco wheel's library only: the plugin resolves
+    # MuJoCo to the program's copy, and a ball resting on the sand carries its weight (implicit, Euler)
+    compiler = shutil.which("g++") or pytest.skip("no C++ compiler")
+    folder = pathlib.Path(mujoco.__file__).parent
+    library = next(folder.glob("libmujoco.so.*"))
+    program = tmp_path / "rft_plugin_step"
+    subprocess.run([compiler, "-std=c++17", "-O1", f"-I{folder / 'include'}",
+                    str(pathlib.Path(__file__).parents[1] / "cpp" / "examples" / "rft_plugin_step.cpp"), str(library),
+                    f"-Wl,-rpath,{folder}", "-o", str(program)], check=True)
+    model = tmp_path / "ball.xml"
+    model.write_text(f'<mujoco><option timestep="1e-3" integrator="Euler"/>{sand()}<worldbody><body pos="0 0 0.05">'
+                     '<freejoint/><geom type="sphere" size="0.05" density="2000"/></body></worldbody></mujoco>')
+    out = subprocess.run([str(program), str(mujoco_plugin.library_path()), str(model), "800", "400"],
+                         capture_output=True, text=True, check=True).stdout.split()
+    weight = 2000 * 4 / 3 * np.pi * 0.05**3 * 9.81
+    assert [float(v) for v in out[2::3]] == pytest.approx([weight, weight], rel=1e-6)

@@ -6,7 +6,8 @@ gymnasium's ant on the generic sand under a fixed random action sequence, at sev
 
 The ant is gymnasium's ``ant.xml`` with only the plugin named in it and the floor's contacts switched
 off (``contype="0" conaffinity="0"`` on the floor geom). It drops from the file's pose onto the sand
-with zero actions and settles for 1 s; then it stands for 0.5 s (phase ``stand``, still zero actions)
+with zero actions and settles for 2 s (its ankles come to rest on their joint limits after 1.4 s);
+then it stands for 0.5 s (phase ``stand``, still zero actions)
 and is driven for 1 s (phase ``walk``) by uniform random actions in [−1, 1], each held 0.05 s
 (Ant-v5's control interval, 5 × the file's 0.01 s; a random walk of this light ant, 0.91 kg under
 150 N m motors, is chaotic: over 3 s the paths of any two steps part by decimetres, so the horizon is
@@ -184,7 +185,7 @@ def provenance() -> dict[str, str]:
 
 #: the phases: their start and end (s) and whether the actions are random (else zero); before the
 #: first, the drop and the settling
-PHASES = {"stand": (1.0, 1.5, False), "walk": (1.5, 2.5, True)}
+PHASES = {"stand": (2.0, 2.5, False), "walk": (2.5, 3.5, True)}
 
 
 def main() -> None:

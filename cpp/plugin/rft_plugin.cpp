@@ -301,6 +301,10 @@ struct Sand {
         regularisation(number(m, instance, "regularisation", kRegularisationSpeed, 0.0, "m/s")),
         implicit(flag(m, instance, "implicit", true)) {
     const double length = number(m, instance, "element_length", 0.0, 0.0, "m");
+    const mjtNum* g = m->opt.gravity;  // the law's depth and planes are taken along z
+    if (!(g[0] == 0.0 && g[1] == 0.0 && g[2] < 0.0))
+      throw ConfigError("option gravity = (" + std::to_string(g[0]) + ", " + std::to_string(g[1]) + ", " +
+                        std::to_string(g[2]) + ") is invalid for the sand: allowed along -z (its surface is level)");
     for (const int b : coupled_bodies(m, instance)) bodies.push_back(body_elements(m, b, length));
   }
 
@@ -436,7 +440,11 @@ int nstate(const mjModel* m, int instance) { return 6 * static_cast<int>(coupled
 int init(const mjModel* m, mjData* d, int instance) {
   std::string error;
   try {
-    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(new Sand(m, instance));
+    auto sand = std::make_unique<Sand>(m, instance);
+    if (sand->implicit && m->opt.integrator == mjINT_RK4)
+      mju_warning("%s: with the RK4 integrator the sand's load is explicit: the implicit correction needs Euler, "
+                  "implicit or implicitfast (docs/mujoco_plugin.md)", kName);
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(sand.release());
     return 0;
   } catch (const std::exception& e) {
     error = e.what();
