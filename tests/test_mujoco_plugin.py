@@ -46,7 +46,8 @@ def plugin() -> pathlib.Path:
 def sand(config: dict[str, str] | None = None) -> str:
     """The <extension> block naming the plugin with `config`."""
     keys = "".join(f'<config key="{k}" value="{v}"/>' for k, v in (config or {}).items())
-    return f'<extension><plugin plugin="terrasph.rft"><instance name="sand">{keys}</instance></plugin></extension>'
+    return (f'<extension><plugin plugin="{mujoco_plugin.PLUGIN_NAME}"><instance name="sand">{keys}</instance>'
+            '</plugin></extension>')
 
 
 def scattered_bodies(config: dict[str, str] | None = None) -> str:
@@ -202,7 +203,8 @@ def test_runs_and_copies_are_deterministic(integrator):
     ({"table": "wet"}, "attribute 'table' = 'wet' is invalid"),
     ({"table": "/nonexistent/t.json"}, "attribute 'table' = '/nonexistent/t.json': the file cannot be read"),
     ({"coefficients": "A00=0.2 X11=1"}, "attribute 'coefficients': coefficient 'X11' is not a term's name"),
-    ({"zeta": "-3"}, "attribute 'zeta' = '-3' is invalid"),
+    ({"zeta": "-3"}, "attribute 'zeta' = '-3' is invalid: allowed a finite number > 0 (N/m^3)"),
+    ({"surface": "low"}, "attribute 'surface' = 'low' is invalid: allowed a finite number (m)"),
     ({"element_length": "0"}, "attribute 'element_length' = '0' is invalid"),
     ({"regularisation": "fast"}, "attribute 'regularisation' = 'fast' is invalid"),
     ({"implicit": "yes"}, "attribute 'implicit' = 'yes' is invalid: allowed true or false"),
@@ -214,8 +216,8 @@ def test_bad_configuration_fails_naming_the_attribute(config, message):
 
 def test_gravity_off_the_vertical_is_refused():
     xml = scattered_bodies().replace("<asset>", '<option gravity="0 -9.81 0"/><asset>', 1)
-    with pytest.raises(ValueError, match=re.escape("terrasph.rft: option gravity = (0.000000, -9.810000, 0.000000) is "
-                                                   "invalid for the sand: allowed along -z")):
+    with pytest.raises(ValueError, match=re.escape("terrasph.rft: option gravity = (0, -9.81, 0) is invalid for the "
+                                                   "sand: allowed along -z")):
         mujoco.MjModel.from_xml_string(xml)
 
 

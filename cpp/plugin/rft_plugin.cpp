@@ -2,8 +2,9 @@
 // with mjPLUGIN_PASSIVE) that adds to qfrc_passive, for every coupled body, the load of a flat
 // granular surface on its collision geoms' surface elements (the law of terrasph/rft3d.hpp,
 // body_wrench(); the elements of terrasph/rft3d_surface.hpp, built when MuJoCo makes an mjData).
-// The load is explicit: it is evaluated at the state MuJoCo passes, whatever its integrator; the
-// steps at which that is stable and accurate are measured in docs/mujoco_plugin.md.
+// compute() adds the load explicitly, at the state MuJoCo passes; advance() then makes the step
+// backward Euler in it, as terrasph's 3D RFT stepper does (Sand's comment). docs/mujoco_plugin.md
+// has the steps at which it is accurate, measured.
 //
 // Per instance and mjData: the elements and scratch arrays (plugin_data, freed with the mjData,
 // copied with it), and in plugin_state each coupled body's last wrench (F, τ about its centre of
@@ -64,15 +65,23 @@ std::string attribute(const mjModel* m, int instance, const char* name) {
   return value ? std::string(value) : std::string();
 }
 
-/// A finite number from attribute `name`, `fallback` if unset; ConfigError unless it is > `above`.
-double number(const mjModel* m, int instance, const char* name, double fallback, double above, const char* unit) {
+/// `value` as printf's %g writes it.
+std::string shortest(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", value);
+  return text;
+}
+
+/// A finite number from attribute `name`, `fallback` if unset; ConfigError unless it is finite and,
+/// if `positive`, > 0.
+double number(const mjModel* m, int instance, const char* name, double fallback, bool positive, const char* unit) {
   const std::string text = attribute(m, instance, name);
   if (text.empty()) return fallback;
   char* end = nullptr;
   const double value = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != '\0' || !std::isfinite(value) || !(value > above))
-    throw ConfigError(std::string("attribute '") + name + "' = '" + text + "' is invalid: allowed a finite number > " +
-                      std::to_string(above) + " (" + unit + ")");
+  if (end == text.c_str() || *end != '\0' || !std::isfinite(value) || (positive && !(value > 0.0)))
+    throw ConfigError(std::string("attribute '") + name + "' = '" + text + "' is invalid: allowed a finite number" +
+                      (positive ? " > 0" : "") + " (" + unit + ")");
   return value;
 }
 
@@ -192,7 +201,7 @@ Coefficients read_map(const mjModel* m, int instance) {
     throw ConfigError("attribute 'table' = '" + name + "' is invalid: allowed 'generic' or the path of a JSON "
                       "coefficient table (terrasph rft-calibrate)");
   }
-  table.zeta = number(m, instance, "zeta", table.zeta, 0.0, "N/m^3");
+  table.zeta = number(m, instance, "zeta", table.zeta, true, "N/m^3");
   return table;
 }
 
@@ -297,14 +306,14 @@ struct Sand {
 
   Sand(const mjModel* m, int instance)
       : table(read_map(m, instance)),
-        surface(number(m, instance, "surface", 0.0, -HUGE_VAL, "m")),
-        regularisation(number(m, instance, "regularisation", kRegularisationSpeed, 0.0, "m/s")),
+        surface(number(m, instance, "surface", 0.0, false, "m")),
+        regularisation(number(m, instance, "regularisation", kRegularisationSpeed, true, "m/s")),
         implicit(flag(m, instance, "implicit", true)) {
-    const double length = number(m, instance, "element_length", 0.0, 0.0, "m");
+    const double length = number(m, instance, "element_length", 0.0, true, "m");
     const mjtNum* g = m->opt.gravity;  // the law's depth and planes are taken along z
     if (!(g[0] == 0.0 && g[1] == 0.0 && g[2] < 0.0))
-      throw ConfigError("option gravity = (" + std::to_string(g[0]) + ", " + std::to_string(g[1]) + ", " +
-                        std::to_string(g[2]) + ") is invalid for the sand: allowed along -z (its surface is level)");
+      throw ConfigError("option gravity = (" + shortest(g[0]) + ", " + shortest(g[1]) + ", " + shortest(g[2]) +
+                        ") is invalid for the sand: allowed along -z (its surface is level)");
     for (const int b : coupled_bodies(m, instance)) bodies.push_back(body_elements(m, b, length));
   }
 

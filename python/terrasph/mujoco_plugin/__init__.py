@@ -14,10 +14,13 @@ package: cpp/plugin/rft_plugin.cpp). A model whose MJCF names it,
       </plugin>
     </extension>
 
-stands on sand in any MuJoCo program once the library is loaded: :func:`load` here, or
-``mj_loadPluginLibrary(path)`` in C/C++ (:func:`library_path` says where it is). The load is a
-passive force, evaluated explicitly at the state MuJoCo passes; the docs page gives the steps at which
-that is stable and accurate against terrasph's implicit RFT stepper.
+stands on sand in any MuJoCo program once the library is loaded: :func:`load` here (an installed
+terrasph also declares it as MuJoCo's entry point ``mujoco.plugins``, which ``import mujoco`` calls),
+or ``mj_loadPluginLibrary(path)`` in C/C++ (:func:`library_path` says where it is). The keys of
+``<config>`` are listed in docs/mujoco_plugin.md. The load is a
+passive force, which the plugin makes implicit with terrasph's backward-Euler step under MuJoCo's
+Euler, implicit and implicitfast integrators (explicit under RK4); the docs page gives the steps at
+which it is accurate against terrasph's implicit RFT stepper, measured.
 """
 
 from __future__ import annotations
@@ -27,18 +30,12 @@ import pathlib
 import mujoco
 import numpy as np
 
-__all__ = ["ATTRIBUTES", "LIBRARY_NAME", "PLUGIN_NAME", "body_wrenches", "coupled_bodies", "library_path", "load"]
+__all__ = ["LIBRARY_NAME", "PLUGIN_NAME", "body_wrenches", "coupled_bodies", "library_path", "load"]
 
 #: the registered name MJCF files give in ``<plugin plugin="...">``
 PLUGIN_NAME = "terrasph.rft"
 #: the shared library's file name, in this package directory
 LIBRARY_NAME = "libterrasph_mujoco_plugin.so"
-#: the instance's configuration keys (cpp/plugin/rft_plugin.cpp): ``table`` ("generic" or the path of
-#: a JSON coefficient table), ``coefficients`` ("A00=0.206 B01=0.358 ...", instead of a table),
-#: ``zeta`` (N/m³, replaces the map's scale), ``surface`` (the free surface's height, m; default 0),
-#: ``element_length`` (m; default a tenth of each body's largest geom's bounding radius) and
-#: ``regularisation`` (m/s; default terrasph.rft.REGULARISATION_SPEED)
-ATTRIBUTES = ("table", "coefficients", "zeta", "surface", "element_length", "regularisation")
 
 
 def library_path() -> pathlib.Path:
