@@ -4,10 +4,12 @@ built in Python by terrasph.robots.geoms, the wrench assembled in numpy) and ent
 Jᵀ W; a body resting on the sand carries its weight; its implicit correction steps as terrasph's 3D RFT
 stepper does (terrasph.robots.rft3d_terrain); runs and copies are deterministic; bad configuration
 fails in one line naming the attribute; gymnasium's ant with the plugin stands and walks; the package's
-entry point registers the plugin when mujoco is imported."""
+entry point registers the plugin when mujoco is imported; threads stepping their own data and a model
+saved to a binary file step alike."""
 
 from __future__ import annotations
 
+import concurrent.futures
 import os
 import pathlib
 import re
@@ -197,6 +199,40 @@ def test_runs_and_copies_are_deterministic(integrator):
         mujoco.mj_step(model, second)
     assert np.abs(second.qvel).max() > 0 and np.array_equal(copy.qpos, second.qpos)
     assert np.array_equal(copy.qvel, second.qvel) and np.array_equal(copy.plugin_state, second.plugin_state)
+
+
+def test_threads_step_their_own_data_alike():
+    # no state shared between mjData: two threads stepping two copies give the single thread's states
+    model = mujoco.MjModel.from_xml_string(scattered_bodies().replace("<asset>", '<option integrator="Euler"/><asset>'))
+
+    def run(_: int) -> np.ndarray:
+        data = mujoco.MjData(model)
+        random_motion(model, data, 6)
+        for _ in range(100):
+            mujoco.mj_step(model, data)
+        return np.concatenate([data.qpos, data.qvel, data.plugin_state])
+
+    alone = run(0)
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        together = list(pool.map(run, range(2)))
+    assert all(np.array_equal(alone, state) for state in together)
+
+
+def test_model_saved_and_loaded_keeps_the_sand(tmp_path):
+    # the instance's configuration is part of the model: a binary model file steps as the original
+    model = mujoco.MjModel.from_xml_string(scattered_bodies({"surface": "0.005", "zeta": "1.5e5"}))
+    path = tmp_path / "sand.mjb"
+    mujoco.mj_saveModel(model, str(path), None)
+    loaded = mujoco.MjModel.from_binary_path(str(path))
+    states = []
+    for m in (model, loaded):
+        data = mujoco.MjData(m)
+        random_motion(m, data, 7)
+        for _ in range(50):
+            mujoco.mj_step(m, data)
+        states.append(np.concatenate([data.qpos, data.plugin_state]))
+    assert np.array_equal(*states)
+    assert np.abs(states[0][model.nq:]).max() > 0  # the sand loaded the bodies
 
 
 @pytest.mark.parametrize("config,message", [
