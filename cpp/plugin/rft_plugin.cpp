@@ -27,8 +27,10 @@
 #include <Eigen/Dense>
 
 #include "backward_euler.hpp"
+#include "rft3d_assembly.hpp"
 #include "terrasph/rft.hpp"
 #include "terrasph/rft3d.hpp"
+#include "terrasph/rft3d_robot.hpp"
 #include "terrasph/rft3d_surface.hpp"
 
 namespace terrasph::rft {
@@ -226,15 +228,8 @@ std::string name_of(const mjModel* m, mjtObj kind, int id) {
   return name ? std::string(name) : "#" + std::to_string(id);
 }
 
-/// One coupled body: its id and elements in its frame.
-struct Body {
-  int id = 0;
-  std::vector<Vec3> centre, normal;
-  std::vector<double> area;
-};
-
 /// The elements of body `b` from its collision geoms, about `length` m across (0: the default).
-Body body_elements(const mjModel* m, int b, double length) {
+RobotBody3D body_elements(const mjModel* m, int b, double length) {
   std::vector<GeomSolid> solids;
   double bound = 0.0;
   for (int g = m->body_geomadr[b]; g >= 0 && g < m->body_geomadr[b] + m->body_geomnum[b]; ++g) {
@@ -262,19 +257,9 @@ Body body_elements(const mjModel* m, int b, double length) {
   }
   if (solids.empty())
     throw ConfigError("body '" + name_of(m, mjOBJ_BODY, b) + "' names the sand but has no collision geom");
-  const SurfacePatches patches = body_surface(solids, length > 0 ? length : kElementFraction * bound);
-  Body out;
-  out.id = b;
-  for (std::size_t e = 0; e < patches.size(); ++e) {
-    out.centre.push_back({patches.centre[3 * e], patches.centre[3 * e + 1], patches.centre[3 * e + 2]});
-    out.normal.push_back({patches.normal[3 * e], patches.normal[3 * e + 1], patches.normal[3 * e + 2]});
-    out.area.push_back(patches.area[e]);
-  }
-  return out;
+  SurfacePatches patches = body_surface(solids, length > 0 ? length : kElementFraction * bound);
+  return {b, std::move(patches.centre), std::move(patches.normal), std::move(patches.area)};
 }
-
-using Matrix6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
-using Vector6 = Eigen::Matrix<double, 6, 1>;
 
 /// An instance's terrain on one mjData.
 ///
@@ -289,15 +274,12 @@ struct Sand {
   Coefficients table;
   double surface = 0.0, regularisation = kRegularisationSpeed;
   bool implicit = true;
-  std::vector<Body> bodies;
-  // the submerged elements of the step's start state, body by body (scratch, reused)
-  std::vector<std::size_t> owners, first;  // index into bodies; an owner's elements [first[i], first[i + 1])
-  std::vector<Vec3> arm, normal;
-  std::vector<double> depth, area;
+  std::vector<RobotBody3D> bodies;
+  Submerged sub;  // the elements below the surface at the step's start pose
   // what compute() leaves for advance(): the time it saw, the generalised load G_n
   double start_time = std::nan("");
   Vector start_load;
-  // the correction's arrays: each owner's 6 × nv Jacobian (v_com, ω), wrench, G, ∂G/∂q̇, M
+  // each owner's 6 × nv Jacobian (v_com, ω) and wrench; G, ∂G/∂q̇ and M of the correction
   std::vector<Matrix> jacobians;
   std::vector<Vector6> wrenches;
   Vector generalised;
@@ -317,63 +299,23 @@ struct Sand {
     for (const int b : coupled_bodies(m, instance)) bodies.push_back(body_elements(m, b, length));
   }
 
-  /// The elements below the surface at the current frames: centre c = x_b + R c_b, depth z_s − c_z,
-  /// arm c − x_com, normal R n_b (R = xmat, body axes as columns).
-  void submerge(const mjData* d) {
-    owners.clear();
-    first.assign(1, 0);
-    arm.clear();
-    normal.clear();
-    depth.clear();
-    area.clear();
-    for (std::size_t k = 0; k < bodies.size(); ++k) {
-      const Body& body = bodies[k];
-      const mjtNum* rotation = d->xmat + 9 * body.id;
-      const mjtNum* origin = d->xpos + 3 * body.id;
-      const mjtNum* com = d->xipos + 3 * body.id;
-      for (std::size_t e = 0; e < body.area.size(); ++e) {
-        const Vec3& c = body.centre[e];
-        const double z = origin[2] + rotation[6] * c[0] + rotation[7] * c[1] + rotation[8] * c[2];
-        if (!(surface - z > 0.0)) continue;
-        Vec3 r{}, n{};
-        for (int i = 0; i < 3; ++i) {
-          r[i] = origin[i] + rotation[3 * i] * c[0] + rotation[3 * i + 1] * c[1] + rotation[3 * i + 2] * c[2] - com[i];
-          n[i] = rotation[3 * i] * body.normal[e][0] + rotation[3 * i + 1] * body.normal[e][1] +
-                 rotation[3 * i + 2] * body.normal[e][2];
-        }
-        arm.push_back(r);
-        normal.push_back(n);
-        depth.push_back(surface - z);
-        area.push_back(body.area[e]);
-      }
-      if (arm.size() > first.back()) {
-        owners.push_back(k);
-        first.push_back(arm.size());
-      }
-    }
-  }
-
-  SubmergedElements elements_of(std::size_t i) const {
-    return {&arm[first[i]], &normal[first[i]], &depth[first[i]], &area[first[i]], first[i + 1] - first[i]};
-  }
-
   /// Writes the owners' wrenches into `state` (6 per coupled body, 0 for the others).
   void record(mjtNum* state) const {
     std::fill(state, state + 6 * bodies.size(), 0.0);
-    for (std::size_t i = 0; i < owners.size(); ++i)
-      std::copy(wrenches[i].data(), wrenches[i].data() + 6, state + 6 * owners[i]);
+    for (std::size_t i = 0; i < sub.owners.size(); ++i)
+      std::copy(wrenches[i].data(), wrenches[i].data() + 6, state + 6 * sub.owners[i]);
   }
 
   /// The explicit load at the current state: each owner's wrench W(v_com, ω) into qfrc_passive.
   void compute(const mjModel* m, mjData* d, mjtNum* state) {
-    submerge(d);
-    wrenches.assign(owners.size(), Vector6::Zero());
+    sub.fill(bodies, d->xpos, d->xmat, d->xipos, surface);
+    wrenches.assign(sub.owners.size(), Vector6::Zero());
     start_load = Vector::Zero(m->nv);
-    for (std::size_t i = 0; i < owners.size(); ++i) {
-      const int id = bodies[owners[i]].id;
+    for (std::size_t i = 0; i < sub.owners.size(); ++i) {
+      const int id = bodies[sub.owners[i]].body_id;
       mjtNum twist[6];  // [ω, v] at the centre of mass, world frame
       mj_objectVelocity(m, d, mjOBJ_BODY, id, twist, 0);
-      const BodyWrench load = body_wrench(elements_of(i), {twist[3], twist[4], twist[5]},
+      const BodyWrench load = body_wrench(sub.elements(i), {twist[3], twist[4], twist[5]},
                                           {twist[0], twist[1], twist[2]}, table, regularisation, false);
       wrenches[i] = Eigen::Map<const Vector6>(load.wrench.data());
       // G_n = Jᵀ W at the centre of mass (mj_applyFT adds it to qfrc_passive and to start_load)
@@ -384,30 +326,19 @@ struct Sand {
     record(state);
   }
 
-  /// The owners' wrenches at joint velocities `qvel` into `wrenches`, G = Σ Jᵀ W into `generalised`
-  /// and, if asked for, ∂G/∂q̇ = Σ Jᵀ ∂W/∂ξ J into `stiffness` (rft3d_robot.cpp's evaluate()).
-  void evaluate(const Vector& qvel, bool jacobian) {
-    generalised.setZero();
-    if (jacobian) stiffness.setZero();
-    for (std::size_t i = 0; i < owners.size(); ++i) {
-      const Vector6 twist = jacobians[i] * qvel;
-      const BodyWrench load = body_wrench(elements_of(i), {twist[0], twist[1], twist[2]},
-                                          {twist[3], twist[4], twist[5]}, table, regularisation, jacobian);
-      wrenches[i] = Eigen::Map<const Vector6>(load.wrench.data());
-      generalised.noalias() += jacobians[i].transpose() * wrenches[i];
-      if (jacobian)
-        stiffness.noalias() += jacobians[i].transpose() * (Eigen::Map<const Matrix6>(load.jacobian.data()) * jacobians[i]);
-    }
-  }
-
-  /// backward_euler()'s view of the loads.
+  /// backward_euler()'s view of the loads: G and ∂G/∂q̇ at q̇ (rft3d_assembly.hpp).
   struct StepLoads {
     Sand& sand;
     Vector& generalised;
     Matrix& stiffness;
     std::vector<Vector6> best;
     static constexpr bool kCheapJacobian = false;  // the 3D law's Jacobian costs several loads
-    void evaluate(const Vector& qvel, bool jacobian) { sand.evaluate(qvel, jacobian); }
+    void evaluate(const Vector& qvel, bool jacobian) {
+      generalised.setZero();
+      if (jacobian) stiffness.setZero();
+      add_generalised_load(sand.sub, sand.jacobians, qvel, sand.table, sand.regularisation, jacobian, sand.wrenches,
+                           generalised, stiffness);
+    }
     void keep() { best = sand.wrenches; }
     void restore() { sand.wrenches = best; }
   };
@@ -417,13 +348,13 @@ struct Sand {
     const double dt = m->opt.timestep;
     // only right after the step whose start compute() saw, with an integrator that evaluated the
     // forces there once
-    if (!implicit || m->opt.integrator == mjINT_RK4 || owners.empty() || !(start_time + dt == d->time)) return;
+    if (!implicit || m->opt.integrator == mjINT_RK4 || sub.owners.empty() || !(start_time + dt == d->time)) return;
     const int nv = static_cast<int>(m->nv);
-    jacobians.resize(owners.size());
+    jacobians.resize(sub.owners.size());
     linear.resize(static_cast<std::size_t>(3 * nv));
     angular.resize(static_cast<std::size_t>(3 * nv));
-    for (std::size_t i = 0; i < owners.size(); ++i) {  // the frames are still t_n's
-      mj_jacBodyCom(m, d, linear.data(), angular.data(), bodies[owners[i]].id);
+    for (std::size_t i = 0; i < sub.owners.size(); ++i) {  // the frames are still t_n's
+      mj_jacBodyCom(m, d, linear.data(), angular.data(), bodies[sub.owners[i]].body_id);
       jacobians[i].resize(6, nv);
       jacobians[i].topRows(3) = Eigen::Map<const Matrix>(linear.data(), 3, nv);
       jacobians[i].bottomRows(3) = Eigen::Map<const Matrix>(angular.data(), 3, nv);
