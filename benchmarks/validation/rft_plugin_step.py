@@ -2,7 +2,7 @@
 gymnasium's ant on the generic sand under a fixed random action sequence, at several MuJoCo steps.
 
     OMP_NUM_THREADS=1 python benchmarks/validation/rft_plugin_step.py [--steps 1e-2 5e-3 2e-3 1e-3 5e-4]
-        [--reference-step 2.5e-4] [--seed 0] [--out benchmarks/results/rft_plugin_step.json]
+        [--reference-step 2.5e-4] [--seeds 0 1 2] [--out benchmarks/results/rft_plugin_step.json]
 
 The ant is gymnasium's ``ant.xml`` with only the plugin named in it and the floor's contacts switched
 off (``contype="0" conaffinity="0"`` on the floor geom). It drops from the file's pose onto the sand
@@ -27,7 +27,9 @@ load's relative RMS error over 0.05 s windows and its mean over the ant's weight
 (the load of each step from the change of the ant's momentum, F_z = W + ΔP_z/dt, so that every
 variant is measured alike, RK4's four evaluations included):
 the mean change of the total vertical load from one step to the next, over the weight (an explicit
-load that flips between full and none each step reads about 1; a smooth one, a few per cent). Writes the table as JSON with the machine,
+load that flips between full and none each step reads about 1; a smooth one, a few per cent). The
+random walk is repeated for each seed (default three) and summarised by the median and range of each
+error: an explicit variant's walk parts from the reference's by a different amount for each seed. Writes the table as JSON with the machine,
 the date and the commit.
 """
 
@@ -188,36 +190,24 @@ def provenance() -> dict[str, str]:
 PHASES = {"stand": (2.0, 2.5, False), "walk": (2.5, 3.5, True)}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", nargs="+", type=float, default=[1e-2, 5e-3, 2e-3, 1e-3, 5e-4])
-    parser.add_argument("--reference-step", type=float, default=2.5e-4)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("benchmarks/results/rft_plugin_step.json"))
-    args = parser.parse_args()
-    mujoco_plugin.load()
-    model = mujoco.MjModel.from_xml_string(ant_on_sand())
-    bodies = mujoco_plugin.coupled_bodies(model)
-    weight = float(model.body_subtreemass[1] * -model.opt.gravity[2])
+def fmt(value: float | None, scale: float = 1.0, digits: str = ".3g") -> str:
+    """A table cell: `value` × `scale`, or a dash for a run that blew up."""
+    return "—" if value is None else format(scale * value, digits)
+
+
+def measure(seed: int, steps: list[float], reference_step: float, bodies: list[int], weight: float,
+            nu: int) -> list[dict]:
+    """Every variant at every step against the converged reference, for the random actions of `seed`:
+    one row per phase, variant and step (printed as it comes)."""
     t_end = max(end for _, end, _ in PHASES.values())
     windows = round(t_end / CONTROL_INTERVAL)
-    actions = np.zeros((windows, model.nu))
-    rng = np.random.default_rng(args.seed)
+    actions = np.zeros((windows, nu))
+    rng = np.random.default_rng(seed)
     for begin, end, random in PHASES.values():
         if random:
             span = slice(round(begin / CONTROL_INTERVAL), round(end / CONTROL_INTERVAL))
-            actions[span] = rng.uniform(-1.0, 1.0, (span.stop - span.start, model.nu))
-    print("| phase | variant | dt (ms) | stable | path RMS (mm) | path end (mm) | load RMS error | mean load / weight | "
-          "load chatter / weight | CPU (s) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-
-    def show(row: dict) -> None:
-        def fmt(value: float | None, scale: float = 1.0, digits: str = ".3g") -> str:
-            return "—" if value is None else format(scale * value, digits)
-        print(f"| {row['phase']} | {row['variant']} | {1e3 * row['dt']:g} | {'yes' if row['stable'] else 'no'} | "
-              f"{fmt(row['path_rms_m'], 1e3)} | {fmt(row['path_end_m'], 1e3)} | {fmt(row['load_rms_rel'])} | "
-              f"{fmt(row['load_mean_over_weight'])} | {fmt(row['load_chatter_over_weight'])} | {row['cpu_s']:.2f} |",
-              flush=True)
+            actions[span] = rng.uniform(-1.0, 1.0, (span.stop - span.start, nu))
+    rows: list[dict] = []
 
     def record(variant: str, dt: float, trace: Trace) -> list[dict]:
         out = []
@@ -226,17 +216,20 @@ def main() -> None:
             part = Trace(trace.path[span], trace.load[span], trace.chatter[span],
                          trace.stable and len(trace.path) >= span.stop, trace.cpu)
             whole = Trace(converged.path[span], converged.load[span], converged.chatter[span], True, 0.0)
-            out.append({"phase": phase, "variant": variant, "dt": dt, **compare(part, whole, weight)})
-            show(out[-1])
+            row = {"seed": seed, "phase": phase, "variant": variant, "dt": dt, **compare(part, whole, weight)}
+            print(f"| {seed} | {phase} | {variant} | {1e3 * dt:g} | {'yes' if row['stable'] else 'no'} | "
+                  f"{fmt(row['path_rms_m'], 1e3)} | {fmt(row['path_end_m'], 1e3)} | {fmt(row['load_rms_rel'])} | "
+                  f"{fmt(row['load_mean_over_weight'])} | {fmt(row['load_chatter_over_weight'])} | "
+                  f"{row['cpu_s']:.2f} |", flush=True)
+            out.append(row)
         rows.extend(out)
         return out
 
-    rows: list[dict] = []
-    converged = run_reference(args.reference_step, t_end, actions, bodies, None)
+    converged = run_reference(reference_step, t_end, actions, bodies, None)
     assert converged.stable, "the converged reference blew up"
-    record("reference-rk4", args.reference_step, converged)
-    record("reference-euler", args.reference_step, run_reference(args.reference_step, t_end, actions, bodies))
-    for dt in args.steps:
+    record("reference-rk4", reference_step, converged)
+    record("reference-euler", reference_step, run_reference(reference_step, t_end, actions, bodies))
+    for dt in steps:
         runs = {"rk4-explicit": lambda dt=dt: run_plugin(dt, t_end, actions, None, False),
                 "euler-explicit": lambda dt=dt: run_plugin(dt, t_end, actions, "Euler", False),
                 "euler-implicit": lambda dt=dt: run_plugin(dt, t_end, actions, "Euler", True),
@@ -251,15 +244,64 @@ def main() -> None:
             load = float(np.abs(plugin.load - same_step.load).max() / weight)
             for row in recorded["euler-implicit"]:
                 row.update({"path_against_stepper_same_dt_m": path, "load_against_stepper_same_dt_rel": load})
-            print(f"| all | euler-implicit − reference | {1e3 * dt:g} | | {path:.1e} m (max) | | "
+            print(f"| {seed} | all | euler-implicit − reference | {1e3 * dt:g} | | {path:.1e} m (max) | | "
                   f"{load:.1e} × weight (max) | | | |")
+    return rows
+
+
+def summarise(rows: list[dict]) -> list[dict]:
+    """Per phase, variant and step: the median and range over the seeds of each error (a random walk
+    of the explicit variants parts from the reference differently for each seed: its path moves by
+    decimetres under a change of the last bits of its load)."""
+    keys = ("path_end_m", "load_rms_rel", "path_against_stepper_same_dt_m", "load_against_stepper_same_dt_rel")
+    groups: dict[tuple, list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row["phase"], row["variant"], row["dt"]), []).append(row)
+    out = []
+    for (phase, variant, dt), group in groups.items():
+        entry: dict = {"phase": phase, "variant": variant, "dt": dt, "seeds": len(group),
+                       "stable": all(r["stable"] for r in group)}
+        for key in keys:
+            values = [r[key] for r in group if r.get(key) is not None]
+            if values:
+                entry[key] = {"median": float(np.median(values)), "min": float(min(values)), "max": float(max(values))}
+        out.append(entry)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", nargs="+", type=float, default=[1e-2, 5e-3, 2e-3, 1e-3, 5e-4])
+    parser.add_argument("--reference-step", type=float, default=2.5e-4)
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("benchmarks/results/rft_plugin_step.json"))
+    args = parser.parse_args()
+    mujoco_plugin.load()
+    model = mujoco.MjModel.from_xml_string(ant_on_sand())
+    bodies = mujoco_plugin.coupled_bodies(model)
+    weight = float(model.body_subtreemass[1] * -model.opt.gravity[2])
+    print("| seed | phase | variant | dt (ms) | stable | path RMS (mm) | path end (mm) | load RMS error | "
+          "mean load / weight | load chatter / weight | CPU (s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    rows = [row for seed in args.seeds for row in measure(seed, args.steps, args.reference_step, bodies, weight, model.nu)]
+    summary = summarise(rows)
+    print("\n| phase | variant | dt (ms) | stable | path end error (mm): median [min, max] | load RMS error: median "
+          "[min, max] |")
+    print("|---|---|---|---|---|---|")
+    for entry in summary:
+        cells = []
+        for key, scale in (("path_end_m", 1e3), ("load_rms_rel", 1.0)):
+            v = entry.get(key)
+            cells.append("—" if v is None else f"{fmt(v['median'], scale)} [{fmt(v['min'], scale)}, {fmt(v['max'], scale)}]")
+        print(f"| {entry['phase']} | {entry['variant']} | {1e3 * entry['dt']:g} | {'yes' if entry['stable'] else 'no'} | "
+              f"{cells[0]} | {cells[1]} |")
     result = {**provenance(), "command": "python benchmarks/validation/rft_plugin_step.py " + " ".join(
         [f"--steps {' '.join(f'{s:g}' for s in args.steps)}", f"--reference-step {args.reference_step:g}",
-         f"--seed {args.seed}"]),
+         f"--seeds {' '.join(str(s) for s in args.seeds)}"]),
         "model": "gymnasium ant.xml, floor contacts off, plugin terrasph.rft (generic map, surface 0)",
         "weight_n": weight, "control_interval_s": CONTROL_INTERVAL,
         "phases": {name: {"start_s": b, "end_s": e, "random_actions": r} for name, (b, e, r) in PHASES.items()},
-        "rows": rows}
+        "summary": summary, "rows": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=1) + "\n")
     print(f"wrote {args.out}")
