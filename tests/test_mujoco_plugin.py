@@ -250,6 +250,14 @@ def test_bad_configuration_fails_naming_the_attribute(config, message):
         mujoco.MjModel.from_xml_string(scattered_bodies(config))
 
 
+def test_rk4_says_the_load_stays_explicit(tmp_path, monkeypatch):
+    # MuJoCo's own warning channel (its log file in the working directory)
+    monkeypatch.chdir(tmp_path)
+    xml = scattered_bodies().replace("<asset>", '<option integrator="RK4"/><asset>', 1)
+    mujoco.MjData(mujoco.MjModel.from_xml_string(xml))
+    assert "terrasph.rft: with the RK4 integrator the sand's load is explicit" in (tmp_path / "MUJOCO_LOG.TXT").read_text()
+
+
 def test_gravity_off_the_vertical_is_refused():
     xml = scattered_bodies().replace("<asset>", '<option gravity="0 -9.81 0"/><asset>', 1)
     with pytest.raises(ValueError, match=re.escape("terrasph.rft: option gravity = (0, -9.81, 0) is invalid for the "
