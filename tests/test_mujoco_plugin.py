@@ -184,7 +184,8 @@ def test_implicit_correction_steps_as_the_rft3d_stepper():
 
 
 @pytest.mark.parametrize("integrator", ["Euler", "implicitfast", "RK4"])
-def test_runs_and_copies_are_deterministic(integrator):
+def test_runs_and_copies_are_deterministic(integrator, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # RK4's warning goes to MuJoCo's log file in the working directory
     xml = scattered_bodies().replace("<asset>", f'<option timestep="1e-3" integrator="{integrator}"/><asset>', 1)
     model = mujoco.MjModel.from_xml_string(xml)
     first, second = mujoco.MjData(model), mujoco.MjData(model)
@@ -287,7 +288,8 @@ def test_bodies_naming_the_instance_are_the_coupled_ones():
     assert list(mujoco_plugin.body_wrenches(model, data)) == ["box"]
 
 
-def test_gymnasium_ant_stands_and_walks_on_the_plugin_sand():
+def test_gymnasium_ant_stands_and_walks_on_the_plugin_sand(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # RK4's warning goes to MuJoCo's log file in the working directory
     # ant.xml as gymnasium ships it (RK4 at 0.01 s), the plugin named in it and the floor's contacts off
     text = ANT.read_text()
     floor = '<geom conaffinity="1" condim="3" material="MatPlane" name="floor"'
