@@ -10,35 +10,10 @@
 
 #include "backward_euler.hpp"
 #include "mujoco_api.hpp"
+#include "rft3d_assembly.hpp"
 #include "terrasph/rft3d.hpp"
 
 namespace terrasph::rft {
-
-namespace {
-
-using Matrix3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-using Matrix6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
-using Vector6 = Eigen::Matrix<double, 6, 1>;
-
-/// The elements below the free surface at the step's start pose, body by body (world frame).
-struct Submerged {
-  std::vector<std::size_t> owners;  // index into the coupled bodies
-  std::vector<std::size_t> first;   // the owner's elements are [first[i], first[i + 1])
-  std::vector<Vec3> arm;  // from the owner's centre of mass
-  std::vector<Vec3> normal;
-  std::vector<double> depth, area;
-
-  void clear() {
-    owners.clear();
-    first.assign(1, 0);
-    arm.clear();
-    normal.clear();
-    depth.clear();
-    area.clear();
-  }
-};
-
-}  // namespace
 
 struct Robot3DStepper::Impl {
   MujocoApi api;
@@ -67,32 +42,9 @@ struct Robot3DStepper::Impl {
         stiffness(m->nv, m->nv), mass(m->nv, m->nv), linear(static_cast<std::size_t>(3 * m->nv)),
         angular(static_cast<std::size_t>(3 * m->nv)) {}
 
-  /// The elements below the surface at the current pose: centre c = x_b + R c_b, depth z_s − c_z, arm
-  /// c − x_com, normal R n_b (R = xmat, body axes as columns).
+  /// The elements below the surface at the current pose (Submerged::fill).
   void submerge() {
-    sub.clear();
-    for (std::size_t k = 0; k < bodies.size(); ++k) {
-      const RobotBody3D& body = bodies[k];
-      const int id = body.body_id;
-      const Eigen::Map<const Matrix3> rotation(d->xmat + 9 * id);
-      const Eigen::Map<const Eigen::Vector3d> origin(d->xpos + 3 * id), com(d->xipos + 3 * id);
-      const std::size_t before = sub.arm.size();
-      for (std::size_t e = 0; e < body.area.size(); ++e) {
-        const Eigen::Vector3d centre = origin + rotation * Eigen::Map<const Eigen::Vector3d>(&body.centre[3 * e]);
-        const double depth = surface - centre[2];
-        if (!(depth > 0.0)) continue;
-        const Eigen::Vector3d normal = rotation * Eigen::Map<const Eigen::Vector3d>(&body.normal[3 * e]);
-        const Eigen::Vector3d arm = centre - com;
-        sub.arm.push_back({arm[0], arm[1], arm[2]});
-        sub.normal.push_back({normal[0], normal[1], normal[2]});
-        sub.depth.push_back(depth);
-        sub.area.push_back(body.area[e]);
-      }
-      if (sub.arm.size() > before) {
-        sub.owners.push_back(k);
-        sub.first.push_back(sub.arm.size());
-      }
-    }
+    sub.fill(bodies, d->xpos, d->xmat, d->xipos, surface);
     jacobians.resize(sub.owners.size(), Matrix::Zero(6, nv));
     wrenches.resize(sub.owners.size());
   }
@@ -112,18 +64,7 @@ struct Robot3DStepper::Impl {
   void evaluate(const Vector& qvel, bool jacobian) {
     generalised.setZero();
     if (jacobian) stiffness.setZero();
-    for (std::size_t i = 0; i < sub.owners.size(); ++i) {
-      const Vector6 twist = jacobians[i] * qvel;
-      const SubmergedElements elements{&sub.arm[sub.first[i]], &sub.normal[sub.first[i]], &sub.depth[sub.first[i]],
-                                       &sub.area[sub.first[i]], sub.first[i + 1] - sub.first[i]};
-      const BodyWrench load = body_wrench(elements, {twist[0], twist[1], twist[2]}, {twist[3], twist[4], twist[5]},
-                                          table, regularisation, jacobian);
-      Vector6& wrench = wrenches[i];
-      wrench = Eigen::Map<const Vector6>(load.wrench.data());
-      const Eigen::Map<const Matrix6> slope(load.jacobian.data());
-      generalised.noalias() += jacobians[i].transpose() * wrench;
-      if (jacobian) stiffness.noalias() += jacobians[i].transpose() * (slope * jacobians[i]);
-    }
+    add_generalised_load(sub, jacobians, qvel, table, regularisation, jacobian, wrenches, generalised, stiffness);
     for (std::size_t k = 0; k < servos.size(); ++k) {
       const auto [force, slope] = servo_force(servos[k], commands[k], qvel[servos[k].dof]);
       generalised[servos[k].dof] += servos[k].gear * force;
