@@ -28,13 +28,13 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
-from terrasph.robots.mjcf import Coupling, PlanarRobot, load_model, coupled_body_id
+from terrasph.robots.mjcf import Coupling, PlanarRobot, coupled_body_id, load_model
 
 if TYPE_CHECKING:  # the 3D RFT terrain builds on this module
     from terrasph.robots.rft3d_terrain import Robot3D
 
-__all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "BedCrossings", "floor_geoms", "lowest_points", "switch_off_floor",
-           "terrain_model", "terrain_robot"]
+__all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "BedCrossings", "check_couple_below", "coupled_body_ids", "floor_geoms",
+           "lowest_points", "switch_off_floor", "terrain_model", "terrain_robot"]
 
 LOG = logging.getLogger(__name__)
 
@@ -98,25 +98,43 @@ def lowest_points(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, float
 def terrain_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence[str] = (),
                   couple_below: float = COUPLE_BELOW) -> tuple[mujoco.MjModel, mujoco.MjData, float, list[int]]:
     """The MJCF model with its floor switched off (module docstring), its data at the start pose,
-    the floor's height (m) and the ids of the bodies that meet the terrain: `bodies` (by name) or,
-    if none are named, those with a collision geom lower than `couple_below` (m) above the floor.
-    Both terrains start here: the SPH's :func:`terrain_robot` and the 3D RFT's
-    (:func:`terrasph.robots.rft3d_terrain.rft_robot`)."""
-    if not (isinstance(couple_below, (int, float)) and math.isfinite(couple_below) and couple_below > 0):
-        raise ConfigError(f"parameter 'couple_below' = {couple_below!r} is invalid: allowed a finite number > 0 (m)")
+    the floor's height (m) and the ids of the bodies that meet the terrain
+    (:func:`coupled_body_ids`). Both terrains of the scenes start here: the SPH's
+    :func:`terrain_robot` and the 3D RFT's (:func:`terrasph.robots.rft3d_terrain.rft_robot`)."""
+    check_couple_below(couple_below)
     model = load_model(mjcf)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     floor, level = floor_geoms(model, data)
+    chosen = coupled_body_ids(model, data, level, bodies, couple_below)
     switch_off_floor(model, floor)
-    if bodies:
-        chosen = [coupled_body_id(model, name) for name in bodies]
-    else:
-        chosen = sorted(b for b, z in lowest_points(model, data).items() if z - level < couple_below)
-        if not chosen:
-            raise ConfigError(f"no body of the model has a collision geom lower than couple_below = {couple_below:g} m "
-                              "above the floor; raise it or name the bodies that meet the terrain")
     return model, data, level, chosen
+
+
+def check_couple_below(couple_below: float) -> None:
+    """ConfigError naming `couple_below` unless it is a finite height > 0 (m)."""
+    if not (isinstance(couple_below, (int, float)) and math.isfinite(couple_below) and couple_below > 0):
+        raise ConfigError(f"parameter 'couple_below' = {couple_below!r} is invalid: allowed a finite number > 0 (m)")
+
+
+def coupled_body_ids(model: mujoco.MjModel, data: mujoco.MjData, level: float, bodies: Sequence[str],
+                     couple_below: float | None) -> list[int]:
+    """The ids of the bodies that meet the terrain: `bodies` (by name) or, if none are named, those
+    with a collision geom lower than `couple_below` (m) above the floor at `level` (m) at `data`'s
+    pose, or every body with a collision geom if `couple_below` is None; ConfigError if none is."""
+    if bodies:
+        return [coupled_body_id(model, name) for name in bodies]
+    lowest = lowest_points(model, data)
+    if couple_below is None:
+        chosen = sorted(lowest)
+        if not chosen:
+            raise ConfigError("no body of the model has a collision geom to meet the terrain with")
+        return chosen
+    chosen = sorted(b for b, z in lowest.items() if z - level < couple_below)
+    if not chosen:
+        raise ConfigError(f"no body of the model has a collision geom lower than couple_below = {couple_below:g} m "
+                          "above the floor; raise it or name the bodies that meet the terrain")
+    return chosen
 
 
 def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float, surface: float, x: float, *,
