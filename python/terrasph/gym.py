@@ -14,7 +14,8 @@ and data, with the same ``dt`` (the model's ``opt.timestep`` is left as it is); 
 :meth:`OnSand.reset` resets the environment, then the terrain's memory (the RFT sand is flat and
 keeps no state: each episode starts on an undisturbed bed). ``info["sand"]`` holds each coupled
 body's load over the step (force and torque, 6 numbers as in ``xfrc_applied``: N, N·m about its
-centre of mass, world axes) and ``info["sinkage"]`` its depth below the surface (m).
+centre of mass, world axes); ``env.terrain.sinkage()`` gives each one's depth below the surface
+(m) on request, ``info["sinkage"]`` after a reset.
 
 gymnasium is an optional dependency: ``pip install "terrasph[gym]"``.
 """
@@ -73,7 +74,6 @@ class OnSand(gymnasium.Wrapper, gymnasium.utils.RecordConstructorArgs):
 
     def step(self, action: Any) -> tuple[Any, Any, bool, bool, dict[str, Any]]:
         """The environment's step on the sand; ``info`` as the environment's with the sand's loads
-        and sinkages (module docstring)."""
+        (module docstring)."""
         observation, reward, terminated, truncated, info = self.env.step(action)
-        return observation, reward, terminated, truncated, {**info, "sand": self.terrain.loads(),
-                                                            "sinkage": self.terrain.sinkage()}
+        return observation, reward, terminated, truncated, {**info, "sand": self.terrain.loads()}

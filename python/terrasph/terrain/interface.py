@@ -17,7 +17,12 @@ entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrai
 (``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
 :data:`~terrasph.robots.rft3d_terrain.RFT3D_TIME_STEP` 3D): the model's step is cut into equal
 substeps no longer than that, all taken in one call of the compiled stepper, and ``opt.timestep``
-is the model's own again when :meth:`Terrain.step` returns. The terrain owns the coupled bodies'
+is the model's own again when :meth:`Terrain.step` returns. The substeps use MuJoCo's
+semi-implicit Euler integrator (the scheme the implicit RFT correction is derived for), whatever
+the model's ``opt.integrator`` (put back after the call): on gymnasium's Ant (RK4 in its file),
+with the 3D terrain's step, Euler substeps walked a gentle open-loop gait closer to the travel at
+half the step than RK4 substeps did, and faster (benchmarks/results/sand_substeps.json,
+docs/terrain.md). The terrain owns the coupled bodies'
 ``xfrc_applied`` (the 3D stepper every body's): a perturbation there is not applied.
 
 The floor: the model's horizontal planes (and the world's collision geoms whose top is at their
@@ -55,7 +60,7 @@ from terrasph.robots.terrain_robot import (
     switch_off_floor,
 )
 
-__all__ = ["PLANAR_SPACING", "TERRAINS", "Terrain", "attach"]
+__all__ = ["INTEGRATORS", "PLANAR_SPACING", "TERRAINS", "Terrain", "attach"]
 
 #: the terrains :func:`attach` offers
 TERRAINS = ("rft3d", "rft")
@@ -65,8 +70,11 @@ TERRAINS = ("rft3d", "rft")
 PLANAR_SPACING = 0.005
 
 #: the options of each terrain beyond `table` and `bodies` (:func:`attach`)
-_OPTIONS = {"rft3d": ("couple_below", "time_step", "element_length"),
-            "rft": ("couple_below", "time_step", "element_length", "spacing")}
+_OPTIONS = {"rft3d": ("couple_below", "time_step", "element_length", "integrator"),
+            "rft": ("couple_below", "time_step", "element_length", "spacing", "integrator")}
+
+#: the integrators of the terrain's substeps (:func:`attach`'s option ``integrator``)
+INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "model": None}
 
 #: the part of MuJoCo's state that :meth:`Terrain.state` keeps: everything the next step reads
 _MUJOCO_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -76,13 +84,15 @@ class Terrain:
     """A MuJoCo model and its data on a terrain (module docstring). Built by :func:`attach`."""
 
     def __init__(self, kind: str, model: mujoco.MjModel, data: mujoco.MjData, stepper: NativeRFTStepper,
-                 surface: float, substeps: int, model_step: float) -> None:
+                 surface: float, substeps: int, model_step: float, integrator: int | None) -> None:
         self.kind, self.model, self.data = kind, model, data
+        self._integrator = integrator
         self._stepper = stepper
         self._surface = float(surface)
         self._substeps = substeps
         self._model_step = model_step
         self._names = tuple(b.name for b in stepper.robot.coupled)
+        self._loads = self._mean_loads()  # NaN: no step yet
 
     @property
     def bodies(self) -> tuple[str, ...]:
@@ -109,11 +119,16 @@ class Terrain:
         if isinstance(nstep, bool) or not isinstance(nstep, (int, np.integer)) or nstep < 1:
             raise ConfigError(f"parameter 'nstep' = {nstep!r} is invalid: allowed an integer >= 1")
         self._stepper.reset_body_means()
+        own_integrator = self.model.opt.integrator
+        if self._integrator is not None:
+            self.model.opt.integrator = self._integrator
         try:
             self._stepper.steps(int(nstep) * self._substeps)
-        finally:  # the model's own step, as the caller's env and viewer read it
+        finally:  # the model's own step and integrator, as the caller's env and viewer read them
             self.model.opt.timestep = self._model_step
-        for body, load in zip(self._stepper.robot.coupled, self.loads().values()):
+            self.model.opt.integrator = own_integrator
+        self._loads = self._mean_loads()
+        for body, load in zip(self._stepper.robot.coupled, self._loads.values()):
             self.data.xfrc_applied[body.body_id] = load
 
     def loads(self) -> dict[str, np.ndarray]:
@@ -122,6 +137,10 @@ class Terrain:
         N·m) about the body's centre of mass, world axes; NaN before the first step. On the planar
         terrain the torque is about y, moved from the body's frame origin to its centre of mass with
         the offset at the call's end."""
+        return {name: load.copy() for name, load in self._loads.items()}
+
+    def _mean_loads(self) -> dict[str, np.ndarray]:
+        """The loads of :meth:`loads` from the stepper's sums."""
         means = self._stepper.load_means()
         if self.kind == "rft3d":
             return {name: row.copy() for name, row in zip(self._names, means)}
@@ -144,12 +163,13 @@ class Terrain:
         mujoco_state = np.empty(mujoco.mj_stateSize(self.model, _MUJOCO_STATE))
         mujoco.mj_getState(self.model, self.data, mujoco_state, _MUJOCO_STATE)
         return {"mujoco": mujoco_state, "stepper": copy.deepcopy(self._stepper.state()),
-                "step_count": self._stepper.step_count}
+                "step_count": self._stepper.step_count, "loads": self.loads()}
 
     def restore(self, state: dict[str, Any]) -> None:
         """Puts back a :meth:`state` of this terrain."""
         try:
             mujoco_state, memory, count = state["mujoco"], state["stepper"], int(state["step_count"])
+            dict(state["loads"])
         except (KeyError, TypeError, ValueError):
             raise ConfigError("parameter 'state' is invalid: allowed a dict from Terrain.state()") from None
         if np.shape(mujoco_state) != (mujoco.mj_stateSize(self.model, _MUJOCO_STATE),):
@@ -158,12 +178,14 @@ class Terrain:
         mujoco.mj_setState(self.model, self.data, np.asarray(mujoco_state, dtype=float), _MUJOCO_STATE)
         self._stepper.restore_state(copy.deepcopy(memory))
         self._stepper.step_count = count
+        self._loads = {name: np.array(load, dtype=float) for name, load in state["loads"].items()}
 
     def reset(self) -> None:
         """Starts the terrain's memory afresh from the state now in ``data``, after the caller reset
         it (``mujoco.mj_resetData``, an environment's ``reset``): a fresh, flat bed."""
         mujoco.mj_forward(self.model, self.data)
         self._stepper.restart()
+        self._loads = self._mean_loads()
 
 
 def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", table: rft.RFTCoefficients | str = "generic",
@@ -174,7 +196,9 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
     meet the sand (default: every body with a collision geom). Options (each terrain's list:
     ``couple_below`` (m): couple only the bodies lower than this above the floor now; ``time_step``
     (s): the terrain's longest step; ``element_length`` (m): the RFT elements' size; ``spacing``
-    (m, planar): the bodies' particle spacing, :data:`PLANAR_SPACING`.
+    (m, planar): the bodies' particle spacing, :data:`PLANAR_SPACING`; ``integrator``: MuJoCo's
+    integrator in the terrain's substeps, ``"euler"`` (default: the implicit correction's own
+    scheme; the measured choice, module docstring) or ``"model"`` (the model's ``opt.integrator``).
 
     Refused before anything is changed, as :class:`terrasph.config.ConfigError` naming the item: a
     terrain, table or option not offered; gravity not along −z; a model the planar terrain cannot
@@ -191,6 +215,9 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
     table = rft.coefficient_table(table)
     gravity = _downward_gravity(model)
     model_step = float(model.opt.timestep)
+    integrator = options.get("integrator", "euler")
+    if integrator not in INTEGRATORS:
+        raise ConfigError(f"parameter 'integrator' = {integrator!r} is invalid: allowed one of {', '.join(INTEGRATORS)}")
     longest = options.get("time_step", RFT3D_TIME_STEP if terrain == "rft3d" else RFT_TIME_STEP)
     if isinstance(longest, bool) or not (isinstance(longest, (int, float)) and math.isfinite(longest) and longest > 0):
         raise ConfigError(f"parameter 'time_step' = {longest!r} is invalid: allowed a finite number > 0 (s)")
@@ -219,7 +246,7 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
         switch_off_floor(model, floor)
     model.opt.timestep = model_step
     mujoco.mj_forward(model, data)
-    return Terrain(terrain, model, data, stepper, level, substeps, model_step)
+    return Terrain(terrain, model, data, stepper, level, substeps, model_step, INTEGRATORS[integrator])
 
 
 def _body_name(model: mujoco.MjModel, body: int) -> str:
