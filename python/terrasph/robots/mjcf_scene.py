@@ -17,6 +17,7 @@ import json
 import math
 import os
 import pathlib
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -34,13 +35,14 @@ from terrasph.io import write_results
 from terrasph.options import option, shared
 from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
+from terrasph.robots.geoms import is_collision_geom
 from terrasph.robots.leg_wheel import BED_NUMERICS
 from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import check_planar, load_model
+from terrasph.robots.mjcf import PlanarRobot, check_planar, load_model
 from terrasph.robots.plots import plot_robot_3d
-from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, RobotLoads3D, rft_robot, wheel_radii
+from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, RobotLoads3D, rft_robot, wheel_radii
 from terrasph.robots.run import RobotRun, run_coupled
-from terrasph.robots.terrain_robot import COUPLE_BELOW, BedCrossings, terrain_robot
+from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot, world_support
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
@@ -330,3 +332,33 @@ def plot_mjcf(series: dict[str, dict[str, np.ndarray]], bodies: list[str], path:
     if path is not None:
         figure.savefig(path, dpi=120)
     return figure
+
+
+class BedCrossings:
+    """Watches the bodies that are not coupled: with the floor off nothing holds them up, so one that
+    reaches below the bed's surface passes through the grains unseen. The first time a body's
+    collision geom does, :meth:`check` warns once naming it and records the time under
+    ``memory["through_the_bed"]`` (plain data: a run's checkpointed memory, read at each check, so a
+    resumed run's restored memory counts)."""
+
+    def __init__(self, robot: PlanarRobot | Robot3D, surface: float, memory: dict[str, dict[str, float]]) -> None:
+        model = robot.model
+        coupled = {b.body_id for b in robot.coupled}
+        self.robot, self.surface, self.memory = robot, surface, memory
+        memory.setdefault("through_the_bed", {})
+        self.geoms = np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] > 0
+                               and model.geom_bodyid[g] not in coupled and is_collision_geom(model, g)], dtype=int)
+
+    def check(self, time: float) -> None:
+        """Looks at the pose in the robot's data (cheaply: a geom whose bounding sphere clears the
+        surface is not looked at further)."""
+        model, data = self.robot.model, self.robot.data
+        near = self.geoms[data.geom_xpos[self.geoms, 2] - model.geom_rbound[self.geoms] < self.surface]
+        for g in near:
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g])) or f"#{g}"
+            seen = self.memory["through_the_bed"]
+            if name not in seen and world_support(model, data, int(g), (0.0, 0.0, -1.0))[2] < self.surface:
+                seen[name] = time
+                warnings.warn(f"body '{name}' is not coupled and reached below the bed's surface at t = {time:.4g} s: "
+                              "it passes through the grains (couple it: bodies or couple_below)", RuntimeWarning,
+                              stacklevel=2)
