@@ -48,6 +48,19 @@ def test_a_reset_starts_on_an_undisturbed_bed() -> None:
     assert len(again) == len(fresh) and all(np.array_equal(a, b) for a, b in zip(again, fresh))
 
 
+@pytest.mark.slow
+def test_a_reset_puts_back_the_undisturbed_sph_bed() -> None:
+    """On the SPH bed, whose grains remember the last episode's footprints, a reset puts back the bed
+    built at the start: the same trajectory as a fresh environment's."""
+    actions = np.random.default_rng(3).uniform(-1.0, 1.0, (15, 6))
+    used = OnSand(gymnasium.make("Walker2d-v5"), terrain="sph")
+    _rollout(used, 11, actions)
+    again = _rollout(used, 5, actions)
+    fresh = _rollout(OnSand(gymnasium.make("Walker2d-v5"), terrain="sph"), 5, actions)
+    assert len(again) == len(fresh) and all(np.array_equal(a, b) for a, b in zip(again, fresh))
+    assert used.terrain.leaked_grains == 0
+
+
 def test_two_environments_in_one_vector_environment_step_as_each_alone() -> None:
     rng = np.random.default_rng(4)
     actions = rng.uniform(-1.0, 1.0, (25, 2, 6))

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 from terrasph.config import ConfigError
-from terrasph.terrain import attach
+from terrasph.terrain import SPH_BED, attach
 
 gymnasium_assets = pytest.importorskip("gymnasium.envs.mujoco").__file__
 ASSETS = pathlib.Path(gymnasium_assets).parent / "assets"
@@ -49,12 +49,12 @@ def test_a_robot_at_rest_on_the_sand_is_carried_by_its_loads(name: str, terrain:
     assert model.opt.timestep == _model(name)[0].opt.timestep  # the model's own step, as its users read it
 
 
-@pytest.mark.parametrize(("name", "terrain"), [("ant.xml", "rft3d"), ("walker2d.xml", "rft")])
+@pytest.mark.parametrize(("name", "terrain"), [("ant.xml", "rft3d"), ("walker2d.xml", "rft"), ("walker2d.xml", "sph")])
 def test_a_saved_state_continues_bit_for_bit(name: str, terrain: str) -> None:
     model, data = _model(name)
     sand = attach(model, data, terrain)
     rng = np.random.default_rng(7)
-    actions = rng.uniform(-1.0, 1.0, (40, model.nu))
+    actions = rng.uniform(-1.0, 1.0, (12 if terrain == "sph" else 40, model.nu))  # the SPH's steps cost more
 
     def run(segment: np.ndarray) -> list[np.ndarray]:
         trace = []
@@ -64,20 +64,37 @@ def test_a_saved_state_continues_bit_for_bit(name: str, terrain: str) -> None:
             trace.append(np.concatenate([data.qpos, data.qvel, *sand.loads().values()]))
         return trace
 
-    run(actions[:20])
+    half = len(actions) // 2
+    run(actions[:half])
     saved = sand.state()
-    first = run(actions[20:])
+    first = run(actions[half:])
     sand.restore(saved)
-    again = run(actions[20:])
+    again = run(actions[half:])
     assert all(np.array_equal(a, b) for a, b in zip(first, again))
     assert not np.array_equal(first[0], first[-1])  # the robot moved in between
 
 
-def test_a_non_planar_model_on_the_planar_terrain_is_refused_naming_its_joint_before_any_change() -> None:
+def test_walker2d_stands_on_the_sph_bed_with_its_loads_per_body_and_no_grain_lost() -> None:
+    """gymnasium's walker2d.xml dropped on a coarse (1 cm) SPH bed of glass beads: after 0.2 s its
+    feet carry it (their vertical loads are upward and the other bodies, above the bed, feel none),
+    the MuJoCo clock is the bed's, and no grain has left the domain."""
+    model, data = _model("walker2d.xml")
+    sand = attach(model, data, "sph")
+    assert sand.surface == pytest.approx(SPH_BED["bed_depth"], abs=SPH_BED["spacing"])
+    sand.step(100)
+    loads = sand.loads()
+    assert list(loads) == list(sand.bodies) and all(np.isfinite(load).all() for load in loads.values())
+    assert loads["foot"][2] > 0 and loads["foot_left"][2] > 0 and loads["torso"][2] == 0.0
+    assert data.time == pytest.approx(100 * model.opt.timestep, abs=sand.time_step)
+    assert sand.leaked_grains == 0
+
+
+@pytest.mark.parametrize("terrain", ["rft", "sph"])
+def test_a_non_planar_model_on_a_planar_terrain_is_refused_naming_its_joint_before_any_change(terrain: str) -> None:
     model, data = _model("ant.xml")
     contacts = model.geom_contype.copy()
-    with pytest.raises(ConfigError, match=r"joint 'root' is a free joint.*terrain 'rft3d'"):
-        attach(model, data, "rft")
+    with pytest.raises(ConfigError, match=rf"joint 'root' is a free joint.*terrain '{terrain}'.*terrain 'rft3d'"):
+        attach(model, data, terrain)
     assert np.array_equal(model.geom_contype, contacts)  # the floor still on
 
 
@@ -90,6 +107,7 @@ def test_a_non_planar_model_on_the_planar_terrain_is_refused_naming_its_joint_be
     (None, {"spacing": 0.01}, r"'spacing' is not an option of terrain 'rft3d'"),
     (None, {"time_step": 0.0}, r"'time_step' = 0.0 is invalid"),
     (None, {"table": "marmalade"}, r"marmalade"),
+    (None, {"terrain": "sph", "time_step": 1e-3}, r"'time_step' is not an option of terrain 'sph'"),
     ("massless", {"bodies": ["torso"]}, r"coupled body 'torso' has no mass"),
 ])
 def test_bad_input_is_refused_in_one_line_naming_it(change: str | None, kwargs: dict, message: str) -> None:

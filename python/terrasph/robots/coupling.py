@@ -447,6 +447,21 @@ class CoupledSimulation(RobotStepper):
         return {**mujoco_state(self.robot), "angle": dict(self._angle),
                 "velocity": {k: [v.tolist(), w] for k, (v, w) in self._velocity.items()}}
 
+    def restart(self) -> None:
+        """The coupling's memory afresh for the state now in the robot's data, after its owner reset
+        it (and put back a bed with the bodies where they are now): each body's angle and velocity
+        read again from its pose and handed to the SPH as its kinematics, MuJoCo's clock set to the
+        SPH's and its divergence count read again."""
+        robot = self.robot
+        robot.data.time = self.sim.time
+        self._angle = {b.name: robot.wrapped_angle(b) for b in robot.coupled}
+        self._velocity = {b.name: robot.velocity(b) for b in robot.coupled}
+        self._divergences = divergences(robot.data)
+        for body in robot.coupled:
+            velocity, omega = self._velocity[body.name]
+            self.sim.set_body_kinematics(body.name, tuple(robot.reference(body)), self._angle[body.name],
+                                         tuple(velocity), omega)
+
     def restore_state(self, saved: dict[str, Any]) -> None:
         """Puts back a :meth:`state` (after :meth:`Simulation.restore` of the same checkpoint)."""
         restore_mujoco_state(self.robot, saved)

@@ -46,7 +46,7 @@ from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot, world_sup
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
-__all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf"]
+__all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf", "sph_coupling"]
 
 #: height (m) of the domain box above the container's walls: a grain kicked up at 3 m/s rises
 #: v²/2g = 0.46 m
@@ -140,32 +140,46 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
     container and the model standing on it (a planar model only). On RFT: the model in its own frame
     on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
     every step (a ``hold`` spec is a servo), as on the SPH."""
-    from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
-
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
                           element_length=config.element_length)
         return RFT3DCoupling(robot, config.rft_table, control_interval=RFT3D_TIME_STEP)
-    _check_planar_model(config.model)
-    numerics = scene_numerics("mjcf", config.fidelity, config.spacing, BED_NUMERICS, config.numerics)
-    scene = Scene(spacing=config.spacing)
-    surface, inner = scene.add_bed_in_container(config.bed_width, config.bed_depth, config.freeboard,
-                                                layers=wall_layers_needed(numerics.h_factor))
+    return sph_coupling(config.model, spacing=config.spacing, bed_width=config.bed_width, bed_depth=config.bed_depth,
+                        freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics,
+                        start_x=config.start_x, bodies=config.bodies, couple_below=config.couple_below,
+                        widths=config.widths)
+
+
+def sph_coupling(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: float, bed_width: float,
+                 bed_depth: float, freeboard: float, fidelity: str, numerics: Mapping[str, Any] | None = None,
+                 start_x: float | None = None, bodies: tuple[str, ...] = (), couple_below: float | None = COUPLE_BELOW,
+                 widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None) -> CoupledSimulation:
+    """A planar model standing on an SPH bed of glass beads (`bed_width` × `bed_depth` m in its
+    container, `freeboard` m of wall above it, particle spacing `spacing` m, the tier `fidelity`
+    with `numerics` overrides), its centre of mass at `start_x` (default mid-bed), coupled as
+    :func:`terrasph.robots.terrain_robot.terrain_robot` chooses; with `data`, the caller's data of
+    the compiled model `mjcf` is the robot's. ConfigError naming the joint or body of a model that
+    is not planar."""
+    from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
+
+    _check_planar_model(mjcf, data)
+    settings = scene_numerics("mjcf", fidelity, spacing, BED_NUMERICS, dict(numerics or {}))
+    scene = Scene(spacing=spacing)
+    surface, inner = scene.add_bed_in_container(bed_width, bed_depth, freeboard,
+                                                layers=wall_layers_needed(settings.h_factor))
     # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
-    scene.domain_upper = (scene.domain_upper[0], surface + config.freeboard + KICK_HEIGHT)
-    start_x = 0.5 * inner if config.start_x is None else config.start_x
-    robot = terrain_robot(config.model, config.spacing, surface, start_x,
-                          bodies=config.bodies, couple_below=config.couple_below, widths=config.widths,
-                          gravity=scene.gravity)
+    scene.domain_upper = (scene.domain_upper[0], surface + freeboard + KICK_HEIGHT)
+    robot = terrain_robot(mjcf, spacing, surface, 0.5 * inner if start_x is None else start_x,
+                          bodies=bodies, couple_below=couple_below, widths=widths, gravity=scene.gravity, data=data)
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
+    return CoupledSimulation(robot, Simulation(scene, glass_beads(), settings))
 
 
-def _check_planar_model(path: str) -> None:
-    """ConfigError naming the first joint or body of the MJCF file that is not planar, with the
-    terrain that takes any model."""
-    model = load_model(path)
-    data = mujoco.MjData(model)
+def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: mujoco.MjData | None = None) -> None:
+    """ConfigError naming the first joint or body of the MJCF model (at the pose of `data`, if given)
+    that is not planar, with the terrain that takes any model."""
+    model = load_model(mjcf)
+    data = mujoco.MjData(model) if data is None else data
     mujoco.mj_forward(model, data)
     try:
         check_planar(model, data)

@@ -92,14 +92,17 @@ def lowest_points(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, float
 
 
 def terrain_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence[str] = (),
-                  couple_below: float = COUPLE_BELOW) -> tuple[mujoco.MjModel, mujoco.MjData, float, list[int]]:
-    """The MJCF model with its floor switched off (module docstring), its data at the start pose,
-    the floor's height (m) and the ids of the bodies that meet the terrain
-    (:func:`coupled_body_ids`). Both terrains of the scenes start here: the SPH's
+                  couple_below: float | None = COUPLE_BELOW, data: mujoco.MjData | None = None,
+                  ) -> tuple[mujoco.MjModel, mujoco.MjData, float, list[int]]:
+    """The MJCF model with its floor switched off (module docstring), its data at the start pose (or
+    `data`, the caller's of the compiled model given, at its pose), the floor's height (m) and the
+    ids of the bodies that meet the terrain (:func:`coupled_body_ids`; `couple_below` None: every
+    body with a collision geom). Both terrains of the scenes start here: the SPH's
     :func:`terrain_robot` and the 3D RFT's (:func:`terrasph.robots.rft3d_terrain.rft_robot`)."""
-    check_couple_below(couple_below)
+    if couple_below is not None:
+        check_couple_below(couple_below)
     model = load_model(mjcf)
-    data = mujoco.MjData(model)
+    data = mujoco.MjData(model) if data is None else data
     mujoco.mj_forward(model, data)
     floor, level = floor_geoms(model, data)
     chosen = coupled_body_ids(model, data, level, bodies, couple_below)
@@ -134,15 +137,18 @@ def coupled_body_ids(model: mujoco.MjModel, data: mujoco.MjData, level: float, b
 
 
 def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float, surface: float, x: float, *,
-                  bodies: Sequence[str] = (), couple_below: float = COUPLE_BELOW,
-                  widths: Mapping[str, float] | None = None, gravity: float = 9.81) -> PlanarRobot:
+                  bodies: Sequence[str] = (), couple_below: float | None = COUPLE_BELOW,
+                  widths: Mapping[str, float] | None = None, gravity: float = 9.81,
+                  data: mujoco.MjData | None = None) -> PlanarRobot:
     """A :class:`PlanarRobot` of the MJCF model with its floor replaced by a bed whose free surface is
     at z = `surface` and its centre of mass at `x` (module docstring); coupled bodies `bodies` (by
     name) or, if none are named, those with a collision geom lower than `couple_below` (m) above
     the floor at start (:func:`terrain_model`); each body's shape from its collision geoms at
     `spacing` Δx, its width from them unless `widths` gives it (m, by body name). The remaining
-    checks (planar joints, gravity, mass) are :class:`PlanarRobot`'s and :class:`CoupledSimulation`'s."""
-    model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below)
+    checks (planar joints, gravity, mass) are :class:`PlanarRobot`'s and :class:`CoupledSimulation`'s.
+    With `data` (the caller's, of the compiled model given) the robot moves that data, else new data."""
+    given = data
+    model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below, data=data)
     widths = dict(widths or {})
     couplings = {}
     for body in chosen:
@@ -155,4 +161,4 @@ def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float,
     for body in range(1, model.nbody):
         if model.body_parentid[body] == 0:
             model.body_pos[body] += shift
-    return PlanarRobot(model, couplings, gravity=gravity)
+    return PlanarRobot(model, couplings, gravity=gravity, data=given)
