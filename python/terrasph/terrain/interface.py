@@ -5,24 +5,28 @@
 place of ``mujoco.mj_step(model, data, nstep)``: it advances the same simulated time, nstep × the
 model's ``opt.timestep``, with the terrain's loads on the coupled bodies. What the caller sets in
 ``data`` (``ctrl``, ``qfrc_applied``) acts as in ``mj_step``; sensors, viewers and controllers read
-``data`` as usual. The terrains are the package's steppers, each behind the same methods:
+``data`` as usual. The terrains are the package's steppers, each behind the same methods
+(:class:`Terrain`: what they share; :class:`RFTTerrain`, :class:`SPHTerrain`: what each says):
 
 * ``"rft3d"``: 3D resistive force theory (:class:`terrasph.robots.rft3d_terrain.RFT3DCoupling`), any
   model (free joints, hinges about any axis);
 * ``"rft"``: planar resistive force theory (:class:`terrasph.robots.rft_terrain.RFTCoupling`), a
-  model moving in the x–z plane (slides along x and z, hinges about y).
+  model moving in the x–z plane (slides along x and z, hinges about y);
+* ``"sph"``: a planar model on an SPH bed of glass beads
+  (:class:`terrasph.robots.coupling.CoupledSimulation`, built by
+  :func:`terrasph.robots.mjcf_scene.sph_coupling`), the model shifted into the bed's frame.
 
-Both are implicit in the RFT load (docs/rft.md): the stepper takes MuJoCo's step itself, the load
-entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrain's measured step
-(``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
+The RFT terrains are implicit in the load (docs/rft.md): the stepper takes MuJoCo's step itself,
+the load entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrain's
+measured step (``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
 :data:`~terrasph.robots.rft3d_terrain.RFT3D_TIME_STEP` 3D): the model's step is cut into equal
-substeps no longer than that, all taken in one call of the compiled stepper, and ``opt.timestep``
-is the model's own again when :meth:`Terrain.step` returns. The substeps use MuJoCo's
-semi-implicit Euler integrator (the scheme the implicit RFT correction is derived for), whatever
-the model's ``opt.integrator`` (put back after the call): on gymnasium's Ant (RK4 in its file),
-with the 3D terrain's step, Euler substeps walked a gentle open-loop gait closer to the travel at
-half the step than RK4 substeps did, and faster (benchmarks/results/sand_substeps.json,
-docs/terrain.md). The terrain owns the coupled bodies'
+substeps no longer than that, all taken in one call of the compiled stepper. The SPH coupling is
+explicit at the SPH's step bound. ``opt.timestep`` is the model's own again when
+:meth:`Terrain.step` returns. The steps use MuJoCo's semi-implicit Euler integrator (the scheme the
+implicit RFT correction is derived for), whatever the model's ``opt.integrator`` (put back after
+the call): on gymnasium's Ant (RK4 in its file), at the 3D terrain's step, Euler substeps walked a
+gentle open-loop gait closer to the travel at half the step than RK4 substeps did
+(benchmarks/results/sand_substeps.json, docs/terrain.md). The terrain owns the coupled bodies'
 ``xfrc_applied`` (the 3D stepper every body's): a perturbation there is not applied.
 
 The floor: the model's horizontal planes (and the world's collision geoms whose top is at their
@@ -265,7 +269,7 @@ class SPHTerrain(Terrain):
         self._stepper = coupled
         self._target = coupled.time
         self._bed = copy.deepcopy(coupled.sim.core.state())
-        super().__init__("sph", model, data, coupled.robot.coupled, float(coupled.sim.scene.surface_level),
+        super().__init__("sph", model, data, coupled.robot.coupled, coupled.surface(),
                          model_step, integrator)
 
     @property
