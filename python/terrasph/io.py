@@ -115,6 +115,7 @@ class RunWriter:
             {} if compression == "none" else {"compression": compression, "shuffle": True}
         )
         self._frame_shapes: dict[str, tuple[tuple[int, ...], np.dtype]] | None = None
+        self._frame_datasets: dict[str, h5py.Dataset] | None = None  # the frames' datasets, looked up once
         self._series_shapes: dict[str, dict[str, tuple[tuple[int, ...], np.dtype]]] = {}
         self._file = h5py.File(self.path, "w" if overwrite else "w-")
         attrs = self._file.attrs
@@ -143,6 +144,7 @@ class RunWriter:
         writer.path = pathlib.Path(path)
         writer._filters = {} if compression == "none" else {"compression": compression, "shuffle": True}
         writer._file = h5py.File(writer.path, "r+")
+        writer._frame_datasets = None
         if "run" in writer._file:  # the earlier run's status and checkpoint name no longer hold
             writer._file["run"].attrs.clear()
         if "results" in writer._file:  # nor a finished run's results: the scene writes them anew
@@ -229,15 +231,18 @@ class RunWriter:
         if self._frame_shapes is None:
             self._frame_shapes = self._create_frame_datasets(file["frames"], arrays)
         self._check_frame(arrays)
-        frames = file["frames"]
-        index = frames["time"].shape[0]
+        if self._frame_datasets is None:  # h5py looks a dataset up by name anew on every access
+            group = file["frames"]
+            self._frame_datasets = {name: group[name] for name in (*self._frame_shapes, "step", "time")}
+        datasets = self._frame_datasets
+        index = datasets["time"].shape[0]
         for name, data in arrays.items():
-            dataset = frames[name]
+            dataset = datasets[name]
             dataset.resize(index + 1, axis=0)
             dataset[index] = data
         for name, value in (("step", int(step)), ("time", float(time))):
-            frames[name].resize(index + 1, axis=0)
-            frames[name][index] = value
+            datasets[name].resize(index + 1, axis=0)
+            datasets[name][index] = value
         file.flush()
 
     def _create_frame_datasets(
