@@ -121,3 +121,13 @@ def test_bad_input_is_refused_in_one_line_naming_it(change: str | None, kwargs: 
         attach(model, data, **kwargs)
     assert "\n" not in str(refused.value)
     assert np.array_equal(model.geom_contype, contacts)
+
+
+def test_a_body_too_light_for_the_sph_coupling_is_refused_naming_it() -> None:
+    """The explicit SPH coupling throws a body lighter than MIN_MASS_RATIO × the grains it displaces
+    off the bed (docs/robots.md): a walker whose left foot weighs a gram is refused before any step."""
+    model, data = _model("walker2d.xml")
+    model.body_mass[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "foot_left")] = 1e-3
+    with pytest.raises(ConfigError, match=r"coupled body 'foot_left' is too light for the coupling"):
+        attach(model, data, "sph")
+    assert data.time == 0.0
