@@ -57,6 +57,7 @@ struct Robot3DStepper::Impl {
   Vector generalised;
   Matrix stiffness, mass;
   std::vector<mjtNum> linear, angular;
+  std::vector<double> reach;  // each body's farthest element centre from its origin (m)
 
   Impl(const std::string& library, std::uintptr_t model, std::uintptr_t data, std::vector<RobotBody3D> bodies_,
        std::vector<VelocityServo> servos_, double surface_, Coefficients table_, double regularisation_,
@@ -65,7 +66,14 @@ struct Robot3DStepper::Impl {
         bodies(std::move(bodies_)), servos(std::move(servos_)), surface(surface_), regularisation(regularisation_),
         table(table_), newton(newton_), nv(static_cast<int>(m->nv)), commands(servos.size()), generalised(m->nv),
         stiffness(m->nv, m->nv), mass(m->nv, m->nv), linear(static_cast<std::size_t>(3 * m->nv)),
-        angular(static_cast<std::size_t>(3 * m->nv)) {}
+        angular(static_cast<std::size_t>(3 * m->nv)) {
+    for (const RobotBody3D& body : bodies) {
+      double farthest = 0.0;
+      for (std::size_t e = 0; e < body.area.size(); ++e)
+        farthest = std::max(farthest, Eigen::Map<const Eigen::Vector3d>(&body.centre[3 * e]).norm());
+      reach.push_back(farthest);
+    }
+  }
 
   /// The elements below the surface at the current pose: centre c = x_b + R c_b, depth z_s − c_z, arm
   /// c − x_com, normal R n_b (R = xmat, body axes as columns).
@@ -76,6 +84,9 @@ struct Robot3DStepper::Impl {
       const int id = body.body_id;
       const Eigen::Map<const Matrix3> rotation(d->xmat + 9 * id);
       const Eigen::Map<const Eigen::Vector3d> origin(d->xpos + 3 * id), com(d->xipos + 3 * id);
+      // a body whose every element centre lies above the surface by any rotation (with a margin for
+      // the rounding of R c) has none below it: skipped without turning its elements, same result
+      if (origin[2] - reach[k] * (1.0 + 1e-9) - 1e-12 > surface) continue;
       const std::size_t before = sub.arm.size();
       for (std::size_t e = 0; e < body.area.size(); ++e) {
         const Eigen::Vector3d centre = origin + rotation * Eigen::Map<const Eigen::Vector3d>(&body.centre[3 * e]);
