@@ -27,8 +27,8 @@ from terrasph.geometry import wall_layers_needed
 from terrasph.io import read_run
 from terrasph.motion import Motion, Rotate
 from terrasph.robots import ROVER, CoupledSimulation, PlanarRobot
-from terrasph.robots.coupling import ACCURATE_MASS_RATIO, MIN_MASS_RATIO
-from terrasph.robots.run import run_coupled, undisturbed_surface
+from terrasph.robots.coupling import ACCURATE_MASS_RATIO, MIN_MASS_RATIO, undisturbed_surface
+from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 

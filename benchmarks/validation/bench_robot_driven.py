@@ -49,7 +49,7 @@ from terrasph.robots import CoupledSimulation, PlanarRobot
 from terrasph.robots.leg_wheel import LegWheel, bed_and_wheel, leg_wheel_mjcf
 from terrasph.robots.mjcf import Coupling
 from terrasph.robots.metrics import slip
-from terrasph.robots.run import undisturbed_surface
+from terrasph.robots.coupling import undisturbed_surface
 from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import Simulation
 

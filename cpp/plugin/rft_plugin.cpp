@@ -275,6 +275,7 @@ struct Sand {
   double surface = 0.0, regularisation = kRegularisationSpeed;
   bool implicit = true;
   std::vector<RobotBody3D> bodies;
+  std::vector<double> reach;  // each body's body_reach (m)
   Submerged sub;  // the elements below the surface at the step's start pose
   // what compute() leaves for advance(): the time it saw, the generalised load G_n
   double start_time = std::nan("");
@@ -297,6 +298,7 @@ struct Sand {
       throw ConfigError("option gravity = (" + shortest(g[0]) + ", " + shortest(g[1]) + ", " + shortest(g[2]) +
                         ") is invalid for the sand: allowed along -z (its surface is level)");
     for (const int b : coupled_bodies(m, instance)) bodies.push_back(body_elements(m, b, length));
+    reach = body_reach(bodies);
   }
 
   /// Writes the owners' wrenches into `state` (6 per coupled body, 0 for the others).
@@ -308,7 +310,7 @@ struct Sand {
 
   /// The explicit load at the current state: each owner's wrench W(v_com, ω) into qfrc_passive.
   void compute(const mjModel* m, mjData* d, mjtNum* state) {
-    sub.fill(bodies, d->xpos, d->xmat, d->xipos, surface);
+    sub.fill(bodies, reach, d->xpos, d->xmat, d->xipos, surface);
     wrenches.assign(sub.owners.size(), Vector6::Zero());
     start_load = Vector::Zero(m->nv);
     for (std::size_t i = 0; i < sub.owners.size(); ++i) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cstddef>
 #include <vector>
 
@@ -18,6 +19,18 @@ using Matrix3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 using Matrix6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
 using Vector6 = Eigen::Matrix<double, 6, 1>;
 
+/// Each body's farthest element centre from its origin (m), whatever the rotation.
+inline std::vector<double> body_reach(const std::vector<RobotBody3D>& bodies) {
+  std::vector<double> reach;
+  for (const RobotBody3D& body : bodies) {
+    double farthest = 0.0;
+    for (std::size_t e = 0; e < body.area.size(); ++e)
+      farthest = std::max(farthest, Eigen::Map<const Eigen::Vector3d>(&body.centre[3 * e]).norm());
+    reach.push_back(farthest);
+  }
+  return reach;
+}
+
 /// The elements below the free surface at one pose, body by body (world frame).
 struct Submerged {
   std::vector<std::size_t> owners;  // index into the coupled bodies
@@ -28,9 +41,10 @@ struct Submerged {
 
   /// Fills the set for `bodies` whose frames are MuJoCo's `xpos`, `xmat` (body axes as columns) and
   /// centres of mass `xipos` (indexed by body id), under the surface at z = `surface`: centre
-  /// c = x_b + R c_b, depth z_s − c_z, arm c − x_com, normal R n_b.
-  void fill(const std::vector<RobotBody3D>& bodies, const double* xpos, const double* xmat, const double* xipos,
-            double surface) {
+  /// c = x_b + R c_b, depth z_s − c_z, arm c − x_com, normal R n_b. `reach` is each body's
+  /// `body_reach`: a body whose origin lies higher above the surface has no element below it.
+  void fill(const std::vector<RobotBody3D>& bodies, const std::vector<double>& reach, const double* xpos,
+            const double* xmat, const double* xipos, double surface) {
     owners.clear();
     first.assign(1, 0);
     arm.clear();
@@ -42,6 +56,8 @@ struct Submerged {
       const int id = body.body_id;
       const Eigen::Map<const Matrix3> rotation(xmat + 9 * id);
       const Eigen::Map<const Eigen::Vector3d> origin(xpos + 3 * id), com(xipos + 3 * id);
+      // skipped without turning its elements, same result (a margin for the rounding of R c)
+      if (origin[2] - reach[k] * (1.0 + 1e-9) - 1e-12 > surface) continue;
       const std::size_t before = arm.size();
       for (std::size_t e = 0; e < body.area.size(); ++e) {
         const Eigen::Vector3d centre = origin + rotation * Eigen::Map<const Eigen::Vector3d>(&body.centre[3 * e]);

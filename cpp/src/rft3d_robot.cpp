@@ -32,6 +32,7 @@ struct Robot3DStepper::Impl {
   Vector generalised;
   Matrix stiffness, mass;
   std::vector<mjtNum> linear, angular;
+  std::vector<double> reach;  // each body's body_reach (m)
 
   Impl(const std::string& library, std::uintptr_t model, std::uintptr_t data, std::vector<RobotBody3D> bodies_,
        std::vector<VelocityServo> servos_, double surface_, Coefficients table_, double regularisation_,
@@ -40,11 +41,11 @@ struct Robot3DStepper::Impl {
         bodies(std::move(bodies_)), servos(std::move(servos_)), surface(surface_), regularisation(regularisation_),
         table(table_), newton(newton_), nv(static_cast<int>(m->nv)), commands(servos.size()), generalised(m->nv),
         stiffness(m->nv, m->nv), mass(m->nv, m->nv), linear(static_cast<std::size_t>(3 * m->nv)),
-        angular(static_cast<std::size_t>(3 * m->nv)) {}
+        angular(static_cast<std::size_t>(3 * m->nv)), reach(body_reach(bodies)) {}
 
   /// The elements below the surface at the current pose (Submerged::fill).
   void submerge() {
-    sub.fill(bodies, d->xpos, d->xmat, d->xipos, surface);
+    sub.fill(bodies, reach, d->xpos, d->xmat, d->xipos, surface);
     jacobians.resize(sub.owners.size(), Matrix::Zero(6, nv));
     wrenches.resize(sub.owners.size());
   }

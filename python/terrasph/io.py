@@ -27,7 +27,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Any
+from typing import Any, NamedTuple
 
 import h5py
 import numpy as np
@@ -115,6 +115,7 @@ class RunWriter:
             {} if compression == "none" else {"compression": compression, "shuffle": True}
         )
         self._frame_shapes: dict[str, tuple[tuple[int, ...], np.dtype]] | None = None
+        self._frame_datasets: dict[str, h5py.Dataset] | None = None  # the frames' datasets, looked up once
         self._series_shapes: dict[str, dict[str, tuple[tuple[int, ...], np.dtype]]] = {}
         self._file = h5py.File(self.path, "w" if overwrite else "w-")
         attrs = self._file.attrs
@@ -143,6 +144,7 @@ class RunWriter:
         writer.path = pathlib.Path(path)
         writer._filters = {} if compression == "none" else {"compression": compression, "shuffle": True}
         writer._file = h5py.File(writer.path, "r+")
+        writer._frame_datasets = None
         if "run" in writer._file:  # the earlier run's status and checkpoint name no longer hold
             writer._file["run"].attrs.clear()
         if "results" in writer._file:  # nor a finished run's results: the scene writes them anew
@@ -229,15 +231,18 @@ class RunWriter:
         if self._frame_shapes is None:
             self._frame_shapes = self._create_frame_datasets(file["frames"], arrays)
         self._check_frame(arrays)
-        frames = file["frames"]
-        index = frames["time"].shape[0]
+        if self._frame_datasets is None:  # h5py looks a dataset up by name anew on every access
+            group = file["frames"]
+            self._frame_datasets = {name: group[name] for name in (*self._frame_shapes, "step", "time")}
+        datasets = self._frame_datasets
+        index = datasets["time"].shape[0]
         for name, data in arrays.items():
-            dataset = frames[name]
+            dataset = datasets[name]
             dataset.resize(index + 1, axis=0)
             dataset[index] = data
         for name, value in (("step", int(step)), ("time", float(time))):
-            frames[name].resize(index + 1, axis=0)
-            frames[name][index] = value
+            datasets[name].resize(index + 1, axis=0)
+            datasets[name][index] = value
         file.flush()
 
     def _create_frame_datasets(
@@ -535,7 +540,7 @@ def _number_type(dtype: np.dtype) -> tuple[str, str]:
 
 
 def _hyperslab(
-    parent: ET.Element, h5_ref: str, dataset: h5py.Dataset, start: tuple[int, ...], count: tuple[int, ...]
+    parent: ET.Element, h5_ref: str, dataset: h5py.Dataset | _Layout, start: tuple[int, ...], count: tuple[int, ...]
 ) -> None:
     """Append a HyperSlab DataItem selecting ``count`` entries from ``start`` of an HDF5 dataset."""
     number_type, precision = _number_type(dataset.dtype)
@@ -584,13 +589,15 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
                 data = frames[geometry]
                 if data.ndim != 3 or data.shape[2] != 2:
                     raise ValueError(f"/frames/{geometry} must be shaped (n_frames, N, 2), got {data.shape}")
-                sets.append((name, data, _set_fields(frames, data, prefix=prefix)))
+                sets.append((name, _layout(data), [(label, _layout(field))
+                                                   for label, field in _set_fields(frames, data, prefix=prefix)]))
         if not sets:
             raise ValueError(f"{h5_path} has neither /frames/position nor /frames/body_position; write frames "
                              "with grains or bodies first")
         n_frames = min(dataset.shape[0] for dataset in frames.values())
         static = file.get("static")
-        walls = static["walls/position"] if static is not None and "walls/position" in static else None
+        walls = _layout(static["walls/position"]) if static is not None and "walls/position" in static else None
+        body_index = _layout(static["bodies/index"]) if static is not None and "bodies/index" in static else None
         times = frames["time"][:n_frames]
         for k in range(n_frames):
             step = ET.SubElement(collection, "Grid", Name=f"frame_{k}", GridType="Collection",
@@ -607,15 +614,28 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
                         attribute = ET.SubElement(grid, "Attribute", Name=label + suffix, AttributeType="Scalar",
                                                   Center="Node")
                         _hyperslab(attribute, h5_ref, dataset, (k, 0, *index), (1, count, *(1 for _ in index)))
-                if name == "bodies" and "bodies/index" in static:
+                if name == "bodies" and body_index is not None:
                     _whole(ET.SubElement(grid, "Attribute", Name="body_index", AttributeType="Scalar",
-                                         Center="Node"), h5_ref, static["bodies/index"])
+                                         Center="Node"), h5_ref, body_index)
             if walls is not None and walls.shape[0] > 0:
                 grid = _polyvertex_grid(step, "walls", walls.shape[0])
                 _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), h5_ref, walls)
     _write_xml(root, out)
     write_xdmf_sets(h5_path, out)
     return out
+
+
+class _Layout(NamedTuple):
+    """What an XDMF DataItem says of an HDF5 dataset: its path in its file, shape and dtype. Read
+    once per dataset (each of h5py's property reads asks HDF5 again) and used for every frame."""
+
+    name: str
+    shape: tuple[int, ...]
+    dtype: np.dtype
+
+
+def _layout(dataset: h5py.Dataset) -> _Layout:
+    return _Layout(dataset.name, dataset.shape, dataset.dtype)
 
 
 def _write_xml(root: ET.Element, path: pathlib.Path) -> None:
@@ -660,8 +680,9 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
             if geometry not in frames:
                 continue
             count = frames[geometry].shape[1]
-            fields = _set_fields(frames, frames[geometry], prefix)
-            constant = {label: static[path] for label, path in static_fields.items()
+            positions = _layout(frames[geometry])
+            fields = [(label, _layout(dataset)) for label, dataset in _set_fields(frames, frames[geometry], prefix)]
+            constant = {label: _layout(static[path]) for label, path in static_fields.items()
                         if path in static and static[path].shape[:1] == (count,)}
             root, collection = _xdmf_root(name, temporal=True)
             connectivity = _connectivity(views, name, count)
@@ -669,9 +690,9 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
                 grid = ET.SubElement(collection, "Grid", Name=f"frame_{k}", GridType="Uniform")
                 ET.SubElement(grid, "Time", Value=repr(float(times[k])))
                 _polyvertex(grid, count, side_ref, connectivity)
-                position = _virtual_slice(views, f"{name}/frame_{k}/position", source_ref, frames[geometry], (k,))
+                position = _virtual_slice(views, f"{name}/frame_{k}/position", source_ref, positions, (k,))
                 _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), side_ref, position)
-                for label, dataset in [("position", frames[geometry]), *fields]:
+                for label, dataset in [("position", positions), *fields]:
                     trailing = dataset.shape[2:]
                     for suffix, index in _component_suffixes(trailing) if trailing else [("", ())]:
                         view = _virtual_slice(views, f"{name}/frame_{k}/{label}{suffix}", source_ref, dataset,
@@ -715,19 +736,32 @@ def _polyvertex(grid: ET.Element, count: int, side_ref: str, connectivity: h5py.
     _whole(topology, side_ref, connectivity)
 
 
-def _node_attribute(grid: ET.Element, name: str, h5_ref: str, dataset: h5py.Dataset) -> None:
+def _node_attribute(grid: ET.Element, name: str, h5_ref: str, dataset: h5py.Dataset | _Layout) -> None:
     attribute = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar", Center="Node")
     _whole(attribute, h5_ref, dataset)
 
 
-def _virtual_slice(views: h5py.File, name: str, source_ref: str, dataset: h5py.Dataset,
-                   index: tuple[int | slice, ...]) -> h5py.Dataset:
-    """A virtual dataset `name` in `views` that is ``dataset[index]`` of the run file (no copy)."""
-    source = h5py.VirtualSource(source_ref, dataset.name, shape=dataset.shape, dtype=dataset.dtype)
+def _virtual_slice(views: h5py.File, name: str, source_ref: str, dataset: _Layout,
+                   index: tuple[int | slice, ...]) -> _Layout:
+    """A virtual dataset `name` in `views` that is ``dataset[index]`` of the run file (no copy);
+    `index` holds integers and whole slices. HDF5's own calls, as h5py's VirtualLayout makes them
+    (a hyperslab of the source mapped onto the whole virtual dataset), without its selection objects:
+    a sidecar has one such dataset per frame, set and component."""
+    start = tuple(i if isinstance(i, int) else 0 for i in index) + (0,) * (len(dataset.shape) - len(index))
+    count = tuple(1 if isinstance(i, int) else n for i, n in zip(index, dataset.shape)) + dataset.shape[len(index):]
     shape = tuple(n for axis, n in enumerate(dataset.shape) if axis >= len(index) or not isinstance(index[axis], int))
-    layout = h5py.VirtualLayout(shape=shape, dtype=dataset.dtype)
-    layout[...] = source[index]
-    return views.create_virtual_dataset(name, layout)
+    source = h5py.h5s.create_simple(dataset.shape)
+    source.select_hyperslab(start, count)
+    virtual = h5py.h5s.create_simple(shape)
+    virtual.select_all()
+    creation = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    creation.set_virtual(virtual, source_ref.encode(), dataset.name.encode(), source)
+    links = h5py.h5p.create(h5py.h5p.LINK_CREATE)
+    links.set_create_intermediate_group(True)
+    created = h5py.h5d.create(views.id, name.encode(), h5py.h5t.py_create(dataset.dtype, logical=True), virtual,
+                              dcpl=creation, lcpl=links)
+    created.close()
+    return _Layout(f"/{name}", shape, dataset.dtype)
 
 
 def _set_fields(frames: h5py.Group, geometry: h5py.Dataset, prefix: str) -> list[tuple[str, h5py.Dataset]]:
@@ -753,7 +787,7 @@ def _polyvertex_grid(parent: ET.Element, name: str, count: int) -> ET.Element:
     return grid
 
 
-def _whole(parent: ET.Element, h5_ref: str, dataset: h5py.Dataset) -> None:
+def _whole(parent: ET.Element, h5_ref: str, dataset: h5py.Dataset | _Layout) -> None:
     """Append a DataItem holding a whole HDF5 dataset."""
     number_type, precision = _number_type(dataset.dtype)
     item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, dataset.shape)), NumberType=number_type,

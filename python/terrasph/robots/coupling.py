@@ -51,12 +51,13 @@ import numpy as np
 
 from terrasph import InstabilityError
 from terrasph.config import ConfigError
+from terrasph.robots.metrics import free_surface
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "CoupledSimulation", "RobotStepper", "displaced_grain_mass", "divergences",
+__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "SURFACE_MARGIN", "CoupledSimulation", "RobotStepper", "displaced_grain_mass", "divergences",
            "mujoco_derived",
-           "mujoco_state", "mujoco_step", "restore_mujoco_state", "unwrapped", "velocity_servos"]
+           "mujoco_state", "mujoco_step", "restore_mujoco_state", "undisturbed_surface", "unwrapped", "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
 #: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/validation/bench_robot_coupling.py):
@@ -403,9 +404,7 @@ class CoupledSimulation(RobotStepper):
         return {"force": state["force"], "torque": state["torque"], "lowest_z": state["lowest_z"]}
 
     def surface(self) -> float:
-        """The bed's undisturbed free surface now (m; :func:`terrasph.robots.run.undisturbed_surface`)."""
-        from terrasph.robots.run import undisturbed_surface
-
+        """The bed's undisturbed free surface now (m; :func:`undisturbed_surface`)."""
         return undisturbed_surface(self)
 
     def wall_loads(self) -> dict[str, dict[str, Any]]:
@@ -448,9 +447,44 @@ class CoupledSimulation(RobotStepper):
         return {**mujoco_state(self.robot), "angle": dict(self._angle),
                 "velocity": {k: [v.tolist(), w] for k, (v, w) in self._velocity.items()}}
 
+    def restart(self) -> None:
+        """The coupling's memory afresh for the state now in the robot's data, after its owner reset
+        it (and put back a bed with the bodies where they are now): each body's angle and velocity
+        read again from its pose and handed to the SPH as its kinematics, MuJoCo's clock set to the
+        SPH's and its divergence count read again."""
+        robot = self.robot
+        robot.data.time = self.sim.time
+        self._angle = {b.name: robot.wrapped_angle(b) for b in robot.coupled}
+        self._velocity = {b.name: robot.velocity(b) for b in robot.coupled}
+        self._divergences = divergences(robot.data)
+        for body in robot.coupled:
+            velocity, omega = self._velocity[body.name]
+            self.sim.set_body_kinematics(body.name, tuple(robot.reference(body)), self._angle[body.name],
+                                         tuple(velocity), omega)
+
     def restore_state(self, saved: dict[str, Any]) -> None:
         """Puts back a :meth:`state` (after :meth:`Simulation.restore` of the same checkpoint)."""
         restore_mujoco_state(self.robot, saved)
         self._divergences = divergences(self.robot.data)
         self._angle = {k: float(v) for k, v in saved["angle"].items()}
         self._velocity = {k: (np.array(v), float(w)) for k, (v, w) in saved["velocity"].items()}
+
+
+#: columns of the bed closer than this (m) to a coupled body's x extent are disturbed by it (its
+#: rut and the grains it pushes up) and left out of the free-surface level
+SURFACE_MARGIN = 0.02
+
+
+def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARGIN) -> float:
+    """The bed's free surface now (m; :func:`terrasph.robots.metrics.free_surface`) away from every
+    coupled body: columns within `margin` of a body's x extent are left out. Sinkage is measured
+    from it, so the bed's own settling (it is built at its hydrostatic density and settles by
+    less than Δx) is not counted as the robot sinking."""
+    sim = coupled.sim
+    walls, owner = np.asarray(sim.core.wall_position), np.asarray(sim.core.wall_body)
+    names = [b.name for b in sim.bodies]
+    extents = []
+    for body in coupled.robot.coupled:
+        x = walls[owner == names.index(body.name), 0]
+        extents.append((float(x.min()), float(x.max())))
+    return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)

@@ -14,7 +14,7 @@ as in chapter 3, the hip-to-toe length of each leg, so the tips lie on a circle 
 the wheels have ``legs`` = 3 legs (Whegs-like); the plain wheel has the same outer radius. Slip
 (Eq. 4.8) uses that radius. Sinkage is the depth of the wheel's lowest point below the bed's
 undisturbed free surface, measured at each sample away from the wheel
-(:func:`terrasph.robots.run.undisturbed_surface`).
+(:func:`terrasph.robots.coupling.undisturbed_surface`).
 """
 
 from __future__ import annotations

@@ -159,15 +159,17 @@ class PlanarRobot:
     in the x–z plane or a hinge about y, every body turns about y only, gravity is (0, 0, −g) with
     the scene's g, and each coupling names a body of the model and gives it a shape.
 
-    MuJoCo owns the model (``model``) and the state (``data``); :meth:`add_to_scene` adds each
+    MuJoCo owns the model (``model``) and the state (``data``: a new one, or the caller's `data`
+    of the compiled model given, its pose as it is); :meth:`add_to_scene` adds each
     coupled body as a driven terrasph body at MuJoCo's initial pose.
     """
 
     def __init__(self, mjcf: str | os.PathLike[str] | mujoco.MjModel,
                  couplings: Mapping[str, BodyShape | Coupling | None], *,
-                 gravity: float = 9.81, initial: Mapping[str, float] | None = None) -> None:
+                 gravity: float = 9.81, initial: Mapping[str, float] | None = None,
+                 data: mujoco.MjData | None = None) -> None:
         self.model = load_model(mjcf)
-        self.data = mujoco.MjData(self.model)
+        self.data = mujoco.MjData(self.model) if data is None else data
         for joint, value in (initial or {}).items():
             self._set_joint(joint, value)
         mujoco.mj_forward(self.model, self.data)

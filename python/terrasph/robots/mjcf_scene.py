@@ -17,6 +17,7 @@ import json
 import math
 import os
 import pathlib
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -34,17 +35,18 @@ from terrasph.io import write_results
 from terrasph.options import option, shared
 from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
+from terrasph.robots.geoms import is_collision_geom
 from terrasph.robots.leg_wheel import BED_NUMERICS
 from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import check_planar, load_model
+from terrasph.robots.mjcf import PlanarRobot, check_planar, load_model
 from terrasph.robots.plots import plot_robot_3d
-from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, RobotLoads3D, rft_robot, wheel_radii
+from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, RobotLoads3D, rft_robot, wheel_radii
 from terrasph.robots.run import RobotRun, run_coupled
-from terrasph.robots.terrain_robot import COUPLE_BELOW, BedCrossings, terrain_robot
+from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot, world_support
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
-__all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf"]
+__all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf", "sph_coupling"]
 
 #: height (m) of the domain box above the container's walls: a grain kicked up at 3 m/s rises
 #: v²/2g = 0.46 m
@@ -138,32 +140,46 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
     container and the model standing on it (a planar model only). On RFT: the model in its own frame
     on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
     every step (a ``hold`` spec is a servo), as on the SPH."""
-    from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
-
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
                           element_length=config.element_length)
         return RFT3DCoupling(robot, config.rft_table, control_interval=RFT3D_TIME_STEP)
-    _check_planar_model(config.model)
-    numerics = scene_numerics("mjcf", config.fidelity, config.spacing, BED_NUMERICS, config.numerics)
-    scene = Scene(spacing=config.spacing)
-    surface, inner = scene.add_bed_in_container(config.bed_width, config.bed_depth, config.freeboard,
-                                                layers=wall_layers_needed(numerics.h_factor))
+    return sph_coupling(config.model, spacing=config.spacing, bed_width=config.bed_width, bed_depth=config.bed_depth,
+                        freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics,
+                        start_x=config.start_x, bodies=config.bodies, couple_below=config.couple_below,
+                        widths=config.widths)
+
+
+def sph_coupling(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: float, bed_width: float,
+                 bed_depth: float, freeboard: float, fidelity: str, numerics: Mapping[str, Any] | None = None,
+                 start_x: float | None = None, bodies: tuple[str, ...] = (), couple_below: float | None = COUPLE_BELOW,
+                 widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None) -> CoupledSimulation:
+    """A planar model standing on an SPH bed of glass beads (`bed_width` × `bed_depth` m in its
+    container, `freeboard` m of wall above it, particle spacing `spacing` m, the tier `fidelity`
+    with `numerics` overrides), its centre of mass at `start_x` (default mid-bed), coupled as
+    :func:`terrasph.robots.terrain_robot.terrain_robot` chooses; with `data`, the caller's data of
+    the compiled model `mjcf` is the robot's. ConfigError naming the joint or body of a model that
+    is not planar."""
+    from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
+
+    _check_planar_model(mjcf, data)
+    settings = scene_numerics("mjcf", fidelity, spacing, BED_NUMERICS, dict(numerics or {}))
+    scene = Scene(spacing=spacing)
+    surface, inner = scene.add_bed_in_container(bed_width, bed_depth, freeboard,
+                                                layers=wall_layers_needed(settings.h_factor))
     # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
-    scene.domain_upper = (scene.domain_upper[0], surface + config.freeboard + KICK_HEIGHT)
-    start_x = 0.5 * inner if config.start_x is None else config.start_x
-    robot = terrain_robot(config.model, config.spacing, surface, start_x,
-                          bodies=config.bodies, couple_below=config.couple_below, widths=config.widths,
-                          gravity=scene.gravity)
+    scene.domain_upper = (scene.domain_upper[0], surface + freeboard + KICK_HEIGHT)
+    robot = terrain_robot(mjcf, spacing, surface, 0.5 * inner if start_x is None else start_x,
+                          bodies=bodies, couple_below=couple_below, widths=widths, gravity=scene.gravity, data=data)
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
+    return CoupledSimulation(robot, Simulation(scene, glass_beads(), settings))
 
 
-def _check_planar_model(path: str) -> None:
-    """ConfigError naming the first joint or body of the MJCF file that is not planar, with the
-    terrain that takes any model."""
-    model = load_model(path)
-    data = mujoco.MjData(model)
+def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: mujoco.MjData | None = None) -> None:
+    """ConfigError naming the first joint or body of the MJCF model (at the pose of `data`, if given)
+    that is not planar, with the terrain that takes any model."""
+    model = load_model(mjcf)
+    data = mujoco.MjData(model) if data is None else data
     mujoco.mj_forward(model, data)
     try:
         check_planar(model, data)
@@ -330,3 +346,33 @@ def plot_mjcf(series: dict[str, dict[str, np.ndarray]], bodies: list[str], path:
     if path is not None:
         figure.savefig(path, dpi=120)
     return figure
+
+
+class BedCrossings:
+    """Watches the bodies that are not coupled: with the floor off nothing holds them up, so one that
+    reaches below the bed's surface passes through the grains unseen. The first time a body's
+    collision geom does, :meth:`check` warns once naming it and records the time under
+    ``memory["through_the_bed"]`` (plain data: a run's checkpointed memory, read at each check, so a
+    resumed run's restored memory counts)."""
+
+    def __init__(self, robot: PlanarRobot | Robot3D, surface: float, memory: dict[str, dict[str, float]]) -> None:
+        model = robot.model
+        coupled = {b.body_id for b in robot.coupled}
+        self.robot, self.surface, self.memory = robot, surface, memory
+        memory.setdefault("through_the_bed", {})
+        self.geoms = np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] > 0
+                               and model.geom_bodyid[g] not in coupled and is_collision_geom(model, g)], dtype=int)
+
+    def check(self, time: float) -> None:
+        """Looks at the pose in the robot's data (cheaply: a geom whose bounding sphere clears the
+        surface is not looked at further)."""
+        model, data = self.robot.model, self.robot.data
+        near = self.geoms[data.geom_xpos[self.geoms, 2] - model.geom_rbound[self.geoms] < self.surface]
+        for g in near:
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g])) or f"#{g}"
+            seen = self.memory["through_the_bed"]
+            if name not in seen and world_support(model, data, int(g), (0.0, 0.0, -1.0))[2] < self.surface:
+                seen[name] = time
+                warnings.warn(f"body '{name}' is not coupled and reached below the bed's surface at t = {time:.4g} s: "
+                              "it passes through the grains (couple it: bodies or couple_below)", RuntimeWarning,
+                              stacklevel=2)

@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 import os
 import pathlib
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,9 +46,18 @@ import numpy as np
 from terrasph import _core, rft
 from terrasph.config import ConfigError
 from terrasph.rft3d import BodyElements, body_wrench
-from terrasph.robots.coupling import _velocity_servos, divergences, mujoco_state, restore_mujoco_state
+from terrasph.robots.coupling import (
+    _velocity_servos,
+    divergences,
+    mujoco_state,
+    restore_mujoco_state,
+)
 from terrasph.robots.metrics import slip
-from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, advance_native, check_integrated, mujoco_library
+from terrasph.robots.rft_terrain import (
+    RFT_CONTROL_INTERVAL,
+    NativeRFTStepper,
+    mujoco_library,
+)
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = [
@@ -58,6 +67,7 @@ __all__ = [
     "RFT3DCoupling",
     "Robot3D",
     "RobotLoads3D",
+    "bodies_3d",
     "rft_robot",
     "wheel_radii",
 ]
@@ -102,6 +112,13 @@ def rft_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence
     geoms' surface as elements about `element_length` m across
     (:meth:`terrasph.rft3d.BodyElements.from_body`); the free surface at the floor's height."""
     model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below)
+    return Robot3D(model, data, bodies_3d(model, chosen, element_length), level)
+
+
+def bodies_3d(model: mujoco.MjModel, chosen: Sequence[int], element_length: float | None = None) -> list[Body3D]:
+    """The bodies `chosen` (ids) of the model, each with its collision geoms' surface as elements
+    about `element_length` m across (:meth:`terrasph.rft3d.BodyElements.from_body`); ConfigError
+    naming a body without mass."""
     coupled = []
     for body in chosen:
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
@@ -109,29 +126,21 @@ def rft_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence
             raise ConfigError(f"coupled body '{name}' has no mass in the MJCF model; give it geoms with mass or an "
                               "<inertial>")
         coupled.append(Body3D(name, body, BodyElements.from_body(model, body, element_length)))
-    return Robot3D(model, data, coupled, level)
+    return coupled
 
 
-class RFT3DCoupling:
+class RFT3DCoupling(NativeRFTStepper):
     """A :class:`Robot3D` on the flat 3D RFT terrain with coefficient map `table` (module docstring);
     `time_step` (s) is MuJoCo's step; `control_interval` (s) how often :meth:`advance` calls a
     controller, its commands held in between."""
 
+    LOAD_SIZE = 6  # force (N) and torque about the centre of mass (N·m), world axes
+
     def __init__(self, robot: Robot3D, table: rft.RFTCoefficients | str = "generic", *,
                  time_step: float = RFT3D_TIME_STEP, control_interval: float | None = None) -> None:
-        interval = RFT_CONTROL_INTERVAL if control_interval is None else control_interval
-        if not (isinstance(time_step, (int, float)) and math.isfinite(time_step) and time_step > 0):
-            raise ConfigError(f"parameter 'time_step' = {time_step!r} is invalid: allowed a finite number > 0 (s)")
-        if not (isinstance(interval, (int, float)) and math.isfinite(interval) and interval >= time_step):
-            raise ConfigError(f"parameter 'control_interval' = {interval!r} is invalid: allowed a finite number >= "
-                              f"the time step {time_step!r} s")
         self.robot = robot
+        self._start(time_step, RFT_CONTROL_INTERVAL if control_interval is None else control_interval)
         self.table = rft.coefficient_table(table)
-        self._dt = float(time_step)
-        self._control_steps = max(1, round(interval / time_step))
-        self._span = self._dt
-        self._since = float(robot.data.time)
-        self._divergences = divergences(robot.data)
         model = robot.model
         model.opt.timestep = self._dt  # MuJoCo's step is the implicit correction's dt
         mujoco.mj_forward(model, robot.data)
@@ -141,38 +150,6 @@ class RFT3DCoupling:
             [(s.actuator, s.dof, s.kv, s.gear, s.lower, s.upper) for s in _velocity_servos(model, robot.data)],
             robot.surface, self.table.terms, self.table.zeta, self._dt, rft.REGULARISATION_SPEED,
             NEWTON_ITERATIONS, NEWTON_HALVINGS, NEWTON_TOLERANCE)
-
-    # -- the stepper --------------------------------------------------------------------------
-    @property
-    def time(self) -> float:
-        """Simulated time (s), MuJoCo's."""
-        return float(self.robot.data.time)
-
-    @property
-    def step_count(self) -> int:
-        """Steps taken so far."""
-        return self._native.step_count
-
-    def time_step(self) -> float:
-        """The step's dt (s)."""
-        return self._dt
-
-    def control_span(self) -> float:
-        """The simulated time (s) over which the controller's commands of this call are held."""
-        return self._span
-
-    def step(self) -> float:
-        """One step (module docstring); returns its dt."""
-        time, steps = self.time, self.step_count
-        check_integrated(self, time, steps, self._native.step())
-        return self._dt
-
-    def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
-        """Steps until `t_end` (s) is reached or passed, at most `max_steps`, many steps per call of the
-        native stepper; returns the number taken. `control`, if given, is called with the stepper
-        every ``control_interval`` of simulated time (at its multiples) and its commands held in
-        between (:meth:`control_span`)."""
-        return advance_native(self, t_end, max_steps, control)
 
     # -- what the run loop records --------------------------------------------------------------
     def describe(self) -> dict[str, Any]:
@@ -188,9 +165,8 @@ class RFT3DCoupling:
         averaged since :meth:`reset_body_means` (the load of each step weighted by its dt; the load
         now before any step), and its lowest element's z (m)."""
         body, model, data = self.robot.coupled[k], self.robot.model, self.robot.data
-        span = self.time - self._since
-        if span > 0:
-            wrench = np.array(self._native.load_sums[6 * k:6 * k + 6]) / span
+        if self.time > self._since:
+            wrench = self.load_means()[k]
         else:
             mujoco.mj_forward(model, data)
             twist = np.zeros(6)  # [angular, linear] at the centre of mass, world axes
@@ -198,14 +174,13 @@ class RFT3DCoupling:
             wrench = np.concatenate(body_wrench(body.elements, data.xpos[body.body_id],
                                                 data.xmat[body.body_id].reshape(3, 3), data.xipos[body.body_id],
                                                 twist[3:], twist[:3], self.robot.surface, self.table))
-        rotation = data.xmat[body.body_id].reshape(3, 3)
-        lowest = float((data.xpos[body.body_id] + body.elements.centre @ rotation.T)[:, 2].min())
-        return {"force": wrench[:3].copy(), "torque": wrench[3:].copy(), "lowest_z": lowest}
+        return {"force": wrench[:3].copy(), "torque": wrench[3:].copy(), "lowest_z": self.lowest_z(k)}
 
-    def reset_body_means(self) -> None:
-        """Starts a new averaging interval of the body loads."""
-        self._native.load_sums = [0.0] * (6 * len(self.robot.coupled))
-        self._since = self.time
+    def lowest_z(self, k: int) -> float:
+        """The lowest z (m) of coupled body `k`'s element centres now."""
+        body, data = self.robot.coupled[k], self.robot.data
+        rotation = data.xmat[body.body_id].reshape(3, 3)
+        return float((data.xpos[body.body_id] + body.elements.centre @ rotation.T)[:, 2].min())
 
     def frame_fields(self) -> dict[str, np.ndarray]:
         """A frame of the coupled bodies (no grains): their elements' centres seen from the side,
@@ -234,40 +209,18 @@ class RFT3DCoupling:
                            f"rft3d/{body.name}/area": body.elements.area})
         return arrays
 
-    def diagnostics(self) -> dict[str, float]:
-        """A diagnostics row: the step count and dt (s); no grains to leak."""
-        return {"step": self.step_count, "dt": self._dt, "leaked_particles": 0}
-
-    def run_attributes(self) -> dict[str, int]:
-        """The counts of the run file's ``/run``: no grains, none leaked."""
-        return {"granular_particles": 0, "wall_particles": 0, "leaked_particles": 0}
-
-    # -- checkpoints ---------------------------------------------------------------------------
-    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
-        """Writes MuJoCo's state and the stepper's memory (under ``progress["robot"]``) to `path`."""
-        from terrasph.checkpoint import grain_free_state, write_checkpoint
-
-        state = grain_free_state(self.step_count)
+    def state(self) -> dict[str, Any]:
+        """MuJoCo's state and the stepper's memory as plain data (a checkpoint's ``progress["robot"]``)."""
         sums = self._native.load_sums
-        saved = {**mujoco_state(self.robot), "sums": [sums[6 * k:6 * k + 6] for k in range(len(self.robot.coupled))],
-                 "since": self._since}
-        return write_checkpoint(path, state, self.describe(), {**(progress or {}), "robot": saved})
+        return {**mujoco_state(self.robot), "sums": [sums[6 * k:6 * k + 6] for k in range(len(self.robot.coupled))],
+                "since": self._since}
 
-    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
-        """Continues from a :meth:`checkpoint`; returns the rest of its progress."""
-        from terrasph.checkpoint import CheckpointError, configuration_differences, read_checkpoint
-
-        state, config, progress = read_checkpoint(path)
-        differences = configuration_differences(config, self.describe())
-        if differences or "robot" not in progress:
-            raise CheckpointError(f"checkpoint {path} belongs to another RFT run: {', '.join(differences) or 'no robot'}")
-        saved = progress.pop("robot")
-        self._native.step_count = int(state["counters"]["steps"])
+    def restore_state(self, saved: dict[str, Any]) -> None:
+        """Puts back a :meth:`state`."""
         restore_mujoco_state(self.robot, saved)
         self._divergences = divergences(self.robot.data)
         self._native.load_sums = [float(v) for row in saved["sums"] for v in row]
         self._since = float(saved["since"])
-        return progress
 
 
 #: a body's centre of mass within this fraction of its rolling radius from its hinge's axis makes it a wheel

@@ -55,7 +55,7 @@ from terrasph.robots.coupling import (
 )
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
-__all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "RFTCoupling", "advance_native", "check_integrated",
+__all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "NativeRFTStepper", "RFTCoupling", "check_step_options",
            "mujoco_library"]
 
 #: MuJoCo's step on the RFT terrain (s): the flat-leg and C-leg wheels' slip and sinkage at 2e-3 s are
@@ -88,28 +88,171 @@ def mujoco_library() -> str:
     return str(found[-1])
 
 
-class RFTCoupling(RobotStepper):
+def check_step_options(time_step: float, control_interval: float) -> None:
+    """ConfigError naming `time_step` (s) or `control_interval` (s, at least the step) if out of range."""
+    if not (isinstance(time_step, (int, float)) and math.isfinite(time_step) and time_step > 0):
+        raise ConfigError(f"parameter 'time_step' = {time_step!r} is invalid: allowed a finite number > 0 (s)")
+    if not (isinstance(control_interval, (int, float)) and math.isfinite(control_interval)
+            and control_interval >= time_step):
+        raise ConfigError(f"parameter 'control_interval' = {control_interval!r} is invalid: allowed a finite "
+                          f"number >= the time step {time_step!r} s")
+
+
+class NativeRFTStepper:
+    """What the planar and 3D RFT steppers share (:class:`RFTCoupling`,
+    terrasph.robots.rft3d_terrain.RFT3DCoupling): a compiled stepper ``_native`` that advances MuJoCo's
+    ``robot.model`` and ``robot.data`` by dt ``_dt`` per step and sums each coupled body's load times
+    dt (``LOAD_SIZE`` numbers per body) since :meth:`reset_body_means`; the subclass sets them, and
+    its :meth:`state` and :meth:`restore_state` hold its memory."""
+
+    #: the numbers of a body's load in the native stepper's sums
+    LOAD_SIZE: int
+    robot: Any
+    _native: Any
+
+    def _start(self, time_step: float, control_interval: float) -> None:
+        """The shared memory at the start: dt, the controller's interval in steps, the load means' start."""
+        check_step_options(time_step, control_interval)
+        self._dt = float(time_step)
+        self._control_steps = max(1, round(control_interval / time_step))
+        self._span = self._dt
+        self._since = float(self.robot.data.time)
+        self._divergences = divergences(self.robot.data)
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s), MuJoCo's."""
+        return float(self.robot.data.time)
+
+    @property
+    def step_count(self) -> int:
+        """Steps taken so far."""
+        return int(self._native.step_count)
+
+    @step_count.setter
+    def step_count(self, count: int) -> None:
+        self._native.step_count = int(count)
+
+    def restart(self) -> None:
+        """The stepper's memory afresh for the state now in the robot's data, after its owner reset it
+        (the load means restarted, MuJoCo's divergence count read again)."""
+        self.reset_body_means()
+        self._divergences = divergences(self.robot.data)
+
+    def time_step(self) -> float:
+        """The step's dt (s)."""
+        return self._dt
+
+    def control_span(self) -> float:
+        """The simulated time (s) over which the controller's commands of this call are held."""
+        return self._span
+
+    def step(self) -> float:
+        """One step (the subclass's module docstring); returns its dt."""
+        self.steps(1)
+        return self._dt
+
+    def steps(self, count: int) -> None:
+        """`count` steps in one call of the native stepper. If MuJoCo met a state it could not integrate
+        among them (and reset the robot: its time back to 0), :class:`terrasph.InstabilityError`, as
+        the SPH coupling raises, with the step and time of the call's start."""
+        time, steps = self.time, self.step_count
+        if self._native.steps(count) > self._divergences:
+            raise divergence_error(f"within steps {steps}–{self.step_count}", steps, time)
+
+    def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
+        """Steps until `t_end` (s) is reached or passed, at most `max_steps`, many steps per call of the
+        native stepper (:meth:`steps`); returns the number taken. `control`, if given, is called with
+        the stepper every ``control_interval`` of simulated time (at its multiples) and its commands
+        held in between (:meth:`control_span`)."""
+        taken, interval = 0, self._control_steps * self._dt
+        while taken < max_steps and self.time < t_end * (1 - 1e-14):
+            target = t_end
+            if control:
+                target = min(t_end, interval * (math.floor(self.time / interval + 1e-6) + 1))
+            count = min(max_steps - taken, max(1, math.ceil((target - self.time) / self._dt - 1e-6)))
+            if control:
+                self._span = count * self._dt
+                control(self)
+            self.steps(count)
+            taken += count
+        return taken
+
+    def reset_body_means(self) -> None:
+        """Starts a new averaging interval of the body loads."""
+        self._native.load_sums = [0.0] * (self.LOAD_SIZE * len(self.robot.coupled))
+        self._since = self.time
+
+    def load_means(self) -> np.ndarray:
+        """Each coupled body's load averaged since :meth:`reset_body_means` (rows of ``LOAD_SIZE``, the
+        load of each step weighted by its dt); NaN before a step."""
+        span = self.time - self._since
+        sums = np.asarray(self._native.load_sums, dtype=float).reshape(len(self.robot.coupled), self.LOAD_SIZE)
+        return sums / span if span > 0 else np.full_like(sums, math.nan)
+
+    def diagnostics(self) -> dict[str, float]:
+        """A diagnostics row: the step count and dt (s); no grains to leak."""
+        return {"step": self.step_count, "dt": self._dt, "leaked_particles": 0}
+
+    def run_attributes(self) -> dict[str, int]:
+        """The counts of the run file's ``/run``: no grains, none leaked."""
+        return {"granular_particles": 0, "wall_particles": 0, "leaked_particles": 0}
+
+    def describe(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def lowest_z(self, k: int) -> float:
+        """The lowest z (m) of coupled body `k` now."""
+        raise NotImplementedError
+
+    def state(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def restore_state(self, saved: dict[str, Any]) -> None:
+        raise NotImplementedError
+
+    # -- checkpoints ---------------------------------------------------------------------------
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
+        """Writes MuJoCo's state and the stepper's memory (under ``progress["robot"]``) to `path`."""
+        from terrasph.checkpoint import grain_free_state, write_checkpoint
+
+        state = grain_free_state(self.step_count)
+        return write_checkpoint(path, state, self.describe(), {**(progress or {}), "robot": self.state()})
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        """Continues from a :meth:`checkpoint`; returns the rest of its progress."""
+        from terrasph.checkpoint import (
+            CheckpointError,
+            configuration_differences,
+            read_checkpoint,
+        )
+
+        state, config, progress = read_checkpoint(path)
+        differences = configuration_differences(config, self.describe())
+        if differences or "robot" not in progress:
+            raise CheckpointError(f"checkpoint {path} belongs to another RFT run: {', '.join(differences) or 'no robot'}")
+        self.step_count = int(state["counters"]["steps"])
+        self.restore_state(progress.pop("robot"))
+        return progress
+
+
+class RFTCoupling(NativeRFTStepper, RobotStepper):
     """A :class:`PlanarRobot` on the RFT terrain: a flat granular surface at z = `surface` (m) with the
     coefficient map `table`; `time_step` (s) is MuJoCo's step, `element_length` (m) that of the RFT
     surface elements (default: :class:`terrasph.rft.SurfaceElements`'s), `control_interval` (s) how
     often :meth:`advance` calls a controller (a multiple of `time_step`; module docstring)."""
 
+    LOAD_SIZE = 3  # F_x, F_z (N) and the clockwise torque about the body origin (N·m)
+
     def __init__(self, robot: PlanarRobot, surface: float, table: rft.RFTCoefficients | str = "generic", *,
                  time_step: float = RFT_TIME_STEP, element_length: float | None = None,
                  control_interval: float = RFT_CONTROL_INTERVAL) -> None:
-        if not (isinstance(time_step, (int, float)) and np.isfinite(time_step) and time_step > 0):
-            raise ConfigError(f"parameter 'time_step' = {time_step!r} is invalid: allowed a finite number > 0 (s)")
         if not (isinstance(surface, (int, float)) and np.isfinite(surface)):
             raise ConfigError(f"parameter 'surface' = {surface!r} is invalid: allowed a finite number (m)")
-        if not (isinstance(control_interval, (int, float)) and np.isfinite(control_interval)
-                and control_interval >= time_step):
-            raise ConfigError(f"parameter 'control_interval' = {control_interval!r} is invalid: allowed a finite "
-                              f"number >= the time step {time_step!r} s")
         self.robot = robot
+        self._start(time_step, control_interval)
         self.surface_level = float(surface)
         self.table = rft.coefficient_table(table)
-        self._dt = float(time_step)
-        self._control_steps = max(1, round(control_interval / time_step))
         self._elements = {b.name: rft.SurfaceElements.from_shape(b.shape, element_length, b.width)
                           for b in robot.coupled}
         self._native = _core.PlanarRobotStepper(
@@ -120,22 +263,11 @@ class RFTCoupling(RobotStepper):
             self.surface_level, self.table.terms, self.table.zeta, self.table.unit_weight, self._dt,
             rft.REGULARISATION_SPEED,
             NEWTON_ITERATIONS, NEWTON_HALVINGS, NEWTON_TOLERANCE)
-        self._span = self._dt
-        self._since = float(robot.data.time)
-        self._divergences = divergences(robot.data)
 
-    @property
-    def time(self) -> float:
-        """Simulated time (s), MuJoCo's."""
-        return float(self.robot.data.time)
-
-    def time_step(self) -> float:
-        """The step's dt (s)."""
-        return self._dt
-
-    def control_span(self) -> float:
-        """The simulated time (s) over which the controller's commands of this call are held."""
-        return self._span
+    def restart(self) -> None:
+        """As the base's, and each body's continuous angle read again from its pose."""
+        super().restart()
+        self._native.angles = [self.robot.wrapped_angle(b) for b in self.robot.coupled]
 
     @property
     def _angle(self) -> dict[str, float]:
@@ -148,19 +280,6 @@ class RFTCoupling(RobotStepper):
         load = rft.body_load(self._elements[body.name], self._angle[body.name], self.robot.reference(body),
                              velocity, omega, self.surface_level, self.table)
         return load.force, load.torque
-
-    def step(self) -> float:
-        """One step (module docstring); returns its dt."""
-        time, steps = self.time, self.step_count
-        check_integrated(self, time, steps, self._native.step())
-        return self._dt
-
-    def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
-        """Steps until `t_end` (s) is reached or passed, at most `max_steps`, many steps per call of the
-        native stepper; returns the number taken. `control`, if given, is called with the stepper
-        every ``control_interval`` of simulated time (at its multiples) and its commands held in
-        between (:meth:`control_span`)."""
-        return advance_native(self, t_end, max_steps, control)
 
     # -- what a run loop records ------------------------------------------------------------------
     def describe(self) -> dict[str, Any]:
@@ -187,36 +306,21 @@ class RFTCoupling(RobotStepper):
         each step weighted by its dt), and its lowest z (m, :meth:`BodyShape.lowest_point`)."""
         body = next(b for b in self.robot.coupled if b.name == name)
         index = list(self._elements).index(name)
-        fx, fz, moment = self._native.load_sums[3 * index:3 * index + 3]
-        span = self.time - self._since
-        if span > 0:
-            force, torque = np.array([fx, fz]) / span, moment / span
+        if self.time > self._since:
+            fx, fz, torque = self.load_means()[index]
+            force = np.array([fx, fz])
         else:
             force, torque = self.granular_load(body)
-        lowest = body.shape.lowest_point(self._angle[name], tuple(self.robot.reference(body)))
-        return {"force": force, "torque": float(torque), "lowest_z": lowest}
+        return {"force": force, "torque": float(torque), "lowest_z": self.lowest_z(index)}
+
+    def lowest_z(self, k: int) -> float:
+        """The lowest z (m) of coupled body `k`'s shape now (:meth:`BodyShape.lowest_point`)."""
+        body = self.robot.coupled[k]
+        return body.shape.lowest_point(self._angle[body.name], tuple(self.robot.reference(body)))
 
     def surface(self) -> float:
         """The free surface (m): flat and fixed, the terrain has no state."""
         return self.surface_level
-
-    def reset_body_means(self) -> None:
-        """Starts a new averaging interval of the body loads."""
-        self._native.load_sums = [0.0] * (3 * len(self._elements))
-        self._since = self.time
-
-    @property
-    def step_count(self) -> int:
-        """Steps taken so far."""
-        return self._native.step_count
-
-    def diagnostics(self) -> dict[str, float]:
-        """A diagnostics row: the step count and dt (s); no grains to leak."""
-        return {"step": self.step_count, "dt": self._dt, "leaked_particles": 0}
-
-    def run_attributes(self) -> dict[str, int]:
-        """The counts of the run file's ``/run``: no grains, none leaked."""
-        return {"granular_particles": 0, "wall_particles": 0, "leaked_particles": 0}
 
     def frame_fields(self) -> dict[str, np.ndarray]:
         """A frame of the coupled bodies only (the terrain has no grains): ``body_position`` and
@@ -233,26 +337,6 @@ class RFTCoupling(RobotStepper):
             positions.append(points)
         return {"body_position": np.concatenate(positions), "body_velocity": np.concatenate(velocities)}
 
-    # -- checkpoints ---------------------------------------------------------------------------
-    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
-        """Writes MuJoCo's state and the stepper's memory (under ``progress["robot"]``) to `path`."""
-        from terrasph.checkpoint import grain_free_state, write_checkpoint
-
-        state = grain_free_state(self.step_count)
-        return write_checkpoint(path, state, self.describe(), {**(progress or {}), "robot": self.state()})
-
-    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
-        """Continues from a :meth:`checkpoint`; returns the rest of its progress."""
-        from terrasph.checkpoint import CheckpointError, configuration_differences, read_checkpoint
-
-        state, config, progress = read_checkpoint(path)
-        differences = configuration_differences(config, self.describe())
-        if differences or "robot" not in progress:
-            raise CheckpointError(f"checkpoint {path} belongs to another RFT run: {', '.join(differences) or 'no robot'}")
-        self._native.step_count = int(state["counters"]["steps"])
-        self.restore_state(progress.pop("robot"))
-        return progress
-
     def state(self) -> dict[str, Any]:
         """MuJoCo's state and the stepper's memory as plain data."""
         sums = self._native.load_sums
@@ -268,33 +352,3 @@ class RFTCoupling(RobotStepper):
         self._native.load_sums = [float(v) for k in self._elements
                                   for v in (*saved["sums"][k][0], saved["sums"][k][1])]
         self._since = float(saved["since"])
-
-
-def check_integrated(stepper: Any, time: float, steps: int, divergences_now: int) -> None:
-    """Raises :class:`terrasph.InstabilityError` if MuJoCo met a state it could not integrate (and
-    reset the robot: its time back to 0) in the steps a native RFT stepper took since `time` (s),
-    step `steps`, as the SPH coupling does: `divergences_now` is the count its ``_native.step`` or
-    ``steps`` returned, against the count at its start (``_divergences``). The error's time and step
-    are those of the start of that call."""
-    if divergences_now > stepper._divergences:
-        raise divergence_error(f"within steps {steps}–{stepper.step_count}", steps, time)
-
-
-def advance_native(stepper: Any, t_end: float, max_steps: int, control: Callable[[Any], None] | None) -> int:
-    """The `advance` of a native RFT stepper (:class:`RFTCoupling`, terrasph.robots.rft3d_terrain.
-    RFT3DCoupling): many steps per call of its compiled ``_native.steps``, the controller called every
-    ``_control_steps`` steps (at the multiples of that interval), its commands held in between; its
-    divergence checked after each call. Returns the number of steps taken."""
-    taken, interval = 0, stepper._control_steps * stepper._dt
-    while taken < max_steps and stepper.time < t_end * (1 - 1e-14):
-        target = t_end
-        if control:
-            target = min(t_end, interval * (math.floor(stepper.time / interval + 1e-6) + 1))
-        count = min(max_steps - taken, max(1, math.ceil((target - stepper.time) / stepper._dt - 1e-6)))
-        if control:
-            stepper._span = count * stepper._dt
-            control(stepper)
-        time, steps = stepper.time, stepper.step_count
-        check_integrated(stepper, time, steps, stepper._native.steps(count))
-        taken += count
-    return taken

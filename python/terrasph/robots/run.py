@@ -8,8 +8,8 @@ RFT terrain, which has no grains, the frames hold the coupled bodies only);
 reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s, force (F_x, F_z)
 N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
 the sampling interval, lowest_z m, surface m (the bed's undisturbed free surface at that time,
-:func:`undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8 with the shape's
-radius)); ``/series/robot/actuators`` (time, qpos, qvel, ctrl, the whole robot's centre of mass
+:func:`terrasph.robots.coupling.undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8
+with the shape's radius)); ``/series/robot/actuators`` (time, qpos, qvel, ctrl, the whole robot's centre of mass
 com (x, z) m, actuator force — a motor's torque in N·m for a hinge — and the total actuator power in W).
 """
 
@@ -26,30 +26,11 @@ import numpy as np
 
 from terrasph.io import defined_values
 from terrasph.robots.coupling import CoupledSimulation, RobotStepper
-from terrasph.robots.metrics import free_surface, sinkage, slip
+from terrasph.robots.metrics import sinkage, slip
 from terrasph.robots.rft3d_terrain import RFT3DCoupling
 from terrasph.run_loop import Recorder
 
-__all__ = ["SURFACE_MARGIN", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled", "undisturbed_surface"]
-
-#: columns of the bed closer than this (m) to a coupled body's x extent are disturbed by it (its
-#: rut and the grains it pushes up) and left out of the free-surface level
-SURFACE_MARGIN = 0.02
-
-
-def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARGIN) -> float:
-    """The bed's free surface now (m; :func:`terrasph.robots.metrics.free_surface`) away from every
-    coupled body: columns within `margin` of a body's x extent are left out. Sinkage is measured
-    from it, so the bed's own settling (it is built at its hydrostatic density and settles by
-    less than Δx) is not counted as the robot sinking."""
-    sim = coupled.sim
-    walls, owner = np.asarray(sim.core.wall_position), np.asarray(sim.core.wall_body)
-    names = [b.name for b in sim.bodies]
-    extents = []
-    for body in coupled.robot.coupled:
-        x = walls[owner == names.index(body.name), 0]
-        extents.append((float(x.min()), float(x.max())))
-    return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)
+__all__ = ["ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled"]
 
 
 def body_row(coupled: RobotStepper, name: str, surface: float) -> dict[str, Any]:

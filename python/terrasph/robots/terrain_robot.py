@@ -19,9 +19,7 @@ from __future__ import annotations
 import logging
 import math
 import os
-import warnings
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -30,11 +28,8 @@ from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
 from terrasph.robots.mjcf import Coupling, PlanarRobot, coupled_body_id, load_model
 
-if TYPE_CHECKING:  # the 3D RFT terrain builds on this module
-    from terrasph.robots.rft3d_terrain import Robot3D
-
-__all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "BedCrossings", "floor_geoms", "lowest_points", "switch_off_floor",
-           "terrain_model", "terrain_robot"]
+__all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "check_couple_below", "coupled_body_ids", "floor_geoms",
+           "lowest_points", "switch_off_floor", "terrain_model", "terrain_robot", "world_support"]
 
 LOG = logging.getLogger(__name__)
 
@@ -48,7 +43,8 @@ def _geom_name(model: mujoco.MjModel, geom: int) -> str:
     return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom) or f"#{geom}"
 
 
-def _world_support(model: mujoco.MjModel, data: mujoco.MjData, geom: int, direction: Sequence[float]) -> np.ndarray:
+def world_support(model: mujoco.MjModel, data: mujoco.MjData, geom: int, direction: Sequence[float]) -> np.ndarray:
+    """The point of collision geom `geom` farthest along `direction` (world frame) at `data`'s pose."""
     return geom_support(model, geom, data.geom_xpos[geom], data.geom_xmat[geom].reshape(3, 3),
                         np.asarray([direction], dtype=float))[0]
 
@@ -69,7 +65,7 @@ def floor_geoms(model: mujoco.MjModel, data: mujoco.MjData) -> tuple[list[int], 
         raise ConfigError(f"the model has floor planes at several heights {sorted(set(heights))}; the bed replaces one")
     level = heights[0] if heights else 0.0
     others = [g for g in world if g not in planes
-              and abs(_world_support(model, data, g, (0.0, 0.0, 1.0))[2] - level) <= FLOOR_TOLERANCE]
+              and abs(world_support(model, data, g, (0.0, 0.0, 1.0))[2] - level) <= FLOOR_TOLERANCE]
     return planes + others, level
 
 
@@ -90,45 +86,69 @@ def lowest_points(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, float
     for g in range(model.ngeom):
         body = int(model.geom_bodyid[g])
         if body > 0 and is_collision_geom(model, g):
-            z = float(_world_support(model, data, g, (0.0, 0.0, -1.0))[2])
+            z = float(world_support(model, data, g, (0.0, 0.0, -1.0))[2])
             lowest[body] = min(z, lowest.get(body, math.inf))
     return lowest
 
 
 def terrain_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence[str] = (),
-                  couple_below: float = COUPLE_BELOW) -> tuple[mujoco.MjModel, mujoco.MjData, float, list[int]]:
-    """The MJCF model with its floor switched off (module docstring), its data at the start pose,
-    the floor's height (m) and the ids of the bodies that meet the terrain: `bodies` (by name) or,
-    if none are named, those with a collision geom lower than `couple_below` (m) above the floor.
-    Both terrains start here: the SPH's :func:`terrain_robot` and the 3D RFT's
-    (:func:`terrasph.robots.rft3d_terrain.rft_robot`)."""
-    if not (isinstance(couple_below, (int, float)) and math.isfinite(couple_below) and couple_below > 0):
-        raise ConfigError(f"parameter 'couple_below' = {couple_below!r} is invalid: allowed a finite number > 0 (m)")
+                  couple_below: float | None = COUPLE_BELOW, data: mujoco.MjData | None = None,
+                  ) -> tuple[mujoco.MjModel, mujoco.MjData, float, list[int]]:
+    """The MJCF model with its floor switched off (module docstring), its data at the start pose (or
+    `data`, the caller's of the compiled model given, at its pose), the floor's height (m) and the
+    ids of the bodies that meet the terrain (:func:`coupled_body_ids`; `couple_below` None: every
+    body with a collision geom). Both terrains of the scenes start here: the SPH's
+    :func:`terrain_robot` and the 3D RFT's (:func:`terrasph.robots.rft3d_terrain.rft_robot`)."""
+    if couple_below is not None:
+        check_couple_below(couple_below)
     model = load_model(mjcf)
-    data = mujoco.MjData(model)
+    data = mujoco.MjData(model) if data is None else data
     mujoco.mj_forward(model, data)
     floor, level = floor_geoms(model, data)
+    chosen = coupled_body_ids(model, data, level, bodies, couple_below)
     switch_off_floor(model, floor)
-    if bodies:
-        chosen = [coupled_body_id(model, name) for name in bodies]
-    else:
-        chosen = sorted(b for b, z in lowest_points(model, data).items() if z - level < couple_below)
-        if not chosen:
-            raise ConfigError(f"no body of the model has a collision geom lower than couple_below = {couple_below:g} m "
-                              "above the floor; raise it or name the bodies that meet the terrain")
     return model, data, level, chosen
 
 
+def check_couple_below(couple_below: float) -> None:
+    """ConfigError naming `couple_below` unless it is a finite height > 0 (m)."""
+    if not (isinstance(couple_below, (int, float)) and math.isfinite(couple_below) and couple_below > 0):
+        raise ConfigError(f"parameter 'couple_below' = {couple_below!r} is invalid: allowed a finite number > 0 (m)")
+
+
+def coupled_body_ids(model: mujoco.MjModel, data: mujoco.MjData, level: float, bodies: Sequence[str],
+                     couple_below: float | None) -> list[int]:
+    """The ids of the bodies that meet the terrain: `bodies` (by name) or, if none are named, those
+    with a collision geom lower than `couple_below` (m) above the floor at `level` (m) at `data`'s
+    pose, or every body with a collision geom if `couple_below` is None; ConfigError if none is."""
+    if bodies:
+        return [coupled_body_id(model, name) for name in bodies]
+    lowest = lowest_points(model, data)
+    if couple_below is None:
+        chosen = sorted(lowest)
+        if not chosen:
+            raise ConfigError("no body of the model has a collision geom to meet the terrain with")
+        return chosen
+    chosen = sorted(b for b, z in lowest.items() if z - level < couple_below)
+    if not chosen:
+        raise ConfigError(f"no body of the model has a collision geom lower than couple_below = {couple_below:g} m "
+                          "above the floor; raise it or name the bodies that meet the terrain")
+    return chosen
+
+
 def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float, surface: float, x: float, *,
-                  bodies: Sequence[str] = (), couple_below: float = COUPLE_BELOW,
-                  widths: Mapping[str, float] | None = None, gravity: float = 9.81) -> PlanarRobot:
+                  bodies: Sequence[str] = (), couple_below: float | None = COUPLE_BELOW,
+                  widths: Mapping[str, float] | None = None, gravity: float = 9.81,
+                  data: mujoco.MjData | None = None) -> PlanarRobot:
     """A :class:`PlanarRobot` of the MJCF model with its floor replaced by a bed whose free surface is
     at z = `surface` and its centre of mass at `x` (module docstring); coupled bodies `bodies` (by
     name) or, if none are named, those with a collision geom lower than `couple_below` (m) above
     the floor at start (:func:`terrain_model`); each body's shape from its collision geoms at
     `spacing` Δx, its width from them unless `widths` gives it (m, by body name). The remaining
-    checks (planar joints, gravity, mass) are :class:`PlanarRobot`'s and :class:`CoupledSimulation`'s."""
-    model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below)
+    checks (planar joints, gravity, mass) are :class:`PlanarRobot`'s and :class:`CoupledSimulation`'s.
+    With `data` (the caller's, of the compiled model given) the robot moves that data, else new data."""
+    given = data
+    model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below, data=data)
     widths = dict(widths or {})
     couplings = {}
     for body in chosen:
@@ -141,34 +161,4 @@ def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float,
     for body in range(1, model.nbody):
         if model.body_parentid[body] == 0:
             model.body_pos[body] += shift
-    return PlanarRobot(model, couplings, gravity=gravity)
-
-
-class BedCrossings:
-    """Watches the bodies that are not coupled: with the floor off nothing holds them up, so one that
-    reaches below the bed's surface passes through the grains unseen. The first time a body's
-    collision geom does, :meth:`check` warns once naming it and records the time under
-    ``memory["through_the_bed"]`` (plain data: a run's checkpointed memory, read at each check, so a
-    resumed run's restored memory counts)."""
-
-    def __init__(self, robot: PlanarRobot | Robot3D, surface: float, memory: dict[str, dict[str, float]]) -> None:
-        model = robot.model
-        coupled = {b.body_id for b in robot.coupled}
-        self.robot, self.surface, self.memory = robot, surface, memory
-        memory.setdefault("through_the_bed", {})
-        self.geoms = np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] > 0
-                               and model.geom_bodyid[g] not in coupled and is_collision_geom(model, g)], dtype=int)
-
-    def check(self, time: float) -> None:
-        """Looks at the pose in the robot's data (cheaply: a geom whose bounding sphere clears the
-        surface is not looked at further)."""
-        model, data = self.robot.model, self.robot.data
-        near = self.geoms[data.geom_xpos[self.geoms, 2] - model.geom_rbound[self.geoms] < self.surface]
-        for g in near:
-            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g])) or f"#{g}"
-            seen = self.memory["through_the_bed"]
-            if name not in seen and _world_support(model, data, int(g), (0.0, 0.0, -1.0))[2] < self.surface:
-                seen[name] = time
-                warnings.warn(f"body '{name}' is not coupled and reached below the bed's surface at t = {time:.4g} s: "
-                              "it passes through the grains (couple it: bodies or couple_below)", RuntimeWarning,
-                              stacklevel=2)
+    return PlanarRobot(model, couplings, gravity=gravity, data=given)

@@ -1,0 +1,111 @@
+"""Environment steps per second of gymnasium MuJoCo environments on sand (terrasph.gym.OnSand) against
+the same environments on MuJoCo's rigid floor, one thread, interleaved rounds (CONTRIBUTING.md, the
+A/B protocol): in each round every variant runs the same number of random-action steps (resets
+included) after its warm-up, one after the other, and the ratio sand/rigid is taken within the
+round. Absolute steps/s drift with the machine's load; the ratios are the result.
+
+    OMP_NUM_THREADS=1 python benchmarks/performance/bench_gym_sand.py [--rounds 5] [--steps 400]
+
+writes benchmarks/results/gym_sand_speed.json (machine, date, commit, each round's steps/s, the
+ratios' median and range) and prints a table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import logging
+import os
+import pathlib
+import platform
+import statistics
+import subprocess
+import time
+
+import gymnasium
+import numpy as np
+from terrasph.gym import OnSand
+
+#: (name, environment, terrain or None for the rigid floor)
+VARIANTS = (("Walker2d-v5 rigid", "Walker2d-v5", None), ("Walker2d-v5 rft", "Walker2d-v5", "rft"),
+            ("Ant-v5 rigid", "Ant-v5", None), ("Ant-v5 rft3d", "Ant-v5", "rft3d"))
+RATIOS = (("Walker2d-v5 rft", "Walker2d-v5 rigid"), ("Ant-v5 rft3d", "Ant-v5 rigid"))
+RESULT = pathlib.Path(__file__).resolve().parents[1] / "results" / "gym_sand_speed.json"
+
+
+def _environment(env_id: str, terrain: str | None) -> gymnasium.Env:
+    env = gymnasium.make(env_id)
+    return env if terrain is None else OnSand(env, terrain=terrain)
+
+
+def _steps_per_second(env: gymnasium.Env, steps: int, seed: int) -> float:
+    """Steps/s of `steps` random-action steps from reset(seed), resets included (wall clock)."""
+    env.reset(seed=seed)
+    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, (steps, *env.action_space.shape))
+    start = time.perf_counter()
+    for action in actions:
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+    return steps / (time.perf_counter() - start)
+
+
+def _machine() -> dict[str, object]:
+    model = next((line.split(":", 1)[1].strip() for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines()
+                  if line.startswith("model name")), platform.processor()) if pathlib.Path("/proc/cpuinfo").exists() \
+        else platform.processor()
+    return {"cpu": model, "logical_cpus": os.cpu_count(), "platform": platform.platform(),
+            "python": platform.python_version(), "load_average_1min": os.getloadavg()[0],
+            "omp_num_threads": os.environ.get("OMP_NUM_THREADS")}
+
+
+def _commit() -> str:
+    root = pathlib.Path(__file__).resolve().parents[2]
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
+                              check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("+dirty" if dirty else "")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--steps", type=int, default=400, help="timed steps per variant and round")
+    parser.add_argument("--warmup", type=int, default=50, help="untimed steps per variant before the rounds")
+    parser.add_argument("--out", type=pathlib.Path, default=RESULT)
+    args = parser.parse_args()
+    logging.disable(logging.WARNING)  # the floor's one line per environment
+    environments = {name: _environment(env_id, terrain) for name, env_id, terrain in VARIANTS}
+    for env in environments.values():
+        _steps_per_second(env, args.warmup, 0)
+    rounds: list[dict[str, float]] = []
+    for k in range(args.rounds):
+        row = {name: _steps_per_second(env, args.steps, k + 1) for name, env in environments.items()}
+        rounds.append(row)
+        print(f"round {k + 1}: " + ", ".join(f"{name} {rate:.0f}/s" for name, rate in row.items()), flush=True)
+    ratios = {}
+    for sand, rigid in RATIOS:
+        values = [row[sand] / row[rigid] for row in rounds]
+        ratios[f"{sand} / {rigid}"] = {"median": statistics.median(values), "min": min(values), "max": max(values),
+                                       "rounds": values}
+    result = {"benchmark": "benchmarks/performance/bench_gym_sand.py",
+              "command": f"OMP_NUM_THREADS=1 python benchmarks/performance/bench_gym_sand.py --rounds {args.rounds} "
+                         f"--steps {args.steps}",
+              "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+              "commit": _commit(), "machine": _machine(),
+              "steps_per_round": args.steps, "steps_per_second": rounds, "ratios": ratios,
+              "note": "interleaved rounds on a shared machine: the ratios within a round are the result, "
+                      "absolute steps/s drift with the load"}
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    for name, ratio in ratios.items():
+        print(f"{name}: {ratio['median']:.3f} (range {ratio['min']:.3f}-{ratio['max']:.3f})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,74 @@
+"""Random actions on rigid floor and on sand: gymnasium's Walker2d (planar RFT) and Ant (3D RFT).
+
+For each environment and floor, a few episodes of uniform random actions (the same seeds on both
+floors) and, per episode: the distance the torso travelled along x, the feet's deepest sinkage
+below the sand's surface, and the feet's slip: their mean horizontal speed while they bear load
+(the vertical part of ``cfrc_ext``, the floor's contact force on rigid ground and the sand's load
+on sand, above 1 N).
+
+    OMP_NUM_THREADS=1 python examples/sand_vs_rigid.py [--episodes 3] [--steps 200]
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+
+import gymnasium
+import mujoco
+import numpy as np
+from terrasph.gym import OnSand
+
+#: environment, the terrain for it, its feet (gymnasium's body names; Ant's lower legs are unnamed)
+CASES = (("Walker2d-v5", "rft", ("foot", "foot_left")), ("Ant-v5", "rft3d", ("#4", "#7", "#10", "#13")))
+#: a foot bears load when its vertical external force is above this (N)
+LOADED = 1.0
+
+
+def _body_ids(model: mujoco.MjModel, names: tuple[str, ...]) -> list[int]:
+    return [int(name[1:]) if name.startswith("#") else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+            for name in names]
+
+
+def episode(env: gymnasium.Env, feet: tuple[str, ...], seed: int, steps: int) -> dict[str, float]:
+    """One episode of random actions from reset(seed), at most `steps` long."""
+    env.reset(seed=seed)
+    model, data = env.unwrapped.model, env.unwrapped.data
+    ids = _body_ids(model, feet)
+    rng = np.random.default_rng(seed)
+    start, sinkage, speeds = float(data.qpos[0]), 0.0, []
+    twist = np.zeros(6)
+    for _ in range(steps):
+        _, _, terminated, truncated, _ = env.step(rng.uniform(-1.0, 1.0, env.action_space.shape))
+        for foot in ids:
+            if data.cfrc_ext[foot, 5] > LOADED:
+                mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, foot, twist, 0)
+                speeds.append(float(np.hypot(twist[3], twist[4])))
+        if isinstance(env, OnSand):
+            sinkage = max(sinkage, *(env.terrain.sinkage()[name] for name in feet))
+        if terminated or truncated:
+            break
+    return {"distance": float(data.qpos[0]) - start, "sinkage": sinkage,
+            "slip": float(np.mean(speeds)) if speeds else float("nan")}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--episodes", type=int, default=3)
+    parser.add_argument("--steps", type=int, default=200)
+    args = parser.parse_args()
+    logging.disable(logging.WARNING)  # the floor's one line per environment
+    print(f"{'environment':<13} {'floor':<6} {'distance (m)':>13} {'foot sinkage (mm)':>18} {'foot slip (m/s)':>16}")
+    for env_id, terrain, feet in CASES:
+        for floor in ("rigid", terrain):
+            env = gymnasium.make(env_id)
+            if floor != "rigid":
+                env = OnSand(env, terrain=terrain)
+            rows = [episode(env, feet, seed, args.steps) for seed in range(args.episodes)]
+            mean = {key: np.nanmean([row[key] for row in rows]) for key in rows[0]}
+            print(f"{env_id:<13} {floor:<6} {mean['distance']:>13.3f} {1000 * mean['sinkage']:>18.1f} "
+                  f"{mean['slip']:>16.3f}")
+
+
+if __name__ == "__main__":
+    main()

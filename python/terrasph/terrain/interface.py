@@ -1,0 +1,404 @@
+"""One interface to the sand for a MuJoCo model of the user's own: :func:`attach` and :class:`Terrain`.
+
+``sand = attach(model, data, terrain="rft3d")`` puts a compiled ``mujoco.MjModel`` and its
+``mujoco.MjData`` on a terrain, unmodified but for its floor; ``sand.step(nstep)`` then takes the
+place of ``mujoco.mj_step(model, data, nstep)``: it advances the same simulated time, nstep × the
+model's ``opt.timestep``, with the terrain's loads on the coupled bodies. What the caller sets in
+``data`` (``ctrl``, ``qfrc_applied``) acts as in ``mj_step``; sensors, viewers and controllers read
+``data`` as usual. The terrains are the package's steppers, each behind the same methods
+(:class:`Terrain`: what they share; :class:`RFTTerrain`, :class:`SPHTerrain`: what each says):
+
+* ``"rft3d"``: 3D resistive force theory (:class:`terrasph.robots.rft3d_terrain.RFT3DCoupling`), any
+  model (free joints, hinges about any axis);
+* ``"rft"``: planar resistive force theory (:class:`terrasph.robots.rft_terrain.RFTCoupling`), a
+  model moving in the x–z plane (slides along x and z, hinges about y);
+* ``"sph"``: a planar model on an SPH bed of glass beads
+  (:class:`terrasph.robots.coupling.CoupledSimulation`, built by
+  :func:`terrasph.robots.mjcf_scene.sph_coupling`), the model shifted into the bed's frame.
+
+The RFT terrains are implicit in the load (docs/rft.md): the stepper takes MuJoCo's step itself,
+the load entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrain's
+measured step (``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
+:data:`~terrasph.robots.rft3d_terrain.RFT3D_TIME_STEP` 3D): the model's step is cut into equal
+substeps no longer than that, all taken in one call of the compiled stepper. The SPH coupling is
+explicit at the SPH's step bound. ``opt.timestep`` is the model's own again when
+:meth:`Terrain.step` returns. The steps use MuJoCo's semi-implicit Euler integrator (the scheme the
+implicit RFT correction is derived for), whatever the model's ``opt.integrator`` (put back after
+the call): on gymnasium's Ant (RK4 in its file), at the 3D terrain's step, Euler substeps walked a
+gentle open-loop gait closer to the travel at half the step than RK4 substeps did
+(benchmarks/results/sand_substeps.json, docs/terrain.md). The terrain owns the coupled bodies'
+``xfrc_applied`` (the 3D stepper every body's): a perturbation there is not applied.
+
+The floor: the model's horizontal planes (and the world's collision geoms whose top is at their
+height) have their contacts switched off, one log line says so, and the sand's free surface lies
+at the floor's height (terrasph.robots.terrain_robot). Coupled bodies: every body with a collision
+geom, or those named (``bodies``), or those lower than ``couple_below`` above the floor now. A body
+not coupled passes through the sand.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from terrasph import rft
+from terrasph.config import ConfigError
+from terrasph.fidelity import DEFAULT_TIER
+from terrasph.robots.coupling import CoupledSimulation
+from terrasph.robots.geoms import body_shape
+from terrasph.robots.mjcf import Coupling, PlanarRobot, check_planar
+from terrasph.robots.mjcf_scene import sph_coupling
+from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, bodies_3d
+from terrasph.robots.rft_terrain import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
+from terrasph.robots.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
+
+
+__all__ = ["INTEGRATORS", "PLANAR_SPACING", "SPH_BED", "TERRAINS", "RFTTerrain", "SPHTerrain", "Terrain",
+           "attach"]
+
+#: the terrains :func:`attach` offers
+TERRAINS = ("rft3d", "rft", "sph")
+
+#: the particle spacing (m) of a planar body's shape (its drawing and lowest point; the RFT elements
+#: follow the geoms' outline, :class:`terrasph.rft.SurfaceElements`), the scenes' Δx
+PLANAR_SPACING = 0.005
+
+#: the options of each terrain beyond `table` and `bodies` (:func:`attach`)
+_OPTIONS = {"rft3d": ("couple_below", "time_step", "element_length", "integrator"),
+            "rft": ("couple_below", "time_step", "element_length", "spacing", "integrator"),
+            "sph": ("couple_below", "spacing", "bed_width", "bed_depth", "freeboard", "fidelity", "numerics",
+                    "start_x", "widths", "integrator")}
+
+#: the SPH bed of :func:`attach` unless its options say otherwise: 2 m of glass beads 10 cm deep at a
+#: coarse 1 cm spacing (a lying Walker2d spans 1.5 m), 20 cm of container wall above them
+SPH_BED = {"spacing": 0.01, "bed_width": 2.0, "bed_depth": 0.1, "freeboard": 0.2, "fidelity": DEFAULT_TIER}
+
+#: the integrators of the terrain's substeps (:func:`attach`'s option ``integrator``)
+INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "model": None}
+
+#: the part of MuJoCo's state that :meth:`Terrain.state` keeps: everything the next step reads
+_MUJOCO_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+class Terrain:
+    """A MuJoCo model and its data on a terrain (module docstring), built by :func:`attach`: what the
+    terrains share. Each terrain says how it advances, what its loads and lowest points are and what
+    its memory is (:class:`RFTTerrain`, :class:`SPHTerrain`)."""
+
+    def __init__(self, kind: str, model: mujoco.MjModel, data: mujoco.MjData, coupled: Sequence[Any],
+                 surface: float, model_step: float, integrator: int | None) -> None:
+        self.kind, self.model, self.data = kind, model, data
+        self._coupled = list(coupled)
+        self._integrator = integrator
+        self._surface = float(surface)
+        self._model_step = model_step
+        self._names = tuple(b.name for b in self._coupled)
+        self._loads = self._no_loads()
+
+    @property
+    def bodies(self) -> tuple[str, ...]:
+        """The names of the bodies the terrain carries, in the order of :meth:`loads`."""
+        return self._names
+
+    @property
+    def surface(self) -> float:
+        """The sand's free surface at the start, z (m): the model's floor height (RFT), the bed's (SPH)."""
+        return self._surface
+
+    @property
+    def time_step(self) -> float:
+        """The terrain's step (s) now."""
+        raise NotImplementedError
+
+    @property
+    def leaked_grains(self) -> int:
+        """Grains that have left the bed's domain (none on RFT, which has no grains)."""
+        return 0
+
+    def step(self, nstep: int = 1) -> None:
+        """Advances the model and the sand by `nstep` × the model's ``opt.timestep`` (as
+        ``mujoco.mj_step(model, data, nstep)`` would); :class:`terrasph.InstabilityError` if MuJoCo
+        could not integrate a state (or the SPH bed went unstable). Afterwards each coupled body's
+        ``xfrc_applied`` holds its load over the call (:meth:`loads`), as the sand's share of what
+        ``mj_rnePostConstraint`` reports in ``cfrc_ext`` and a viewer draws; the next step replaces it."""
+        if isinstance(nstep, bool) or not isinstance(nstep, (int, np.integer)) or nstep < 1:
+            raise ConfigError(f"parameter 'nstep' = {nstep!r} is invalid: allowed an integer >= 1")
+        self._stepper.reset_body_means()
+        own_integrator = self.model.opt.integrator
+        if self._integrator is not None:
+            self.model.opt.integrator = self._integrator
+        try:
+            self._advance(int(nstep))
+        finally:  # the model's own step and integrator, as the caller's env and viewer read them
+            self.model.opt.timestep = self._model_step
+            self.model.opt.integrator = own_integrator
+        self._loads = self._mean_loads()
+        for body, load in zip(self._coupled, self._loads.values()):
+            self.data.xfrc_applied[body.body_id] = load
+
+    def loads(self) -> dict[str, np.ndarray]:
+        """Each coupled body's load from the sand over the last :meth:`step` call (each step's
+        weighted by its dt), as MuJoCo's ``xfrc_applied`` holds one: force (3, N) and torque (3,
+        N·m) about the body's centre of mass, world axes; NaN before the first step. On the planar
+        terrains the torque is about y, moved from the body's frame origin to its centre of mass with
+        the offset at the call's end."""
+        return {name: load.copy() for name, load in self._loads.items()}
+
+    def sinkage(self) -> dict[str, float]:
+        """Each coupled body's depth below the free surface (m): the surface's z (the bed's undisturbed
+        level now, on the SPH) less that of the body's lowest point now (negative while above it)."""
+        surface = self._surface_now()
+        return {name: surface - self._lowest(k) for k, name in enumerate(self._names)}
+
+    def state(self) -> dict[str, Any]:
+        """Everything the next step reads, as a copy: MuJoCo's integration state (``mj_getState``
+        with ``mjSTATE_INTEGRATION``) and the terrain's memory; :meth:`restore` continues from it
+        bit for bit."""
+        mujoco_state = np.empty(mujoco.mj_stateSize(self.model, _MUJOCO_STATE))
+        mujoco.mj_getState(self.model, self.data, mujoco_state, _MUJOCO_STATE)
+        return {"mujoco": mujoco_state, "terrain": copy.deepcopy(self._memory()), "loads": self.loads()}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Puts back a :meth:`state` of this terrain."""
+        try:
+            mujoco_state, memory, loads = state["mujoco"], state["terrain"], dict(state["loads"])
+        except (KeyError, TypeError, ValueError):
+            raise ConfigError("parameter 'state' is invalid: allowed a dict from Terrain.state()") from None
+        if np.shape(mujoco_state) != (mujoco.mj_stateSize(self.model, _MUJOCO_STATE),):
+            raise ConfigError("parameter 'state' is invalid: it belongs to another model (its MuJoCo state's size "
+                              "differs)")
+        mujoco.mj_setState(self.model, self.data, np.asarray(mujoco_state, dtype=float), _MUJOCO_STATE)
+        self._put_memory(copy.deepcopy(memory))
+        self._loads = {name: np.array(load, dtype=float) for name, load in loads.items()}
+
+    def reset(self) -> None:
+        """Starts the terrain afresh from the state now in ``data``, after the caller reset it
+        (``mujoco.mj_resetData``, an environment's ``reset``): an undisturbed bed."""
+        mujoco.mj_forward(self.model, self.data)
+        self._restart()
+        self._loads = self._no_loads()
+
+    def _no_loads(self) -> dict[str, np.ndarray]:
+        """The loads before a step: NaN."""
+        return {name: np.full(6, math.nan) for name in self._names}
+
+    def _planar_loads(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        """Planar rows (F_x, F_z N, clockwise torque about the body origin N·m) as ``xfrc_applied`` rows."""
+        loads = {}
+        for body, (fx, fz, torque) in zip(self._coupled, rows):
+            offset = self.data.xpos[body.body_id] - self.data.xipos[body.body_id]
+            # τ_com = τ_ref + ((x_ref − x_com) × F)_y, (a × b)_y = a_z b_x − a_x b_z
+            loads[body.name] = np.array([fx, 0.0, fz, 0.0, torque + offset[2] * fx - offset[0] * fz, 0.0])
+        return loads
+
+    # -- what each terrain says ------------------------------------------------------------------
+    _stepper: Any
+
+    def _advance(self, nstep: int) -> None:
+        raise NotImplementedError
+
+    def _mean_loads(self) -> dict[str, np.ndarray]:
+        raise NotImplementedError
+
+    def _lowest(self, k: int) -> float:
+        raise NotImplementedError
+
+    def _surface_now(self) -> float:
+        return self._surface
+
+    def _memory(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def _put_memory(self, memory: dict[str, Any]) -> None:
+        raise NotImplementedError
+
+    def _restart(self) -> None:
+        raise NotImplementedError
+
+
+class RFTTerrain(Terrain):
+    """The planar or 3D RFT terrain (:class:`NativeRFTStepper`): `substeps` steps of the compiled
+    stepper per model step, all of a call's in one call into it."""
+
+    def __init__(self, kind: str, model: mujoco.MjModel, data: mujoco.MjData, stepper: NativeRFTStepper,
+                 surface: float, substeps: int, model_step: float, integrator: int | None) -> None:
+        self._stepper = stepper
+        self._substeps = substeps
+        super().__init__(kind, model, data, stepper.robot.coupled, surface, model_step, integrator)
+
+    @property
+    def time_step(self) -> float:
+        """The terrain's step (s): the model's ``opt.timestep`` cut into equal substeps."""
+        return self._stepper.time_step()
+
+    def _advance(self, nstep: int) -> None:
+        self._stepper.steps(nstep * self._substeps)
+
+    def _mean_loads(self) -> dict[str, np.ndarray]:
+        means = self._stepper.load_means()
+        if self.kind == "rft3d":
+            return {name: row.copy() for name, row in zip(self._names, means)}
+        return self._planar_loads(means)
+
+    def _lowest(self, k: int) -> float:
+        return self._stepper.lowest_z(k)
+
+    def _memory(self) -> dict[str, Any]:
+        return {"stepper": self._stepper.state(), "step_count": self._stepper.step_count}
+
+    def _put_memory(self, memory: dict[str, Any]) -> None:
+        self._stepper.restore_state(memory["stepper"])
+        self._stepper.step_count = int(memory["step_count"])
+
+    def _restart(self) -> None:
+        self._stepper.restart()
+
+
+class SPHTerrain(Terrain):
+    """A planar model on the SPH bed (:class:`terrasph.robots.coupling.CoupledSimulation`): the
+    coupled step at the SPH's step bound, until the model's time is reached (the target kept, so
+    steps that end past it do not add up); the undisturbed bed is the one built by :func:`attach`."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: CoupledSimulation,
+                 model_step: float, integrator: int | None) -> None:
+        self._stepper = coupled
+        self._target = coupled.time
+        self._bed = copy.deepcopy(coupled.sim.core.state())
+        super().__init__("sph", model, data, coupled.robot.coupled, coupled.surface(),
+                         model_step, integrator)
+
+    @property
+    def time_step(self) -> float:
+        """The SPH's step (s) now: its stable bound."""
+        return self._stepper.time_step()
+
+    @property
+    def leaked_grains(self) -> int:
+        """Grains that have left the bed's domain."""
+        return int(self._stepper.sim.leaked_particles)
+
+    def _advance(self, nstep: int) -> None:
+        self._target += nstep * self._model_step
+        self._stepper.advance(self._target)
+
+    def _mean_loads(self) -> dict[str, np.ndarray]:
+        samples = [self._stepper.body_sample(name) for name in self._names]
+        return self._planar_loads(np.array([(s["force"][0], s["force"][1], s["torque"]) for s in samples]))
+
+    def _lowest(self, k: int) -> float:
+        return float(self._stepper.body_sample(self._names[k])["lowest_z"])
+
+    def _surface_now(self) -> float:
+        return self._stepper.surface()
+
+    def _memory(self) -> dict[str, Any]:
+        return {"sph": self._stepper.sim.core.state(), "coupling": self._stepper.state(), "target": self._target}
+
+    def _put_memory(self, memory: dict[str, Any]) -> None:
+        self._stepper.sim.core.restore(memory["sph"])
+        self._stepper.restore_state(memory["coupling"])
+        self._target = float(memory["target"])
+
+    def _restart(self) -> None:
+        self._stepper.sim.core.restore(copy.deepcopy(self._bed))
+        self._stepper.restart()
+        self._target = self._stepper.time
+
+
+def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", table: rft.RFTCoefficients | str = "generic",
+           bodies: Sequence[str] | None = None, **options: Any) -> Terrain:
+    """Puts the compiled `model` and its `data` on `terrain` (one of :data:`TERRAINS`) with the RFT
+    coefficient map `table` (a name of :func:`terrasph.rft.coefficient_table` or a map) and returns
+    the :class:`Terrain` that steps them (module docstring). `bodies`: the names of the bodies that
+    meet the sand (default: every body with a collision geom). Options (each terrain's list:
+    ``couple_below`` (m): couple only the bodies lower than this above the floor now; ``time_step``
+    (s): the terrain's longest step; ``element_length`` (m): the RFT elements' size; ``spacing``
+    (m, planar): the bodies' particle spacing, :data:`PLANAR_SPACING`; ``integrator``: MuJoCo's
+    integrator in the terrain's substeps, ``"euler"`` (default: the implicit correction's own
+    scheme; the measured choice, module docstring) or ``"model"`` (the model's ``opt.integrator``).
+
+    Refused before anything is changed, as :class:`terrasph.config.ConfigError` naming the item: a
+    terrain, table or option not offered; gravity not along −z; a model the planar terrain cannot
+    carry (naming its joint or body); no body to couple, a named body the model lacks, a coupled
+    body without mass. On success the model's floor is switched off (logged)."""
+    if not isinstance(model, mujoco.MjModel) or not isinstance(data, mujoco.MjData):
+        raise ConfigError("parameters 'model' and 'data' must be a compiled mujoco.MjModel and its mujoco.MjData")
+    if terrain not in TERRAINS:
+        raise ConfigError(f"parameter 'terrain' = {terrain!r} is invalid: allowed one of {', '.join(TERRAINS)}")
+    unknown = sorted(set(options) - set(_OPTIONS[terrain]))
+    if unknown:
+        raise ConfigError(f"parameter '{unknown[0]}' is not an option of terrain {terrain!r}: allowed "
+                          f"{', '.join(_OPTIONS[terrain])}")
+    if terrain == "sph" and table != "generic":
+        raise ConfigError(f"parameter 'table' = {table!r} is invalid on the SPH terrain: allowed only its default "
+                          "'generic' there (it sets the RFT terrains' sand; the SPH's is its bed)")
+    table = rft.coefficient_table(table)
+    gravity = _downward_gravity(model)
+    model_step = float(model.opt.timestep)
+    integrator = options.get("integrator", "euler")
+    if integrator not in INTEGRATORS:
+        raise ConfigError(f"parameter 'integrator' = {integrator!r} is invalid: allowed one of {', '.join(INTEGRATORS)}")
+    longest = options.get("time_step", RFT3D_TIME_STEP if terrain == "rft3d" else RFT_TIME_STEP)
+    if isinstance(longest, bool) or not (isinstance(longest, (int, float)) and math.isfinite(longest) and longest > 0):
+        raise ConfigError(f"parameter 'time_step' = {longest!r} is invalid: allowed a finite number > 0 (s)")
+    substeps = max(1, math.ceil(model_step / longest * (1 - 1e-12)))
+    couple_below = options.get("couple_below")
+    if couple_below is not None:
+        check_couple_below(couple_below)
+    mujoco.mj_forward(model, data)
+    if terrain == "sph":
+        _check_planar(model, data, "sph")
+        coupled_sph = sph_coupling(model, data=data, bodies=tuple(bodies or ()), couple_below=couple_below,
+                                   **{**SPH_BED, **{k: v for k, v in options.items() if k != "integrator"}})
+        model.opt.timestep = model_step
+        mujoco.mj_forward(model, data)
+        return SPHTerrain(model, data, coupled_sph, model_step, INTEGRATORS[integrator])
+    floor, level = floor_geoms(model, data)
+    chosen = coupled_body_ids(model, data, level, tuple(bodies or ()), couple_below)
+    if 0 in chosen:
+        raise ConfigError("coupled body 'world' cannot move; couple a body of the robot")
+    element_length = options.get("element_length")
+    if terrain == "rft3d":
+        coupled = bodies_3d(model, chosen, element_length)
+        switch_off_floor(model, floor)
+        stepper: NativeRFTStepper = RFT3DCoupling(Robot3D(model, data, coupled, level), table,
+                                                 time_step=model_step / substeps, control_interval=model_step)
+    else:
+        _check_planar(model, data, "rft")
+        spacing = options.get("spacing", PLANAR_SPACING)
+        couplings = {_body_name(model, b): Coupling(body_shape(model, b, spacing)) for b in chosen}
+        robot = PlanarRobot(model, couplings, gravity=gravity, data=data)
+        stepper = RFTCoupling(robot, level, table, time_step=model_step / substeps, element_length=element_length,
+                              control_interval=model_step)
+        switch_off_floor(model, floor)
+    model.opt.timestep = model_step
+    mujoco.mj_forward(model, data)
+    return RFTTerrain(terrain, model, data, stepper, level, substeps, model_step, INTEGRATORS[integrator])
+
+
+def _body_name(model: mujoco.MjModel, body: int) -> str:
+    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+
+
+def _downward_gravity(model: mujoco.MjModel) -> float:
+    """g (m/s²) of the model's gravity (0, 0, −g); ConfigError otherwise: the sand's surface is level
+    and its resistance scales with depth along gravity."""
+    gx, gy, gz = (float(v) for v in model.opt.gravity)
+    if not (gx == 0.0 and gy == 0.0 and gz < 0.0):
+        raise ConfigError(f"the model's option 'gravity' = {[gx, gy, gz]} is invalid on the sand: allowed (0, 0, -g) "
+                          "with g > 0 (the sand's surface is level)")
+    return -gz
+
+
+def _check_planar(model: mujoco.MjModel, data: mujoco.MjData, terrain: str) -> None:
+    """ConfigError naming the first joint or body that is not planar, with the terrain that takes any model."""
+    try:
+        check_planar(model, data)
+    except ConfigError as error:
+        raise ConfigError(f"{error}; the planar terrain {terrain!r} takes planar models only: attach this one with "
+                          "terrain 'rft3d'") from None
