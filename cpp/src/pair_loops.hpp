@@ -66,7 +66,6 @@ template <int D> ForceConstants<D> force_constants(const ModelParams<D>& params,
 template <int D> struct PairBatch {
   std::array<Vec<D>, kPairBatch> x;
   std::array<double, kPairBatch> r2, value, gradient_factor;
-  std::array<std::int32_t, kPairBatch> j;
 };
 
 template <int D, bool WithValue>
@@ -82,27 +81,9 @@ void gather_pairs(const WendlandC2<D>& kernel, const std::int32_t* j, int count,
   }
 }
 
-// Moves the pairs of a batch inside the kernel's support (those with (dW/dr)/r ≠ 0) to its front,
-// in order, and their indices into batch.j. Only called for a batch that has
-// pairs beyond the support: a pair there adds exact zeros to every sum, so dropping it leaves each
-// sum's value as it was. The lists reach 2h(1 + skin/2): at h = 1.3Δx no lattice neighbour lies
-// between 2h and that radius (the batches are whole), at h = 1.2Δx in 3D 24 of a grain's 80 do.
-template <int D, bool WithValue> void keep_pairs_in_support(const std::int32_t* j, int count, PairBatch<D>& batch) {
-  int kept = 0;
-  for (int k = 0; k < count; ++k) {
-    batch.j[kept] = j[k];
-    batch.x[kept] = batch.x[k];
-    batch.r2[kept] = batch.r2[k];
-    batch.gradient_factor[kept] = batch.gradient_factor[k];
-    if constexpr (WithValue) batch.value[kept] = batch.value[k];
-    kept += batch.gradient_factor[k] != 0.0 ? 1 : 0;
-  }
-}
-
-// visit(j, batch, k) for each pair of grain i in `list` inside the kernel's support, in list
-// order, the kernel of a batch of them evaluated at once (W too when WithValue): the loop driver of
-// every granular pair sum, the gathers over the full list and the each-pair-once sums over the
-// strips' half list.
+// visit(j, batch, k) for each pair of grain i in `list`, in list order, the kernel of a batch of
+// them evaluated at once (W too when WithValue): the loop driver of every granular pair sum, the
+// gathers over the full list and the each-pair-once sums over the strips' half list.
 template <int D, bool WithValue, class Visit>
 void for_each_listed_pair(Index i, const NeighbourList& list, const WendlandC2<D>& kernel, const VecArray<D>& position,
                           Visit&& visit) {
@@ -113,21 +94,15 @@ void for_each_listed_pair(Index i, const NeighbourList& list, const WendlandC2<D
     const std::int32_t* js = list.indices.data() + first;
     PairBatch<D> batch;
     gather_pairs<D, WithValue>(kernel, js, count, xi, position, batch);
-    int inside = 0;
-    for (int k = 0; k < count; ++k) inside += batch.gradient_factor[k] != 0.0 ? 1 : 0;
-    if (inside < count) {
-      keep_pairs_in_support<D, WithValue>(js, count, batch);
-      js = batch.j.data();
-    }
-    for (int k = 0; k < inside; ++k) visit(js[k], batch, k);
+    for (int k = 0; k < count; ++k) visit(js[k], batch, k);
   }
 }
 
 // ---- The granular pair interactions, each written once. A pass's gather (i's sums over its full
 // list) and its each-pair-once variant (i's and j's sums from the half list) call the same function;
 // j's terms are i's with the pair turned round (x_ji = −x_ij, v_ji = −v_ij, ∇_jW_ji = −∇_iW_ij), so
-// each is the gather's to the bit. A pair beyond the support, whose terms would all be exact zeros,
-// is not visited (keep_pairs_in_support).
+// each is the gather's to the bit. A pair beyond the support has W = (dW/dr)/r = 0, so all its terms
+// are exact zeros: adding them is cheaper than a mispredicted branch.
 
 // Adds V_j (f_j − f_i) ⊗ ∇_iW_ij, pair ij's share of the SPH gradient of a field f (Eq. 2.48: f = v
 // for ∇v, with the walls' ghost velocities; f = u for the small strain of Eq. 3.6), to `sum`. With

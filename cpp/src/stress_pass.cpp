@@ -57,8 +57,8 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
   }, active_chunk());
 }
 
-// The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order (pairs inside the
-// support: those beyond it would add exact zeros). Neighbours go in batches:
+// The granular terms of ∇v_i and M_i (Eq. 2.48), in neighbour-list order. A pair beyond the
+// support adds exact zeros, which is cheaper than a branch on it. Neighbours go in batches:
 // |x_ij|² gathered, the kernel evaluated in SIMD lanes, then the terms summed in list order.
 // With Density, the granular pairs' terms of Dρ_i/Dt too (numerics.symplectic_density), as the
 // force pass sums them otherwise.
