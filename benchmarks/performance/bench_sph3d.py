@@ -11,7 +11,8 @@ for `steps` steps after a warm-up, per thread count, timing the process's CPU se
 the quoted figure is the 3D/2D ratio of CPU seconds per grain-step per round (interleaved, its
 spread over rounds beside it: absolute times on a shared machine drift). Memory is the core's own
 count (Simulation.memory_bytes: fields, neighbour lists, pair caches) per particle, grains and
-walls. Writes a JSON file with the machine, date and commit.
+walls; each phase's share of the step (phase_seconds) shows where the time goes. Writes a JSON file
+with the machine, date and commit.
 """
 
 from __future__ import annotations
@@ -50,6 +51,13 @@ def cpu_per_grain_step(advance, grains: int, steps: int) -> float:
     start = time.process_time()
     advance(steps)
     return (time.process_time() - start) / (steps * grains)
+
+
+def phase_shares(core) -> dict[str, float]:
+    """Each phase's share of the wall time of the steps so far (the core's phase_seconds)."""
+    seconds = dict(core.phase_seconds)
+    total = sum(seconds.values())
+    return {name: value / total for name, value in seconds.items()}
 
 
 def commit() -> str:
@@ -101,8 +109,10 @@ def main() -> None:
                     "cpus": os.cpu_count(), "load_average": os.getloadavg()},
         "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "commit": commit(), "spacing": SPACING, "h_factor_3d": args.h_factor_3d,
-        "scenes": {"2d": {"grains": grains2, "walls": walls2, "bytes_per_particle": sim2.core.memory_bytes / (grains2 + walls2)},
-                   "3d": {"grains": grains3, "walls": walls3, "bytes_per_particle": sim3.memory_bytes / (grains3 + walls3)}},
+        "scenes": {"2d": {"grains": grains2, "walls": walls2, "bytes_per_particle": sim2.core.memory_bytes / (grains2 + walls2),
+                          "phase_shares": phase_shares(sim2.core)},
+                   "3d": {"grains": grains3, "walls": walls3, "bytes_per_particle": sim3.memory_bytes / (grains3 + walls3),
+                          "phase_shares": phase_shares(sim3)}},
         "rows": rows,
     }
     print(json.dumps(result["scenes"]))
