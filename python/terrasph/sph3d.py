@@ -231,9 +231,9 @@ def geostatic_bed(size: tuple[float, float, float], material: Material, spacing:
     granular = {"position": x, "velocity": np.zeros_like(x), "density": rho, "mass": rho * dx**3}
     layers = wall_layers_needed(h_factor)
     top = counts[2] + max(0, round(rim / dx))
-    i, j, k = np.meshgrid(np.arange(-layers, counts[0] + layers), np.arange(-layers, counts[1] + layers),
-                          np.arange(-layers, top), indexing="ij")
-    i, j, k = i.ravel(), j.ravel(), k.ravel()
+    cells = np.meshgrid(np.arange(-layers, counts[0] + layers), np.arange(-layers, counts[1] + layers),
+                        np.arange(-layers, top), indexing="ij")
+    i, j, k = (axis.ravel() for axis in cells)
     inside = (i >= 0) & (i < counts[0]) & (j >= 0) & (j < counts[1]) & (k >= 0)
     i, j, k = i[~inside], j[~inside], k[~inside]
     position = (np.column_stack([i, j, k]) + 0.5) * dx
