@@ -21,21 +21,10 @@ from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.scene import GRAVITY, earth_pressure_at_rest
 
-__all__ = [
-    "BED_WALLS",
-    "Bed3D",
-    "BodyShape3D",
-    "box",
-    "capsule",
-    "core_params",
-    "cylinder",
-    "extrude",
-    "geostatic_bed",
-    "sphere",
-]
+__all__ = ["BED_WALLS", "Bed3D", "BodyShape3D", "bed_simulation", "body_walls", "box", "capsule", "core_params",
+           "cylinder", "extrude", "geostatic_bed", "geostatic_deviatoric_stress", "sphere"]
 
 BED_WALLS = {"floor": 0, "sides": 1}  # wall groups of a bed's box
-IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 @dataclass(frozen=True)
