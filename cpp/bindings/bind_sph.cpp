@@ -171,47 +171,66 @@ RunCounters counters_from_dict(const py::dict& d) {
 // A load as users read it: force and torque at the last step and their time averages since the
 // last reset (the last values before any step has been averaged).
 template <int D> void load_summary(const LoadAccumulator<D>& load, py::dict& d) {
+  using Angular = typename BodyRotation<D>::Angular;
   d["force"] = Vec<D>(load.force);
-  d["torque"] = load.torque;
+  d["torque"] = Angular(load.torque);
   const double t = load.impulse_time;
   d["mean_force"] = t > 0.0 ? Vec<D>(load.impulse / t) : Vec<D>(load.force);
-  d["mean_torque"] = t > 0.0 ? load.angular_impulse / t : load.torque;
+  d["mean_torque"] = t > 0.0 ? Angular(load.angular_impulse / t) : Angular(load.torque);
   d["averaged_over"] = t;
+}
+
+// A motion segment as one row of numbers: duration (s), velocity (D values, m/s), angular velocity
+// (2D: one value, rad/s clockwise; 3D: three, rad/s) and back.
+template <int D> std::vector<double> segment_row(const MotionSegment<D>& s) {
+  std::vector<double> row{s.duration};
+  for (int c = 0; c < D; ++c) row.push_back(s.velocity[c]);
+  if constexpr (D == 2) {
+    row.push_back(s.angular_velocity);
+  } else {
+    for (int c = 0; c < 3; ++c) row.push_back(s.angular_velocity[c]);
+  }
+  return row;
+}
+template <int D> MotionSegment<D> segment_from_row(const std::vector<double>& row) {
+  constexpr int spin_values = BodyRotation<D>::angular_components;
+  if (row.size() != static_cast<size_t>(1 + D + spin_values))
+    throw std::invalid_argument("a motion row is (duration, velocity (" + std::to_string(D) + " values), angular velocity (" +
+                                std::to_string(spin_values) + (D == 2 ? " value, clockwise))" : " values))"));
+  MotionSegment<D> s;
+  s.duration = row[0];
+  for (int c = 0; c < D; ++c) s.velocity[c] = row[static_cast<size_t>(1 + c)];
+  if constexpr (D == 2) {
+    s.angular_velocity = row[D + 1];
+  } else {
+    for (int c = 0; c < 3; ++c) s.angular_velocity[c] = row[static_cast<size_t>(D + 1 + c)];
+  }
+  return s;
 }
 
 // A body's full state as numbers: kinematics, loads, impulses, and its motion schedule.
 template <int D> py::dict body_to_dict(const RigidBody<D>& b) {
+  using Orientation = typename BodyRotation<D>::Orientation;
   py::dict d;
   saved_to_dict(b.kinematics, d);
   d["driven"] = b.driven;
   saved_to_dict<LoadAccumulator<D>>(b, d);
   d["motion_start"] = b.motion_start;
   d["start_reference"] = Vec<D>(b.motion.start().reference);
-  d["start_angle"] = b.motion.start().angle;
+  d[py::str(std::string("start_") + BodyRotation<D>::orientation_name)] = Orientation(b.motion.start().orientation);
   std::vector<std::vector<double>> segments;
-  for (const MotionSegment<D>& s : b.motion.segments()) {
-    std::vector<double> row{s.duration};
-    for (int c = 0; c < D; ++c) row.push_back(s.velocity[c]);
-    row.push_back(s.spin);
-    segments.push_back(row);
-  }
+  for (const MotionSegment<D>& s : b.motion.segments()) segments.push_back(segment_row<D>(s));
   d["segments"] = segments;
   return d;
 }
 template <int D> RigidBody<D> body_from_dict(const py::dict& d) {
+  using Orientation = typename BodyRotation<D>::Orientation;
   RigidBody<D> b;
   BodyKinematics<D> start;
   start.reference = d["start_reference"].cast<Vec<D>>();
-  start.angle = d["start_angle"].cast<double>();
+  start.orientation = d[py::str(std::string("start_") + BodyRotation<D>::orientation_name)].template cast<Orientation>();
   std::vector<MotionSegment<D>> segments;
-  for (const auto& row : d["segments"].cast<std::vector<std::vector<double>>>()) {
-    if (row.size() != static_cast<size_t>(D + 2)) throw std::invalid_argument("a saved motion segment has the wrong length");
-    MotionSegment<D> s;
-    s.duration = row[0];
-    for (int c = 0; c < D; ++c) s.velocity[c] = row[1 + c];
-    s.spin = row[D + 1];
-    segments.push_back(s);
-  }
+  for (const auto& row : d["segments"].cast<std::vector<std::vector<double>>>()) segments.push_back(segment_from_row<D>(row));
   b.motion = PrescribedMotion<D>(start, std::move(segments));
   b.motion_start = d["motion_start"].cast<double>();
   saved_from_dict(d, b.kinematics);
@@ -229,18 +248,10 @@ template <int D> py::dict body_summary(const RigidBody<D>& b) {
   return d;
 }
 
-// Motion segments from Python rows (duration s, velocity components m/s, spin rad/s clockwise).
+// Motion segments from Python rows (segment_from_row).
 template <int D> std::vector<MotionSegment<D>> to_segments(const std::vector<std::vector<double>>& rows) {
   std::vector<MotionSegment<D>> out;
-  for (const auto& row : rows) {
-    if (row.size() != static_cast<size_t>(D + 2))
-      throw std::invalid_argument("a motion row is (duration, velocity (" + std::to_string(D) + " values), spin)");
-    MotionSegment<D> s;
-    s.duration = row[0];
-    for (int c = 0; c < D; ++c) s.velocity[c] = row[1 + c];
-    s.spin = row[D + 1];
-    out.push_back(s);
-  }
+  for (const auto& row : rows) out.push_back(segment_from_row<D>(row));
   return out;
 }
 
@@ -255,6 +266,9 @@ template <int D> const IdArray& ids_of(Simulation<D>& s, const std::string& set)
 
 template <int D> void bind_simulation(py::module_& m, const char* class_name) {
   using Sim = Simulation<D>;
+  using Rotation = BodyRotation<D>;
+  using Orientation = typename Rotation::Orientation;
+  using Angular = typename Rotation::Angular;
   auto field = [](Sim& s, const std::string& name, const std::string& set) {
     FieldRegistry& fields = fields_of(s, set);
     return copy_rows(fields.at(name), id_order(ids_of(s, set)));
@@ -356,38 +370,45 @@ template <int D> void bind_simulation(py::module_& m, const char* class_name) {
              else throw std::invalid_argument("particle set must be 'granular' or 'walls'");
            }, py::arg("set"), py::arg("order"),
            "Debug hook: reorder a particle set's storage (row k takes old row order[k]). Users see no change.")
-      .def("add_body", [](Sim& s, std::int32_t group, const Vec<D>& reference, double angle,
+      .def("add_body", [](Sim& s, std::int32_t group, const Vec<D>& reference, const Orientation& orientation,
                           const std::vector<std::vector<double>>& motion) {
-             return s.add_body(group, reference, angle, to_segments<D>(motion));
-           }, py::arg("group"), py::arg("reference"), py::arg("angle"), py::arg("motion"),
-           "Make a wall group a rigid body with reference point `reference` (m) and current clockwise "
-           "angle `angle` (rad), following `motion`: rows (duration s, velocity m/s, spin rad/s clockwise) "
-           "from now on, holding still after the last. Returns the body index.")
-      .def("add_driven_body", &Sim::add_driven_body, py::arg("group"), py::arg("reference"), py::arg("angle"),
+             return s.add_body(group, reference, orientation, to_segments<D>(motion));
+           }, py::arg("group"), py::arg("reference"), py::arg(Rotation::orientation_name), py::arg("motion"),
+           D == 2 ? "Make a wall group a rigid body with reference point `reference` (m) and current clockwise "
+                    "angle `angle` (rad), following `motion`: rows (duration s, velocity m/s, spin rad/s clockwise) "
+                    "from now on, holding still after the last. Returns the body index."
+                  : "Make a wall group a rigid body with reference point `reference` (m) and current orientation "
+                    "`orientation` (unit quaternion w, x, y, z), following `motion`: rows (duration s, velocity "
+                    "(3) m/s, angular velocity (3) rad/s, right-handed, about the reference point) from now on, "
+                    "holding still after the last. Returns the body index.")
+      .def("add_driven_body", &Sim::add_driven_body, py::arg("group"), py::arg("reference"),
+           py::arg(Rotation::orientation_name),
            "Make a wall group a rigid body driven from outside (a multibody engine): set its kinematics with "
-           "set_body_kinematics before each step. `reference` (m) and clockwise `angle` (rad) describe the "
-           "present layout. Returns the body index.")
-      .def("set_body_kinematics", [](Sim& s, int body, const Vec<D>& reference, double angle, const Vec<D>& velocity,
-                                     double spin, const Vec<D>& acceleration, double angular_acceleration) {
+           "set_body_kinematics before each step. `reference` (m) and the orientation (2D: clockwise angle, "
+           "rad; 3D: unit quaternion w, x, y, z) describe the present layout. Returns the body index.")
+      .def("set_body_kinematics", [](Sim& s, int body, const Vec<D>& reference, const Orientation& orientation,
+                                     const Vec<D>& velocity, const Angular& angular_velocity,
+                                     const Vec<D>& acceleration, const Angular& angular_acceleration) {
              BodyKinematics<D> k;
              k.reference = reference;
-             k.angle = angle;
+             k.orientation = orientation;
              k.velocity = velocity;
-             k.spin = spin;
+             k.angular_velocity = angular_velocity;
              k.acceleration = acceleration;
              k.angular_acceleration = angular_acceleration;
              s.set_body_kinematics(body, k);
-           }, py::arg("body"), py::arg("reference"), py::arg("angle"), py::arg("velocity"), py::arg("spin"),
-           py::arg("acceleration"), py::arg("angular_acceleration"),
-           "Pose (m, rad clockwise), velocity (m/s, rad/s) and acceleration (m/s², rad/s²) of a driven body at "
-           "the end of the next step; its particles follow at that step.")
+           }, py::arg("body"), py::arg("reference"), py::arg(Rotation::orientation_name), py::arg("velocity"),
+           py::arg(Rotation::angular_velocity_name), py::arg("acceleration"), py::arg("angular_acceleration"),
+           "Pose (m; 2D: rad clockwise, 3D: unit quaternion w, x, y, z), velocity (m/s, rad/s) and acceleration "
+           "(m/s², rad/s²) of a driven body at the end of the next step; its particles follow at that step.")
       .def_property_readonly("body_count", [](const Sim& s) { return s.bodies().size(); })
       .def("body_state", [](const Sim& s, std::size_t b) {
              if (b >= s.bodies().size()) throw py::index_error("no body " + std::to_string(b));
              return body_summary(s.bodies()[b]);
            }, py::arg("body"),
-           "Pose, rates and granular load of a body: force (N/m) and clockwise torque (N·m/m) about the "
-           "reference point at the last step, and their time averages since reset_body_means().")
+           "Pose, rates and granular load of a body: force (2D: N/m; 3D: N) and torque (2D: clockwise, N·m/m; "
+           "3D: a vector, N·m) about the reference point at the last step, and their time averages since "
+           "reset_body_means().")
       .def("reset_body_means", &Sim::reset_body_impulses, "Restart the time averages of body loads.")
       .def("track_wall_loads", &Sim::track_wall_loads, py::arg("point"),
            "From now on keep the load of the grains on every fixed wall group (not a body), torques clockwise "
@@ -576,7 +597,7 @@ void bind_sph(py::module_& m) {
         std::vector<Vec<2>> local;
         for (py::ssize_t k = 0; k < offsets.shape(0); ++k) local.emplace_back(offsets.at(k, 0), offsets.at(k, 1));
         const BodyDistanceField<2> field(local, radius);
-        const BodyProximity<2> proximity({{&field, reference, std::cos(angle), std::sin(angle)}});
+        const BodyProximity<2> proximity({{&field, reference, BodyRotation<2>::inverse(angle)}});
         py::array_t<bool> near(points.shape(0));
         for (py::ssize_t k = 0; k < points.shape(0); ++k)
           near.mutable_data()[k] = proximity.near(Vec<2>(points.at(k, 0), points.at(k, 1)));

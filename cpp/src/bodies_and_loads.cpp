@@ -13,22 +13,23 @@
 namespace terrasph {
 
 template <int D>
-int Simulation<D>::add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
+int Simulation<D>::add_body(std::int32_t wall_group, const Vec<D>& reference, const Orientation& orientation,
                             std::vector<MotionSegment<D>> motion) {
   BodyKinematics<D> start;
   start.reference = reference;
-  start.angle = angle;
+  start.orientation = orientation;
   RigidBody<D> body;
   body.motion = PrescribedMotion<D>(start, std::move(motion));
   body.motion_start = counters_.time;
   return attach_body(wall_group, std::move(body));
 }
 
-template <int D> int Simulation<D>::add_driven_body(std::int32_t wall_group, const Vec<D>& reference, double angle) {
+template <int D>
+int Simulation<D>::add_driven_body(std::int32_t wall_group, const Vec<D>& reference, const Orientation& orientation) {
   RigidBody<D> body;
   body.driven = true;
   body.kinematics.reference = reference;
-  body.kinematics.angle = angle;
+  body.kinematics.orientation = BodyRotation<D>::normalised(orientation);
   return attach_body(wall_group, std::move(body));
 }
 
@@ -38,19 +39,19 @@ template <int D> void Simulation<D>::set_body_kinematics(int index, const BodyKi
   if (!bodies_[static_cast<size_t>(index)].driven)
     throw std::invalid_argument("body " + std::to_string(index) + " follows a prescribed motion; only a driven "
                                 "body takes its kinematics from outside");
-  if (!kinematics.reference.allFinite() || !std::isfinite(kinematics.angle) || !kinematics.velocity.allFinite() ||
-      !std::isfinite(kinematics.spin) || !kinematics.acceleration.allFinite() ||
-      !std::isfinite(kinematics.angular_acceleration))
+  if (!kinematics.finite())
     throw std::invalid_argument("body " + std::to_string(index) + " kinematics must be finite numbers");
-  bodies_[static_cast<size_t>(index)].kinematics = kinematics;
+  BodyKinematics<D>& now = bodies_[static_cast<size_t>(index)].kinematics;
+  now = kinematics;
+  now.orientation = BodyRotation<D>::normalised(kinematics.orientation);
 }
 
 // Makes the particles of `wall_group` the rigid body `body`, its frame given by the body's
-// kinematics at the current time (reference point and clockwise angle of the present layout).
+// kinematics at the current time (reference point and orientation of the present layout).
 template <int D> int Simulation<D>::attach_body(std::int32_t wall_group, RigidBody<D> body) {
   const BodyKinematics<D> now = body.driven ? body.kinematics : body.motion.at(0.0);
-  if (!now.reference.allFinite() || !std::isfinite(now.angle))
-    throw std::invalid_argument("body reference point and angle must be finite");
+  if (!now.reference.allFinite() || !BodyRotation<D>::finite(now.orientation))
+    throw std::invalid_argument("body reference point and orientation must be finite");
   const int index = static_cast<int>(bodies_.size());
   body_offset_ = &walls_.fields.template add<double, D>("body_offset", "m", "position in the body frame");
   body_normal_ = &walls_.fields.template add<double, D>("body_normal", "", "normal in the body frame");
@@ -60,8 +61,8 @@ template <int D> int Simulation<D>::attach_body(std::int32_t wall_group, RigidBo
     if (walls_.body[w] >= 0)
       throw std::invalid_argument("wall group " + std::to_string(wall_group) + " is already a body");
     walls_.body[w] = index;
-    row_vec<D>(*body_offset_, w) = rotate_clockwise<D>(row_vec<D>(walls_.position, w) - now.reference, -now.angle);
-    row_vec<D>(*body_normal_, w) = rotate_clockwise<D>(row_vec<D>(walls_.normal, w), -now.angle);
+    row_vec<D>(*body_offset_, w) = BodyRotation<D>::unrotate(now.orientation, row_vec<D>(walls_.position, w) - now.reference);
+    row_vec<D>(*body_normal_, w) = BodyRotation<D>::unrotate(now.orientation, row_vec<D>(walls_.normal, w));
     ++members;
   }
   if (members == 0)
@@ -80,9 +81,10 @@ template <int D> void Simulation<D>::reset_body_impulses() {
 
 // Places every body particle at its body's pose at `time` (the schedule's for a prescribed body,
 // the last one set for a driven body), with the rigid-body velocity and acceleration
-//   x = c + R(θ) r,  v = v_c + ω J R r,  a = a_c + α J R r − ω² R r  (J: quarter turn clockwise),
-// the acceleration entering the wall pressure as (g − a_w) (Eq. 3.31). A prescribed schedule has
-// piecewise-constant velocities, so a_c = α = 0 there and a = −ω² R r, the steady-spin term.
+//   x = c + R r,  v = v_c + ω × R r,  a = a_c + α × R r + ω × (ω × R r)
+// (in 2D ω × R r = ω J R r, J the quarter turn clockwise, and ω × (ω × R r) = −ω² R r), the
+// acceleration entering the wall pressure as (g − a_w) (Eq. 3.31). A prescribed schedule has
+// piecewise-constant velocities, so a_c = α = 0 there, leaving the steady-spin term.
 template <int D> void Simulation<D>::move_bodies(double time) {
   for (RigidBody<D>& body : bodies_)
     if (!body.driven) body.kinematics = body.motion.at(time - body.motion_start);
@@ -90,16 +92,16 @@ template <int D> void Simulation<D>::move_bodies(double time) {
     const std::int32_t b = walls_.body[w];
     if (b < 0) return;
     const BodyKinematics<D>& k = bodies_[static_cast<size_t>(b)].kinematics;
-    const Vec<D> arm = rotate_clockwise<D>(row_vec<D>(*body_offset_, w), k.angle);
-    const Vec<D> turned = quarter_turn_clockwise<D>(arm);
+    const Vec<D> arm = BodyRotation<D>::rotate(k.orientation, row_vec<D>(*body_offset_, w));
     row_vec<D>(walls_.position, w) = k.reference + arm;
-    row_vec<D>(walls_.velocity, w) = k.velocity + k.spin * turned;
-    row_vec<D>(walls_.acceleration, w) = k.acceleration + k.angular_acceleration * turned - (k.spin * k.spin) * arm;
-    row_vec<D>(walls_.normal, w) = rotate_clockwise<D>(row_vec<D>(*body_normal_, w), k.angle);
+    row_vec<D>(walls_.velocity, w) = BodyRotation<D>::point_velocity(k.velocity, k.angular_velocity, arm);
+    row_vec<D>(walls_.acceleration, w) =
+        BodyRotation<D>::point_acceleration(k.acceleration, k.angular_acceleration, k.angular_velocity, arm);
+    row_vec<D>(walls_.normal, w) = BodyRotation<D>::rotate(k.orientation, row_vec<D>(*body_normal_, w));
   });
 }
 
-// Force and clockwise torque of the grains on each body (about its reference point) and, when
+// Force and torque (2D: clockwise) of the grains on each body (about its reference point) and, when
 // tracked, on each fixed wall group (about the tracking point) (Eq. 3.24–3.25), summed from the
 // stored pair forces in a fixed order (granular particle, then its neighbour list), so the totals
 // do not depend on the thread count and are the exact opposite of the pair forces on the grains:
@@ -142,7 +144,7 @@ template <int D> BodyProximity<D> Simulation<D>::body_proximity(double radius) {
   std::vector<typename BodyProximity<D>::Frame> frames;
   for (std::size_t b = 0; b < bodies_.size(); ++b) {
     const BodyKinematics<D>& k = bodies_[b].kinematics;
-    frames.push_back({&body_fields_[b], k.reference, std::cos(k.angle), std::sin(k.angle)});
+    frames.push_back({&body_fields_[b], k.reference, BodyRotation<D>::inverse(k.orientation)});
   }
   return BodyProximity<D>(std::move(frames));
 }
@@ -182,8 +184,8 @@ template <int D> void Simulation<D>::restore_wall_loads(const Vec<D>& point, con
 }
 
 #define TERRASPH_INSTANTIATE(D) \
-  template int Simulation<D>::add_body(std::int32_t, const Vec<D>&, double, std::vector<MotionSegment<D>>); \
-  template int Simulation<D>::add_driven_body(std::int32_t, const Vec<D>&, double); \
+  template int Simulation<D>::add_body(std::int32_t, const Vec<D>&, const Orientation&, std::vector<MotionSegment<D>>); \
+  template int Simulation<D>::add_driven_body(std::int32_t, const Vec<D>&, const Orientation&); \
   template void Simulation<D>::set_body_kinematics(int, const BodyKinematics<D>&); \
   template int Simulation<D>::attach_body(std::int32_t, RigidBody<D>); \
   template void Simulation<D>::reset_body_impulses(); \

@@ -149,7 +149,7 @@ void add_leg(terrasph::Simulation<2>& sim, double dx) {
   terrasph::MotionSegment<2> turn;
   turn.duration = 1.0;
   turn.velocity = Vec2(0.05, 0.0);
-  turn.spin = 2.0;
+  turn.angular_velocity = 2.0;
   sim.add_body(leg_group, Vec2(20.0 * dx, 24.0 * dx), 0.0, {turn});
 }
 

@@ -521,12 +521,20 @@ def read_run(path: str | os.PathLike[str]) -> RunData:
         )
 
 
-def _component_suffixes(shape: tuple[int, ...]) -> list[tuple[str, tuple[int, ...]]]:
-    """Name suffixes and indices of the components of a per-particle value of ``shape``.
+#: names of the spatial axes of a run in 2D (plane strain: x, z) and 3D
+AXIS_NAMES = {2: ("x", "z"), 3: ("x", "y", "z")}
+#: XDMF geometry of positions in 2D and 3D
+GEOMETRY_TYPES = {2: "XY", 3: "XYZ"}
 
-    Axes of length 2 are named x, z (e.g. velocity_x, stress_xz); other lengths by index.
+
+def _component_suffixes(shape: tuple[int, ...], dim: int = 2) -> list[tuple[str, tuple[int, ...]]]:
+    """Name suffixes and indices of the components of a per-particle value of ``shape`` in a run of
+    dimension ``dim``.
+
+    Axes of length ``dim`` are named by the spatial axes (2D: x, z, e.g. velocity_x, stress_xz; 3D:
+    x, y, z); other lengths by index.
     """
-    axes = [("x", "z") if n == 2 else tuple(str(i) for i in range(n)) for n in shape]
+    axes = [AXIS_NAMES[dim] if n == dim else tuple(str(i) for i in range(n)) for n in shape]
     suffixes: list[tuple[str, tuple[int, ...]]] = []
     for index in np.ndindex(*shape):
         suffixes.append(("_" + "".join(axes[a][i] for a, i in enumerate(index)), index))
@@ -567,7 +575,7 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
     without grains), ``bodies`` (of ``/frames/body_position``, in scenes with bodies, with their
     ``body_index``) and ``walls`` (the
     fixed walls of ``/static/walls/position``, the same at every time). 2D positions are exposed as
-    XY, so the simulation's z (up) is ParaView's Y. Every other numeric per-particle field of a set
+    XY, so the simulation's z (up) is ParaView's Y; 3D positions as XYZ. Every other numeric per-particle field of a set
     becomes node-centred scalars: scalar fields as themselves, vector and tensor fields one scalar
     per component (``velocity_x``, ``velocity_z``, ``stress_xx``, …; a body field's ``body_`` prefix
     is dropped). The HDF5 file is referenced by its path relative to the sidecar (default:
@@ -587,8 +595,8 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
         for name, geometry, prefix in (("grains", "position", ""), ("bodies", "body_position", "body_")):
             if geometry in frames:
                 data = frames[geometry]
-                if data.ndim != 3 or data.shape[2] != 2:
-                    raise ValueError(f"/frames/{geometry} must be shaped (n_frames, N, 2), got {data.shape}")
+                if data.ndim != 3 or data.shape[2] not in GEOMETRY_TYPES:
+                    raise ValueError(f"/frames/{geometry} must be shaped (n_frames, N, 2 or 3), got {data.shape}")
                 sets.append((name, _layout(data), [(label, _layout(field))
                                                    for label, field in _set_fields(frames, data, prefix=prefix)]))
         if not sets:
@@ -606,11 +614,12 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
             for name, geometry_data, fields in sets:
                 count = geometry_data.shape[1]
                 grid = _polyvertex_grid(step, name, count)
-                _hyperslab(ET.SubElement(grid, "Geometry", GeometryType="XY"), h5_ref, geometry_data,
-                           (k, 0, 0), (1, count, 2))
+                dim = geometry_data.shape[2]
+                _hyperslab(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[dim]), h5_ref, geometry_data,
+                           (k, 0, 0), (1, count, dim))
                 for label, dataset in fields:
                     trailing = dataset.shape[2:]
-                    for suffix, index in _component_suffixes(trailing) if trailing else [("", ())]:
+                    for suffix, index in _component_suffixes(trailing, dim) if trailing else [("", ())]:
                         attribute = ET.SubElement(grid, "Attribute", Name=label + suffix, AttributeType="Scalar",
                                                   Center="Node")
                         _hyperslab(attribute, h5_ref, dataset, (k, 0, *index), (1, count, *(1 for _ in index)))
@@ -619,7 +628,7 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
                                          Center="Node"), h5_ref, body_index)
             if walls is not None and walls.shape[0] > 0:
                 grid = _polyvertex_grid(step, "walls", walls.shape[0])
-                _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), h5_ref, walls)
+                _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[walls.shape[1]]), h5_ref, walls)
     _write_xml(root, out)
     write_xdmf_sets(h5_path, out)
     return out
@@ -691,10 +700,11 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
                 ET.SubElement(grid, "Time", Value=repr(float(times[k])))
                 _polyvertex(grid, count, side_ref, connectivity)
                 position = _virtual_slice(views, f"{name}/frame_{k}/position", source_ref, positions, (k,))
-                _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), side_ref, position)
+                dim = positions.shape[2]
+                _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[dim]), side_ref, position)
                 for label, dataset in [("position", positions), *fields]:
                     trailing = dataset.shape[2:]
-                    for suffix, index in _component_suffixes(trailing) if trailing else [("", ())]:
+                    for suffix, index in _component_suffixes(trailing, dim) if trailing else [("", ())]:
                         view = _virtual_slice(views, f"{name}/frame_{k}/{label}{suffix}", source_ref, dataset,
                                               (k, slice(None), *index))
                         _node_attribute(grid, label + suffix, side_ref, view)
@@ -706,7 +716,7 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
         if walls is not None and walls.shape[0] > 0:
             root, grid = _xdmf_root("walls", temporal=False)
             _polyvertex(grid, walls.shape[0], side_ref, _connectivity(views, "walls", walls.shape[0]))
-            _whole(ET.SubElement(grid, "Geometry", GeometryType="XY"), run_ref, walls)
+            _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[walls.shape[1]]), run_ref, walls)
             for label in ("id", "group"):
                 if f"walls/{label}" in static and static[f"walls/{label}"].shape[:1] == walls.shape[:1]:
                     _node_attribute(grid, label, run_ref, static[f"walls/{label}"])

@@ -1,9 +1,13 @@
-// Rigid bodies with prescribed planar motion (docs/design.md §3.6, Eq. 3.24–3.25).
+// Rigid bodies with prescribed or driven motion (docs/design.md §3.6, Eq. 3.24–3.25).
 // A body is a set of wall particles rigidly attached to a reference point (hip axle, wheel
-// centre). Motion is in the x–z plane (components 0 and D−1) with rotation about the
-// out-of-plane axis; angles and angular velocities are clockwise-positive (docs/design.md §2).
+// centre). In 2D (plane strain, components x and z) a body turns about the out-of-plane axis y;
+// its angle and angular velocity are clockwise-positive in the x–z plane (docs/design.md §2), which
+// is the right-handed sense about +y. In 3D a body turns freely: its orientation is a unit
+// quaternion, its angular velocity and the torque on it are vectors (right-handed), so a 3D body
+// spinning about +y with ω_y moves as the 2D body with spin ω (docs/sph3d.md).
 #pragma once
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -21,49 +25,122 @@ namespace terrasph {
 // J r: the in-plane vector r turned a quarter clockwise, (x, z) ↦ (z, −x). A point at r from the
 // reference moves with v = ω J r under clockwise spin ω, and a force f at r has the clockwise
 // moment (J r)·f about the reference.
-template <int D> Vec<D> quarter_turn_clockwise(const Vec<D>& r) {
-  Vec<D> out = Vec<D>::Zero();
-  out[0] = r[D - 1];
-  out[D - 1] = -r[0];
-  return out;
-}
+inline Vec<2> quarter_turn_clockwise(const Vec<2>& r) { return Vec<2>(r[1], -r[0]); }
 
 // r rotated clockwise by θ in the x–z plane, given c = cos θ and s = sin θ: (x c + z s, −x s + z c).
-template <int D> Vec<D> rotate_clockwise(const Vec<D>& r, double c, double s) {
-  Vec<D> out = r;
-  out[0] = c * r[0] + s * r[D - 1];
-  out[D - 1] = -s * r[0] + c * r[D - 1];
-  return out;
+inline Vec<2> rotate_clockwise(const Vec<2>& r, double c, double s) {
+  return Vec<2>(c * r[0] + s * r[1], -s * r[0] + c * r[1]);
 }
 
 // r rotated clockwise by `angle` in the x–z plane.
-template <int D> Vec<D> rotate_clockwise(const Vec<D>& r, double angle) {
-  return rotate_clockwise<D>(r, std::cos(angle), std::sin(angle));
-}
+inline Vec<2> rotate_clockwise(const Vec<2>& r, double angle) { return rotate_clockwise(r, std::cos(angle), std::sin(angle)); }
+
+// The rotational part of a rigid body's motion in D dimensions: how an orientation and an angular
+// rate are stored, named in a saved state, applied to a body-frame vector and integrated. A point
+// at `arm` from the reference point of a body moving with (v, ω, a, α) has
+//   v_p = v + ω × arm,   a_p = a + α × arm + ω × (ω × arm)                    (rigid-body kinematics)
+// and a force f there has the moment arm × f about the reference (Eq. 3.25).
+template <int D> struct BodyRotation;
+
+// Plane strain: one angle θ about +y (clockwise in the x–z plane), ω × arm = ω J arm.
+template <> struct BodyRotation<2> {
+  using Orientation = double;  // θ (rad)
+  using Angular = double;      // angular velocity, acceleration, torque, about +y
+  struct Inverse {             // cos θ and sin θ, to turn world vectors into the body frame
+    double c, s;
+  };
+  static constexpr const char* orientation_name = "angle";
+  static constexpr const char* angular_velocity_name = "spin";
+  static constexpr int angular_components = 1;
+
+  static Orientation identity() { return 0.0; }
+  static Angular zero() { return 0.0; }
+  static bool finite(double value) { return std::isfinite(value); }
+  static Orientation normalised(Orientation angle) { return angle; }
+  static Vec<2> rotate(Orientation angle, const Vec<2>& r) { return rotate_clockwise(r, angle); }
+  static Vec<2> unrotate(Orientation angle, const Vec<2>& r) { return rotate_clockwise(r, -angle); }
+  static Inverse inverse(Orientation angle) { return {std::cos(angle), std::sin(angle)}; }
+  static Vec<2> apply(const Inverse& t, const Vec<2>& r) { return rotate_clockwise(r, t.c, -t.s); }
+  static Vec<2> point_velocity(const Vec<2>& v, Angular omega, const Vec<2>& arm) {
+    return v + omega * quarter_turn_clockwise(arm);
+  }
+  static Vec<2> point_acceleration(const Vec<2>& a, Angular alpha, Angular omega, const Vec<2>& arm) {
+    const Vec<2> turned = quarter_turn_clockwise(arm);
+    return a + alpha * turned - (omega * omega) * arm;  // ω × (ω × arm) = −ω² arm in the plane
+  }
+  static Angular moment(const Vec<2>& arm, const Vec<2>& f) { return quarter_turn_clockwise(arm).dot(f); }
+  // θ after turning at ω for `elapsed` seconds
+  static Orientation advanced(Orientation angle, Angular omega, double elapsed) { return angle + elapsed * omega; }
+};
+
+// 3D: a unit quaternion (w, x, y, z) taking body-frame vectors to world vectors; vector rates.
+template <> struct BodyRotation<3> {
+  using Orientation = Eigen::Matrix<double, 4, 1>;  // (w, x, y, z), unit
+  using Angular = Vec<3>;
+  using Inverse = Mat<3>;  // Rᵀ
+  static constexpr const char* orientation_name = "orientation";
+  static constexpr const char* angular_velocity_name = "angular_velocity";
+  static constexpr int angular_components = 3;
+
+  static Orientation identity() { return Orientation(1.0, 0.0, 0.0, 0.0); }
+  static Angular zero() { return Angular::Zero(); }
+  template <class V> static bool finite(const V& value) { return value.allFinite(); }
+  static Eigen::Quaterniond quaternion(const Orientation& q) { return Eigen::Quaterniond(q[0], q[1], q[2], q[3]); }
+  static Orientation stored(const Eigen::Quaterniond& q) { return Orientation(q.w(), q.x(), q.y(), q.z()); }
+  // q / |q|, refused when |q| is far from 1 (a mistyped quaternion rather than round-off)
+  static Orientation normalised(const Orientation& q) {
+    const double norm = q.norm();
+    if (!(std::abs(norm - 1.0) < 1e-6)) throw parameter_error("body orientation quaternion norm", norm, "1 (a unit quaternion w, x, y, z)");
+    return q / norm;
+  }
+  static Vec<3> rotate(const Orientation& q, const Vec<3>& r) { return quaternion(q) * r; }
+  static Vec<3> unrotate(const Orientation& q, const Vec<3>& r) { return quaternion(q).conjugate() * r; }
+  static Inverse inverse(const Orientation& q) { return quaternion(q).toRotationMatrix().transpose(); }
+  static Vec<3> apply(const Inverse& t, const Vec<3>& r) { return t * r; }
+  static Vec<3> point_velocity(const Vec<3>& v, const Angular& omega, const Vec<3>& arm) { return v + omega.cross(arm); }
+  static Vec<3> point_acceleration(const Vec<3>& a, const Angular& alpha, const Angular& omega, const Vec<3>& arm) {
+    return a + alpha.cross(arm) + omega.cross(Vec<3>(omega.cross(arm)));
+  }
+  static Angular moment(const Vec<3>& arm, const Vec<3>& f) { return arm.cross(f); }
+  // q turned about the fixed world axis ω/|ω| by |ω| elapsed (constant ω: exact, any step size)
+  static Orientation advanced(const Orientation& q, const Angular& omega, double elapsed) {
+    const double turn = omega.norm() * elapsed;
+    if (turn == 0.0) return q;
+    const Eigen::Quaterniond step(Eigen::AngleAxisd(turn, omega / omega.norm()));
+    return stored((step * quaternion(q)).normalized());
+  }
+};
 
 // One piece of a prescribed motion: constant linear velocity of the reference point and constant
-// clockwise spin about it for `duration` seconds (may be +inf for the last piece).
+// angular velocity about it for `duration` seconds (may be +inf for the last piece).
 template <int D> struct MotionSegment {
   double duration = 0.0;
   Vec<D> velocity = Vec<D>::Zero();
-  double spin = 0.0;  // rad/s, clockwise-positive
+  typename BodyRotation<D>::Angular angular_velocity = BodyRotation<D>::zero();  // rad/s (2D: clockwise)
 };
 
 // Pose and rates of a body at one instant.
 template <int D> struct BodyKinematics {
+  using Rotation = BodyRotation<D>;
   Vec<D> reference = Vec<D>::Zero();     // position of the reference point
-  double angle = 0.0;                    // clockwise rotation from the body frame (rad)
+  typename Rotation::Orientation orientation = Rotation::identity();  // from the body frame
   Vec<D> velocity = Vec<D>::Zero();      // of the reference point
-  double spin = 0.0;                     // clockwise angular velocity (rad/s)
+  typename Rotation::Angular angular_velocity = Rotation::zero();    // rad/s
   Vec<D> acceleration = Vec<D>::Zero();  // of the reference point (0 for a prescribed schedule)
-  double angular_acceleration = 0.0;     // clockwise (rad/s², 0 for a prescribed schedule)
+  typename Rotation::Angular angular_acceleration = Rotation::zero();  // rad/s² (0 for a prescribed schedule)
+
+  bool finite() const {
+    return reference.allFinite() && Rotation::finite(orientation) && velocity.allFinite() &&
+           Rotation::finite(angular_velocity) && acceleration.allFinite() && Rotation::finite(angular_acceleration);
+  }
 
   // f(name, member) for each value a saved state carries (as LoadAccumulator::for_each_saved).
+  // The 2D names ("angle", "spin") are those of every saved 2D state.
   template <class Self, class F> static void for_each_saved(Self& k, F&& f) {
     f("reference", k.reference);
-    f("angle", k.angle);
+    f(Rotation::orientation_name, k.orientation);
     f("velocity", k.velocity);
-    f("spin", k.spin);
+    f(Rotation::angular_velocity_name, k.angular_velocity);
     f("acceleration", k.acceleration);
     f("angular_acceleration", k.angular_acceleration);
   }
@@ -82,11 +159,12 @@ template <int D> class PrescribedMotion {
       const bool last = k + 1 == segments_.size();
       if (!(s.duration > 0.0) || (std::isinf(s.duration) && !last) || std::isnan(s.duration))
         throw parameter_error(name + " duration", s.duration, last ? "> 0 (may be inf)" : "finite and > 0");
-      if (!s.velocity.allFinite() || !std::isfinite(s.spin))
-        throw parameter_error(name + " velocity/spin", s.spin, "finite numbers");
+      if (!s.velocity.allFinite() || !BodyRotation<D>::finite(s.angular_velocity))
+        throw parameter_error(name + " velocity/angular velocity", s.duration, "finite numbers");
     }
+    start_.orientation = BodyRotation<D>::normalised(start_.orientation);
     start_.velocity = Vec<D>::Zero();
-    start_.spin = 0.0;
+    start_.angular_velocity = BodyRotation<D>::zero();
   }
 
   // Pose and velocity at time t; at a piece boundary the later piece's velocity applies.
@@ -96,10 +174,10 @@ template <int D> class PrescribedMotion {
     for (const MotionSegment<D>& s : segments_) {
       const double elapsed = std::min(std::max(t - begin, 0.0), s.duration);
       k.reference += elapsed * s.velocity;
-      k.angle += elapsed * s.spin;
+      k.orientation = BodyRotation<D>::advanced(k.orientation, s.angular_velocity, elapsed);
       if (t >= begin && t < begin + s.duration) {
         k.velocity = s.velocity;
-        k.spin = s.spin;
+        k.angular_velocity = s.angular_velocity;
       }
       begin += s.duration;
     }
@@ -115,23 +193,25 @@ template <int D> class PrescribedMotion {
 };
 
 // The load of the grains on a rigid body or on a fixed wall group (Eq. 3.24–3.25): force and
-// clockwise torque at the last rate evaluation, summed from the granular–wall pair forces, and
-// their time integrals since the last reset (for time-averaged loads). Per metre of depth in 2D.
+// torque (2D: clockwise; 3D: a vector) at the last rate evaluation, summed from the granular–wall
+// pair forces, and their time integrals since the last reset (for time-averaged loads). Per metre
+// of depth in 2D.
 template <int D> struct LoadAccumulator {
-  Vec<D> force = Vec<D>::Zero();     // Eq. 3.24 at the last rate evaluation
-  double torque = 0.0;               // Eq. 3.25 at the last rate evaluation
-  Vec<D> impulse = Vec<D>::Zero();   // Σ F dt since the last reset
-  double angular_impulse = 0.0;      // Σ T dt since the last reset
-  double impulse_time = 0.0;         // Σ dt since the last reset
+  using Angular = typename BodyRotation<D>::Angular;
+  Vec<D> force = Vec<D>::Zero();                      // Eq. 3.24 at the last rate evaluation
+  Angular torque = BodyRotation<D>::zero();           // Eq. 3.25 at the last rate evaluation
+  Vec<D> impulse = Vec<D>::Zero();                    // Σ F dt since the last reset
+  Angular angular_impulse = BodyRotation<D>::zero();  // Σ T dt since the last reset
+  double impulse_time = 0.0;                          // Σ dt since the last reset
 
   void clear_load() {
     force.setZero();
-    torque = 0.0;
+    torque = BodyRotation<D>::zero();
   }
-  // Adds one pair force f acting at `arm` from the torque point (clockwise torque).
+  // Adds one pair force f acting at `arm` from the torque point.
   void add(const Vec<D>& f, const Vec<D>& arm) {
     force += f;
-    torque += quarter_turn_clockwise<D>(arm).dot(f);
+    torque += BodyRotation<D>::moment(arm, f);
   }
   void integrate(double dt) {
     impulse += dt * force;
@@ -140,7 +220,7 @@ template <int D> struct LoadAccumulator {
   }
   void reset_impulses() {
     impulse.setZero();
-    angular_impulse = 0.0;
+    angular_impulse = BodyRotation<D>::zero();
     impulse_time = 0.0;
   }
 
@@ -156,8 +236,8 @@ template <int D> struct LoadAccumulator {
 };
 
 // A rigid body: its schedule, its current kinematics, and the granular load on it.
-// Force and torque are per metre of depth in 2D (N/m, N·m/m); the Python layer multiplies by the
-// body's real width. The torque is about the reference point, clockwise-positive.
+// Force and torque are per metre of depth in 2D (N/m, N·m/m; the Python layer multiplies by the
+// body's real width), whole in 3D (N, N·m). The torque is about the reference point.
 template <int D> struct RigidBody : LoadAccumulator<D> {
   // false: follows `motion`; true: driven from outside (a multibody engine sets its kinematics
   // before every step, docs/design.md §3.6)
@@ -325,14 +405,14 @@ template <int D> class BodyProximity {
   struct Frame {  // a body's pose and its distance field (in the body frame)
     const BodyDistanceField<D>* field;
     Vec<D> reference;
-    double cos_angle, sin_angle;  // of the body's clockwise angle θ
+    typename BodyRotation<D>::Inverse inverse;  // of the body's orientation
   };
 
   explicit BodyProximity(std::vector<Frame> frames) : frames_(std::move(frames)) {}
 
   bool near(const Vec<D>& x) const {
-    for (const Frame& f : frames_)  // the body frame's point: x − c turned back by θ
-      if (f.field->within(rotate_clockwise<D>(Vec<D>(x - f.reference), f.cos_angle, -f.sin_angle))) return true;
+    for (const Frame& f : frames_)  // the body frame's point: x − c turned back
+      if (f.field->within(BodyRotation<D>::apply(f.inverse, Vec<D>(x - f.reference)))) return true;
     return false;
   }
 

@@ -80,6 +80,8 @@ template <int D> struct WallLoad : LoadAccumulator<D> {
 
 template <int D> class Simulation {
  public:
+  using Orientation = typename BodyRotation<D>::Orientation;  // 2D: clockwise angle; 3D: unit quaternion (w, x, y, z)
+
   // Takes ownership of the particle sets; positions, velocities, densities and masses of the
   // granular set and positions, normals, masses, slip flags and groups of the walls must be set.
   // Ids are assigned in the given order (0, 1, …) unless the sets carry them already.
@@ -125,15 +127,15 @@ template <int D> class Simulation {
   void apply_mls_regularisation();
 
   // Makes the wall particles of `wall_group` a rigid body whose reference point is at `reference`
-  // and whose current particle layout is the body rotated clockwise by `angle` (rad). From now on
-  // it follows `motion` (times relative to now) and the granular load on it is accumulated.
-  // Returns the body's index.
-  int add_body(std::int32_t wall_group, const Vec<D>& reference, double angle,
+  // and whose current particle layout is the body turned by `orientation` (2D: clockwise angle,
+  // rad; 3D: unit quaternion w, x, y, z). From now on it follows `motion` (times relative to now)
+  // and the granular load on it is accumulated. Returns the body's index.
+  int add_body(std::int32_t wall_group, const Vec<D>& reference, const Orientation& orientation,
                std::vector<MotionSegment<D>> motion);
   // Makes the particles of `wall_group` a body driven from outside (a multibody engine, docs/design.md
   // §3.6): its kinematics are set with set_body_kinematics before each step, and they are taken
-  // as the body's state at the end of that step. `reference` and `angle` describe the layout now.
-  int add_driven_body(std::int32_t wall_group, const Vec<D>& reference, double angle);
+  // as the body's state at the end of that step. `reference` and `orientation` describe the layout now.
+  int add_driven_body(std::int32_t wall_group, const Vec<D>& reference, const Orientation& orientation);
   void set_body_kinematics(int index, const BodyKinematics<D>& kinematics);
   const std::vector<RigidBody<D>>& bodies() const { return bodies_; }
   // Restarts the time averages of force and torque (impulse / elapsed time) of every body.
