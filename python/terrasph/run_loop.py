@@ -32,10 +32,12 @@ is not on the longer run's path, the state before that stretch is).
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import math
 import os
 import pathlib
 import signal
+import sys
 import threading
 import time as wallclock
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -46,8 +48,9 @@ import numpy as np
 
 from terrasph.config import ConfigError
 
-__all__ = ["CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult", "Recorder", "RunLoop", "Stepper",
-           "StopRequest", "check_run_options", "checkpoint_path", "claimed_output", "simulated_time_bar"]
+__all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult", "Recorder",
+           "RunLoop", "Stepper", "StopRequest", "building_scene", "check_run_options", "checkpoint_path", "claimed_output",
+           "simulated_time_bar"]
 
 #: Wall time (s) between writes of the series' rows into the run file (and before every checkpoint and
 #: at the end, so a checkpoint's row counts are what the file holds): a write costs a resize and a
@@ -62,6 +65,12 @@ CHUNK_SECONDS = 0.2
 MAX_STEPS_PER_CHUNK = 500
 #: the statuses of a run that reached its end
 FINISHED_STATUSES = ("completed", "at_rest")
+#: a scene build quieter than this (s of wall time) shows nothing; a longer one a status line
+BUILD_QUIET_SECONDS = 2.0
+
+#: the status line of the scene being built (:func:`building_scene`), ended by the run loop when it starts
+_BUILD_STATUS: contextvars.ContextVar[Callable[[], None] | None] = contextvars.ContextVar("terrasph_build_status",
+                                                                                          default=None)
 
 
 class Stepper(Protocol):
@@ -150,6 +159,56 @@ def simulated_time_bar(total: float, progress: bool) -> Any:
                 bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
 
 
+def _raise_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def building_scene(progress: bool, what: str = "the scene") -> Iterator[None]:
+    """The time before a run loop starts (building the scene): SIGINT and SIGTERM raise
+    KeyboardInterrupt, also where the process was started with SIGINT ignored (a shell's background
+    job), so a build of minutes stops at once and the callers' cleanup runs (an empty output claim
+    removed); with `progress`, once the build has taken BUILD_QUIET_SECONDS, a status line on stderr
+    says what is built and for how long, until the run loop's own bar starts (or the block ends)."""
+    finished = threading.Event()
+    started = wallclock.monotonic()
+
+    def show() -> None:
+        if finished.wait(BUILD_QUIET_SECONDS):
+            return
+        tty = sys.stderr.isatty()
+        while True:
+            line = f"terrasph: building {what}: {wallclock.monotonic() - started:.0f} s (Ctrl-C stops it)"
+            sys.stderr.write(f"\r{line}" if tty else f"{line}\n")
+            sys.stderr.flush()
+            if finished.wait(1.0 if tty else 10.0):
+                if tty:
+                    sys.stderr.write(f"\rterrasph: built {what} in {wallclock.monotonic() - started:.0f} s"
+                                     + " " * 20 + "\n")
+                return
+
+    watcher = threading.Thread(target=show, daemon=True) if progress else None
+
+    def end() -> None:
+        finished.set()
+        if watcher is not None and watcher.is_alive():
+            watcher.join()
+
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        previous = {sig: signal.signal(sig, _raise_interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
+    token = _BUILD_STATUS.set(end)
+    if watcher is not None:
+        watcher.start()
+    try:
+        yield
+    finally:
+        end()
+        _BUILD_STATUS.reset(token)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
 class StopRequest:
     """Turns SIGINT and SIGTERM into a request that the run loop honours at the next step
     boundary, so a stop never lands in the middle of writing a frame or a checkpoint; a second
@@ -224,6 +283,9 @@ class RunLoop:
 
         check_run_options({"frame_interval": self.frame_interval, "sample_interval": self.sample_interval},
                           self.checkpoint_every, resume, self.output)
+        end_of_build = _BUILD_STATUS.get()
+        if end_of_build is not None:
+            end_of_build()  # the scene is built: the run's own bar follows
         stepper = self.stepper
         saved = stepper.restore(checkpoint_path(self.output)) if resume else {}
         if not t_end > stepper.time:

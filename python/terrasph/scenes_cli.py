@@ -17,7 +17,7 @@ from terrasph.cli_common import (add_force_option, add_numerics_option, add_thre
 from terrasph.config import ConfigError
 from terrasph.io import defined_values
 from terrasph.options import add_config_options, config_values, with_option_names
-from terrasph.run_loop import claimed_output
+from terrasph.run_loop import building_scene, claimed_output
 from terrasph.scenes import SCENES, SceneEntry, run_case, scene_entry
 from terrasph.threads import use_threads
 
@@ -64,7 +64,9 @@ def _run_scene(args: argparse.Namespace) -> int:
     check_output_file(args.out, args.force)
     check_size(config, confirmed=args.yes, threads=args.threads)
     use_threads(args.threads)
-    with claimed_output(args.out, args.force):  # a second run into the same file refuses, before any work
+    # a second run into the same file refuses, before any work; Ctrl-C or SIGTERM while the scene is built
+    # stops it at once and removes the empty claim
+    with claimed_output(args.out, args.force), building_scene(not args.no_progress, f"the {args.scene} scene"):
         summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
     return _print_summary(summary, args.out, summary.plot)
 
@@ -104,5 +106,6 @@ def _resume(args: argparse.Namespace) -> int:
     except (OSError, KeyError) as error:
         raise ConfigError(f"{args.run_file} is not a readable terrasph run file: {error}") from error
     entry, config = scene_of_run(config_json)
-    result = entry.run(config, output=args.run_file, progress=not args.no_progress, resume=True, until=args.until)
+    with building_scene(not args.no_progress, f"the {entry.name} scene"):
+        result = entry.run(config, output=args.run_file, progress=not args.no_progress, resume=True, until=args.until)
     return _print_summary(result.summary(), args.run_file, result.plot)

@@ -247,11 +247,22 @@ class PlanarRobot:
 
 
 def _closest_grain(points: np.ndarray, grains: np.ndarray, distance: float) -> np.ndarray | None:
-    """A grain closer than `distance` to any of `points`, or None (brute force in chunks)."""
+    """A grain closer than `distance` to any of `points`, or None. Only the grains in the cells (of
+    side `distance`) around the points' cells are compared, so a body above a bed of a million
+    grains is checked in a fraction of a second (comparing all pairs took minutes at fine spacings)."""
+    if not len(points) or not len(grains):
+        return None
+    origin = np.minimum(points.min(axis=0), grains.min(axis=0)) - distance
+    point_cells = np.floor((points - origin) / distance).astype(np.int64)
+    grain_cells = np.floor((grains - origin) / distance).astype(np.int64)
+    columns = int(max(point_cells[:, 0].max(), grain_cells[:, 0].max())) + 2
+    near = np.unique(np.concatenate([(point_cells[:, 0] + dx) + columns * (point_cells[:, 1] + dz)
+                                     for dx in (-1, 0, 1) for dz in (-1, 0, 1)]))
+    candidates = grains[np.isin(grain_cells[:, 0] + columns * grain_cells[:, 1], near)]
     for start in range(0, len(points), 64):
         chunk = points[start:start + 64]
-        gaps = np.linalg.norm(grains[None, :, :] - chunk[:, None, :], axis=2)
+        gaps = np.linalg.norm(candidates[None, :, :] - chunk[:, None, :], axis=2)
         close = np.argwhere(gaps < distance)
         if len(close):
-            return grains[close[0, 1]]
+            return candidates[close[0, 1]]
     return None
