@@ -212,15 +212,65 @@ def test_unstable_run_is_recorded(scene, tmp_path) -> None:
     assert out.with_suffix(".xdmf").is_file()
 
 
-def test_a_second_writer_refuses_and_the_first_file_stays_whole(tmp_path, capsys) -> None:
+@pytest.mark.parametrize("force", [False, True], ids=["plain", "force"])
+def test_a_second_writer_refuses_and_the_first_file_stays_whole(tmp_path, capsys, force) -> None:
     """Two runs into one file started together: the one that comes second refuses in one line,
-    exit 2, before any work; the first writes its run undisturbed."""
+    exit 2, before any work, naming the first run (its pid), even with --force; the first writes
+    its run undisturbed."""
     out = tmp_path / "run.h5"
     with claimed_output(out, force=False):  # the first run holds the file
         with pytest.raises(SystemExit) as refused:
-            main(["run", "column-collapse", "--t-end", "0.01", "--no-progress", "--out", str(out)])
+            main(["run", "column-collapse", "--t-end", "0.01", "--no-progress", "--out", str(out),
+                  *(["--force"] if force else [])])
         assert refused.value.code == 2
-        assert "exists" in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert f"another run is writing it (pid {os.getpid()} on " in err and len(err.strip().splitlines()) == 1
+        run("column-collapse", out)
+        with pytest.raises(SystemExit) as refused:  # resume leaves a file being written alone too
+            main(["resume", str(out), "--no-progress"])
+        assert refused.value.code == 2 and f"pid {os.getpid()}" in capsys.readouterr().err
+    assert read_run(out).group_attrs["/run"]["status"] == "completed"
+    assert not run_loop.lock_path(out).exists()
+
+
+def test_two_concurrent_forced_runs_one_writes_the_other_refuses(tmp_path) -> None:
+    """`terrasph run ... --force` into one existing file, a second such run started while the first
+    writes it: the second refuses in one line naming the first (its pid; no raw errno) and leaves its
+    file alone; the first, stopped by Ctrl-C afterwards, leaves a readable file."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run.h5"
+    out.write_bytes(b"an earlier run's file")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p), "OMP_NUM_THREADS": "1"}
+    command = [sys.executable, "-m", "terrasph.cli", "run", "leg-rotation", "--no-progress", "--threads", "1",
+               "--out", str(out), "--force"]  # minutes of run: still writing when the second starts
+    first = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not run_loop.lock_path(out).exists() and first.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        second = subprocess.run(command, env=env, capture_output=True, text=True, timeout=300)
+        assert first.poll() is None, first.communicate()[1]
+    finally:
+        first.send_signal(signal.SIGINT)
+        first_err = first.communicate(timeout=300)[1]
+    refusal = second.stderr.strip()
+    assert second.returncode == 2, refusal
+    assert f"another run is writing it (pid {first.pid} on " in refusal and "Errno" not in refusal, refusal
+    assert len(refusal.splitlines()) == 1
+    assert first.returncode == 130, first_err
+    assert read_run(out).group_attrs["/run"]["status"] == "interrupted"
+
+
+def test_an_empty_file_left_by_a_killed_run_does_not_block_the_next(tmp_path) -> None:
+    """A run killed (SIGKILL) before it wrote anything leaves its empty claim; no live run holds it,
+    so the next run into that file starts without --force."""
+    out = tmp_path / "run.h5"
+    out.write_bytes(b"")
+    with claimed_output(out, force=False):
         run("column-collapse", out)
     assert read_run(out).group_attrs["/run"]["status"] == "completed"
 

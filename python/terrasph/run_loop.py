@@ -50,7 +50,7 @@ from terrasph.config import ConfigError
 
 __all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult", "Recorder",
            "RunLoop", "Stepper", "StopRequest", "building_scene", "check_run_options", "checkpoint_path", "claimed_output",
-           "simulated_time_bar"]
+           "lock_path", "output_lock", "simulated_time_bar"]
 
 #: Wall time (s) between writes of the series' rows into the run file (and before every checkpoint and
 #: at the end, so a checkpoint's row counts are what the file holds): a write costs a resize and a
@@ -122,31 +122,87 @@ def check_run_options(intervals: dict[str, float], checkpoint_every: float | Non
         raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
 
 
+def lock_path(output: str | os.PathLike[str]) -> pathlib.Path:
+    """The lock file a run writing `output` holds: ``run.h5`` → ``run.h5.lock``."""
+    path = pathlib.Path(output)
+    return path.with_name(path.name + ".lock")
+
+
+@contextlib.contextmanager
+def output_lock(output: str | os.PathLike[str]) -> Iterator[None]:
+    """Holds the lock of `output` (:func:`lock_path`) for the block: the lock file is created if need
+    be, locked exclusively (``flock``: the lock ends with the process, so a killed run's lock file is
+    no obstacle) and given this run's pid, host and start time; removed at the end. While another
+    live run holds it, FileExistsError names that run, in one line, whatever ``--force`` says."""
+    import datetime
+    import fcntl
+    import json
+    import socket
+
+    path = lock_path(output)
+    while True:
+        descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.read(descriptor, 4096).decode("utf-8", "replace")
+            os.close(descriptor)
+            try:
+                other = json.loads(holder)
+                who = f"pid {other['pid']} on {other['host']}, started {other['started']}"
+            except (ValueError, KeyError, TypeError):
+                who = "its lock is being written"
+            raise FileExistsError(f"--out {output}: another run is writing it ({who}); wait for it to end or stop "
+                                  f"it, then rerun") from None
+        try:  # the file locked is still the one at `path` (not one a finishing run just removed)
+            same = os.path.samestat(os.fstat(descriptor), os.stat(path))
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(descriptor)
+    try:
+        started = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        os.ftruncate(descriptor, 0)
+        os.write(descriptor, json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                                         "started": started}).encode())
+        yield
+    finally:
+        path.unlink(missing_ok=True)  # before the lock ends, so a waiting run locks a new file
+        os.close(descriptor)
+
+
 @contextlib.contextmanager
 def claimed_output(output: str | os.PathLike[str], force: bool) -> Iterator[pathlib.Path]:
-    """Claims `output` for one run before any work: the file is created exclusively (``O_EXCL``), so
-    of two runs started together into the same file the second refuses with FileExistsError; with
-    `force` an existing file and its checkpoint are replaced first. A stale checkpoint beside a new
-    output is refused likewise. If the run fails before writing its file (say, a scene the spacing
-    cannot build), the empty claim is removed again."""
+    """Claims `output` for one run before any work: its lock (:func:`output_lock`) refuses a second
+    run while one writes it, even with `force`; the file is then created exclusively (``O_EXCL``).
+    Without `force` an existing file, or a stale checkpoint beside it, is refused; with `force` both
+    are replaced. An empty file no live run holds (the claim of a run killed before it wrote
+    anything) is no obstacle. If the run fails or is stopped before writing its file (say, a scene
+    the spacing cannot build, or Ctrl-C while it is built), the empty claim is removed again."""
+    from terrasph.cli_common import check_output_file
+
     path = pathlib.Path(output)
     checkpoint = checkpoint_path(path)
-    if force:
-        path.unlink(missing_ok=True)
-        checkpoint.unlink(missing_ok=True)
-    elif checkpoint.exists():
-        raise FileExistsError(f"--out {path}: its checkpoint {checkpoint.name} exists (use --force to replace it)")
-    try:
-        os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
-    except FileExistsError:
-        raise FileExistsError(f"--out {path}: file exists, or another run is writing it (use --force to "
-                              "replace it)") from None
-    try:
-        yield path
-    except BaseException:
-        if path.is_file() and path.stat().st_size == 0:  # still the claim: the run wrote nothing
+    check_output_file(path, force=True)  # its directory exists and it is not a directory
+    with output_lock(path):
+        if path.is_file() and path.stat().st_size == 0:  # a dead run's claim: nothing in it
             path.unlink()
-        raise
+        if force:
+            path.unlink(missing_ok=True)
+            checkpoint.unlink(missing_ok=True)
+        elif checkpoint.exists():
+            raise FileExistsError(f"--out {path}: its checkpoint {checkpoint.name} exists (use --force to replace it)")
+        try:
+            os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+        except FileExistsError:
+            raise FileExistsError(f"--out {path}: file exists (use --force to replace it)") from None
+        try:
+            yield path
+        except BaseException:
+            if path.is_file() and path.stat().st_size == 0:  # still the claim: the run wrote nothing
+                path.unlink()
+            raise
 
 
 def simulated_time_bar(total: float, progress: bool) -> Any:

@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import pathlib
 from typing import Any
 
-from terrasph.cli_common import (add_force_option, add_numerics_option, add_threads_option, check_output_file,
-                                 numerics_overrides)
+from terrasph.cli_common import add_force_option, add_numerics_option, add_threads_option, numerics_overrides
 from terrasph.config import ConfigError
 from terrasph.io import defined_values
 from terrasph.options import add_config_options, config_values, with_option_names
-from terrasph.run_loop import building_scene, claimed_output
+from terrasph.run_loop import building_scene, claimed_output, output_lock
 from terrasph.scenes import SCENES, SceneEntry, run_case, scene_entry
 from terrasph.threads import use_threads
 
@@ -61,13 +61,13 @@ def _run_scene(args: argparse.Namespace) -> int:
                                     "numerics": numerics_overrides(args.numerics)})
     except ConfigError as error:
         raise ConfigError(with_option_names(str(error), entry.config_type)) from None
-    check_output_file(args.out, args.force)
-    check_size(config, confirmed=args.yes, threads=args.threads)
-    use_threads(args.threads)
-    # a second run into the same file refuses, before any work; Ctrl-C or SIGTERM while the scene is built
-    # stops it at once and removes the empty claim
-    with claimed_output(args.out, args.force), building_scene(not args.no_progress, f"the {args.scene} scene"):
-        summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
+    # a second run into the same file refuses, before any work, even with --force while the first writes;
+    # Ctrl-C or SIGTERM while the scene is built stops it at once and removes the empty claim
+    with claimed_output(args.out, args.force):
+        check_size(config, confirmed=args.yes, threads=args.threads)
+        use_threads(args.threads)
+        with building_scene(not args.no_progress, f"the {args.scene} scene"):
+            summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
     return _print_summary(summary, args.out, summary.plot)
 
 
@@ -94,18 +94,24 @@ def _register_resume(subparsers: argparse._SubParsersAction[argparse.ArgumentPar
 
 
 def _resume(args: argparse.Namespace) -> int:
+    """Continues the run in ``RUN.h5`` (held by its lock, so a run still writing it is named and
+    left alone) from its checkpoint; prints its summary."""
     import h5py
 
     from terrasph.config import ConfigError
     from terrasph.scenes import scene_of_run
 
+    if not pathlib.Path(args.run_file).is_file():
+        raise FileNotFoundError(f"{args.run_file}: no such run file")
     use_threads(args.threads)
-    try:
-        with h5py.File(args.run_file, "r") as file:
-            config_json = str(file.attrs["config_json"])
-    except (OSError, KeyError) as error:
-        raise ConfigError(f"{args.run_file} is not a readable terrasph run file: {error}") from error
-    entry, config = scene_of_run(config_json)
-    with building_scene(not args.no_progress, f"the {entry.name} scene"):
-        result = entry.run(config, output=args.run_file, progress=not args.no_progress, resume=True, until=args.until)
+    with output_lock(args.run_file):
+        try:
+            with h5py.File(args.run_file, "r") as file:
+                config_json = str(file.attrs["config_json"])
+        except (OSError, KeyError) as error:
+            raise ConfigError(f"{args.run_file} is not a readable terrasph run file: {error}") from error
+        entry, config = scene_of_run(config_json)
+        with building_scene(not args.no_progress, f"the {entry.name} scene"):
+            result = entry.run(config, output=args.run_file, progress=not args.no_progress, resume=True,
+                               until=args.until)
     return _print_summary(result.summary(), args.run_file, result.plot)
