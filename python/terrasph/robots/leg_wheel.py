@@ -30,7 +30,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from terrasph import bodies, rft
-from terrasph.config import ConfigError, Material, Numerics
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -168,7 +168,8 @@ def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative:
         value = getattr(config, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
-    for name in ("omega", "settle_time", *nonnegative):
+    check_settle_time(config.settle_time, config.t_end)
+    for name in ("omega", *nonnegative):
         value = getattr(config, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
             raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number >= 0")

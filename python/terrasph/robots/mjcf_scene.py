@@ -27,7 +27,7 @@ from matplotlib.figure import Figure
 
 from terrasph import rft
 from terrasph.cli_common import positive_float
-from terrasph.config import ConfigError
+from terrasph.config import ConfigError, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -113,8 +113,7 @@ class MjcfScene:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
-        if not (isinstance(self.settle_time, (int, float)) and 0 <= self.settle_time < self.t_end):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed in [0, t_end)")
+        check_settle_time(self.settle_time, self.t_end)
         if self.start_x is not None and not 0 < self.start_x < self.bed_width:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed in (0, bed_width)")
         object.__setattr__(self, "ctrl", tuple(str(c) for c in self.ctrl))
@@ -278,8 +277,7 @@ def rigid_floor_run(model_path: str | os.PathLike[str], controller: Controller |
     specs) for `duration` s at `timestep` (default the model's): the distance and mean speed of
     its centre of mass after `settle_time`, for comparison with the bed, and its path (rows of
     time, x, z in the model's frame, each step)."""
-    if not 0 <= settle_time < duration:
-        raise ConfigError(f"parameter 'settle_time' = {settle_time} is invalid: allowed in [0, duration = {duration})")
+    check_settle_time(settle_time, duration)
     model = load_model(model_path)
     if timestep is not None:
         model.opt.timestep = timestep

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time, parameter
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import aligned_wall_layers, elliptical_arc, trough_height, wall_layers_needed
 from terrasph.io import write_results
@@ -114,8 +114,7 @@ class ColumnCollapse:
                               f"half-width > 2*column_width = {2 * self.column_width:g} m")
         if self.floor_length <= self.column_width:
             raise ConfigError(f"parameter 'floor_length' = {self.floor_length} is invalid: allowed > column_width")
-        if not 0 <= self.release_time < self.t_end:
-            raise ConfigError(f"parameter 'release_time' = {self.release_time} is invalid: allowed [0, t_end)")
+        check_settle_time(self.release_time, self.t_end, name="release_time")
         if self.material_preset not in MATERIAL_PRESETS:
             raise ConfigError(f"parameter 'material_preset' = {self.material_preset!r} is invalid: allowed one of "
                               f"{', '.join(MATERIAL_PRESETS)}")

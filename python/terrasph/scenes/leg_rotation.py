@@ -19,7 +19,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from terrasph import bodies, rft
-from terrasph.config import ConfigError, Material, Numerics
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -104,8 +104,7 @@ class LegRotation:
         if self.t_end is not None and not (isinstance(self.t_end, (int, float)) and math.isfinite(self.t_end)
                                            and self.t_end > 0):
             raise ConfigError(f"parameter 't_end' = {self.t_end!r} is invalid: allowed a finite number > 0 s or None")
-        if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
+        check_settle_time(self.settle_time, self.t_end)
         if not 0 < self.foot_ratio <= 2:
             raise ConfigError(f"parameter 'foot_ratio' = {self.foot_ratio!r} is invalid: allowed (0, 2]")
         if self.spacing is None and self.resolution not in RESOLUTIONS:

@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from terrasph import bodies
-from terrasph.config import ConfigError, Material, Numerics
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -83,8 +83,7 @@ class PlateDrag(PlateConfig):
             raise ConfigError(f"parameter 'samples' = {self.samples!r} is invalid: allowed an integer >= 4")
         if not 0 < self.measure_fraction <= 1:
             raise ConfigError(f"parameter 'measure_fraction' = {self.measure_fraction!r} is invalid: allowed (0, 1]")
-        if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
+        check_settle_time(self.settle_time, self.t_end)
         numerics = self.build_numerics()
         half = 0.5 * self.plate_length * abs(math.sin(self.attack_angle)) + self.plate_thickness
         shallowest = self.start_depth - half - self.travel * max(0.0, -math.sin(self.direction))

@@ -37,7 +37,7 @@ import numpy as np
 
 from terrasph import bodies
 from terrasph.analysis import fit_line
-from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time, parameter
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -132,8 +132,7 @@ class PlateIntrusion(PlateConfig):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
         if self.t_end is not None and not (_is_number(self.t_end) and math.isfinite(self.t_end) and self.t_end > 0):
             raise ConfigError(f"parameter 't_end' = {self.t_end!r} is invalid: allowed a finite number > 0 s or None")
-        if not (_is_number(self.settle_time) and math.isfinite(self.settle_time) and self.settle_time >= 0):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
+        check_settle_time(self.settle_time, self.t_end)
         numerics = self.build_numerics()  # raises ConfigError for bad overrides
         self.material()  # raises ConfigError for an unknown model
         least = bodies.minimum_thickness(self.spacing, numerics.h_factor)
