@@ -294,12 +294,12 @@ def test_a_stale_checkpoint_is_refused_without_force(tmp_path) -> None:
 
 
 def test_a_run_ended_in_the_settling_pause_has_a_valid_summary(tmp_path, capsys) -> None:
-    """A leg-wheel run shorter than its pause (no driven phase): the undefined means print as null,
-    valid JSON; a leg rotation resumed within its pause gives a summary without a sweep."""
+    """A leg-wheel run stopped and resumed within its pause (no driven phase yet; a run configured to end
+    in its pause is refused, tests/test_settle_time.py): the undefined means print as null, valid
+    JSON; a leg rotation resumed within its pause gives a summary without a sweep."""
     out = tmp_path / "wheel.h5"
-    assert main(["run", "leg-wheel", "--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04",
-                 "--bed-width", "0.2", "--bed-depth", "0.04", "--start-x", "0.08", "--settle-time", "5",
-                 "--t-end", "0.01", "--no-progress", "--threads", "1", "--out", str(out)]) == 0
+    run("leg-wheel", out, until=0.004, settle_time=0.02)
+    assert main(["resume", str(out), "--until", "0.008", "--no-progress", "--threads", "1"]) == 0
     summary = json.loads(capsys.readouterr().out, parse_constant=lambda name: pytest.fail(f"{name} printed"))
     assert summary["mean_slip"] is None and summary["final_sinkage"] is not None
     leg = tmp_path / "leg.h5"
@@ -403,3 +403,44 @@ def test_ctrl_c_on_a_sweep_says_how_to_go_on(tmp_path, monkeypatch, capsys) -> N
     err = capsys.readouterr().err
     assert stopped.value.code == 130 and len(err.strip().splitlines()) == 1
     assert "sweep interrupted" in err and f"terrasph sweep {spec} --out {tmp_path / 'sweep'}" in err
+
+
+#: a leg-wheel driven long enough that its motor works across the checkpoint, with the scene's own
+#: sampling (a sample every 0.01 s, a frame every 0.05 s)
+DRIVEN_WHEEL = ["run", "leg-wheel", "--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04",
+                "--bed-width", "0.2", "--bed-depth", "0.04", "--start-x", "0.08", "--settle-time", "0.02",
+                "--load", "2", "--no-progress", "--threads", "1"]
+
+
+def test_a_resumed_robot_run_has_the_summary_of_the_run_that_never_stopped(tmp_path, capsys) -> None:
+    """`terrasph run ... --t-end 0.25` then `terrasph resume --until 0.3` against a run straight to
+    0.3 s (the motor does positive work at the checkpoint, 0.24 s): the summaries bitwise equal, the motor work and the cost of transport included (they sum
+    the motor's power, force × speed, over every step: the speed at the checkpoint must be the one
+    the run had, not one MuJoCo recomputes). Then the end time and the time shown: a plain resume
+    continues to the last --until, so the finished run is refused, and so is an --until before the
+    time reached (the time `terrasph info` shows), without running anything again."""
+    def summary(argv: list[str]) -> dict:
+        assert main(argv) == 0
+        printed = json.loads(capsys.readouterr().out)
+        return {key: value for key, value in printed.items() if key not in ("output", "plot")}
+
+    resumed, straight = tmp_path / "resumed.h5", tmp_path / "straight.h5"
+    summary([*DRIVEN_WHEEL, "--t-end", "0.25", "--out", str(resumed)])
+    continued = summary(["resume", str(resumed), "--until", "0.3", "--no-progress", "--threads", "1"])
+    reference = summary([*DRIVEN_WHEEL, "--t-end", "0.3", "--out", str(straight)])
+    assert continued["motor_work"] > 0
+    assert continued == reference
+    assert_same_run(resumed, straight)
+
+    reached = read_run(resumed).group_attrs["/run"]["time"]
+    assert main(["info", str(resumed)]) == 0
+    assert f"reached t = {reached:.6g} s" in capsys.readouterr().out
+    steps = read_run(resumed).group_attrs["/run"]["steps"]
+    for argv, words in ((["resume", str(resumed)], "already ran to its end"),
+                        (["resume", str(resumed), "--until", "0.3"], f"allowed > the time the run reached, "
+                                                                      f"t = {reached:.6g} s")):
+        with pytest.raises(SystemExit) as refused:
+            main([*argv, "--no-progress"])
+        err = capsys.readouterr().err
+        assert refused.value.code == 2 and words in err and len(err.strip().splitlines()) == 1, err
+    assert read_run(resumed).group_attrs["/run"]["steps"] == steps  # nothing ran again

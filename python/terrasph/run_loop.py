@@ -49,8 +49,8 @@ import numpy as np
 from terrasph.config import ConfigError
 
 __all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult", "Recorder",
-           "RunLoop", "Stepper", "StopRequest", "building_scene", "check_run_options", "checkpoint_path", "claimed_output",
-           "lock_path", "output_lock", "simulated_time_bar"]
+           "RunLoop", "Stepper", "StopRequest", "building_scene", "check_end_time", "check_run_options", "checkpoint_path",
+           "claimed_output", "lock_path", "output_lock", "recorded_end", "simulated_time_bar"]
 
 #: Wall time (s) between writes of the series' rows into the run file (and before every checkpoint and
 #: at the end, so a checkpoint's row counts are what the file holds): a write costs a resize and a
@@ -219,6 +219,28 @@ def _raise_interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def recorded_end(output: str | os.PathLike[str]) -> tuple[str | None, float | None, float | None]:
+    """The status, the simulated time reached and the end time aimed at of the run in `output`, as its
+    ``/run`` group records them (each None if not recorded: the run file of an older version has no
+    end time, one still being written no status)."""
+    import h5py
+
+    with h5py.File(output, "r") as file:
+        attrs = dict(file["run"].attrs) if "run" in file else {}
+    status, reached, end = attrs.get("status"), attrs.get("time"), attrs.get("t_end")
+    return (None if status is None else str(status), None if reached is None else float(reached),
+            None if end is None else float(end))
+
+
+def check_end_time(t_end: float, reached: float, name: str = "t_end") -> None:
+    """ConfigError unless the end time `t_end` lies after the time `reached` by the run to continue
+    (the time its file records, the one ``terrasph info`` prints, not its checkpoint's, which may be
+    before it)."""
+    if not t_end > reached:
+        raise ConfigError(f"parameter '{name}' = {t_end!r} is invalid: allowed > the time the run reached, "
+                          f"t = {reached:.6g} s")
+
+
 @contextlib.contextmanager
 def building_scene(progress: bool, what: str = "the scene") -> Iterator[None]:
     """The time before a run loop starts (building the scene): SIGINT and SIGTERM raise
@@ -343,9 +365,9 @@ class RunLoop:
         if end_of_build is not None:
             end_of_build()  # the scene is built: the run's own bar follows
         stepper = self.stepper
+        reached = recorded_end(self.output)[1] if resume else None  # before the run file is reopened
         saved = stepper.restore(checkpoint_path(self.output)) if resume else {}
-        if not t_end > stepper.time:
-            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {stepper.time}")
+        check_end_time(t_end, stepper.time if reached is None else max(reached, stepper.time))
         writer = self._open_writer(saved, resume)
         sampled = bool(self.recorders)
         series: dict[str, dict[str, list[Any]]] = {}
@@ -411,7 +433,7 @@ class RunLoop:
             if not writer:
                 return
             write_rows()
-            writer.set_attrs("/run", {"status": status, "wall_time": wallclock.perf_counter() - start,
+            writer.set_attrs("/run", {"status": status, "t_end": t_end, "wall_time": wallclock.perf_counter() - start,
                                       "steps": stepper.step_count, "time": stepper.time,
                                       **stepper.run_attributes(), **extra})
             writer.close()
