@@ -364,11 +364,13 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypa
     """MuJoCo does not fail on a state it cannot integrate: it resets the robot to its initial pose
     and counts a warning. The coupled step, on the SPH terrain and on RFT's, turns that into an
     InstabilityError, which the run loop records as ``unstable`` with the frames so far (here the
-    robot's speed is made non-finite after 0.01 s)."""
+    robot's speed is made non-finite after 0.01 s). MuJoCo's warning reaches the user as a Python
+    warning, not as a MUJOCO_LOG.TXT in the working directory."""
     from terrasph.robots.leg_wheel import build_leg_wheel
+    from terrasph.robots.mjcf import MujocoWarning
     from terrasph.robots.run import run_coupled
 
-    monkeypatch.chdir(tmp_path)  # MuJoCo logs its warning to MUJOCO_LOG.TXT in the working directory
+    monkeypatch.chdir(tmp_path)  # where MuJoCo's own handler would write its log
     coupled = build_leg_wheel(CASES[case][0])
 
     def spoil(run) -> None:
@@ -376,8 +378,10 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypa
             run.robot.data.qvel[0] = math.nan
 
     out = tmp_path / "run.h5"
-    with pytest.raises(InstabilityError, match="MuJoCo could not integrate"):
+    with pytest.raises(InstabilityError, match="MuJoCo could not integrate"), \
+            pytest.warns(MujocoWarning, match="MuJoCo: Nan, Inf or huge value"):
         run_coupled(coupled, 0.03, output=out, control=spoil)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
     data = read_run(out)
     status = data.group_attrs["/run"]
     assert status["status"] == "unstable" and status["particle"] == -1

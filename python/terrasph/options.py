@@ -159,7 +159,8 @@ def with_option_names(message: str, config_type: type) -> str:
     """`message` (a ConfigError's) with the option beside each offered field it names:
     "parameter 'settle_time' (--settle-time) = ..."."""
     for f, meta, _ in _offered(config_type):
-        message = message.replace(f"'{f.name}'", f"'{f.name}' ({', '.join(_option_names(f, meta))})")
+        names = (meta.cli or f.name.upper(),) if meta.positional else _option_names(f, meta)  # an argument: no "--"
+        message = message.replace(f"'{f.name}'", f"'{f.name}' ({', '.join(names)})")
     return message
 
 

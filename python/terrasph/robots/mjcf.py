@@ -10,10 +10,12 @@ with no change of sign.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import pathlib
-from collections.abc import Mapping
+import warnings
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 
 import mujoco
@@ -23,7 +25,32 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.scene import Scene
 
-__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "PlanarRobot", "check_planar", "load_model", "shape_inertial"]
+__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "MujocoWarning", "PlanarRobot", "check_planar", "load_model",
+           "mujoco_warnings", "shape_inertial"]
+
+
+class MujocoWarning(UserWarning):
+    """A warning of MuJoCo's (its compiler's, e.g. a deprecated attribute of a user's model, or its
+    simulation's, e.g. a state it cannot integrate), passed on through Python's warnings."""
+
+
+@contextlib.contextmanager
+def mujoco_warnings() -> Iterator[None]:
+    """For the block, MuJoCo's warnings reach the user as Python warnings (:class:`MujocoWarning`:
+    shown once per message, filtered and caught as any warning) instead of MuJoCo's default, a line
+    appended to MUJOCO_LOG.TXT in the working directory. MuJoCo's handler is process-wide: it is
+    installed only here, never at import, and the previous one is put back after the block. (MuJoCo's
+    errors already reach Python as exceptions: the bindings raise them.)"""
+    previous = mujoco.get_mju_user_warning()
+
+    def warn(text: str) -> None:
+        warnings.warn(f"MuJoCo: {' '.join(str(text).split())}", MujocoWarning, stacklevel=2)
+
+    mujoco.set_mju_user_warning(warn)
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 #: the example planar rover shipped with the package (a chassis and two driven wheels; see the file)
 ROVER = pathlib.Path(__file__).with_name("models") / "rover.xml"
@@ -104,9 +131,10 @@ def load_model(mjcf: str | os.PathLike[str] | mujoco.MjModel) -> mujoco.MjModel:
     if not is_xml and not pathlib.Path(text).is_file():
         raise ConfigError(f"parameter 'mjcf' = {text!r}: no such file (give a path or an XML string)")
     try:
-        return mujoco.MjModel.from_xml_string(text) if is_xml else mujoco.MjModel.from_xml_path(text)
-    except ValueError as error:
-        raise ConfigError(f"the MJCF model does not compile: {error}") from None
+        with mujoco_warnings():
+            return mujoco.MjModel.from_xml_string(text) if is_xml else mujoco.MjModel.from_xml_path(text)
+    except ValueError as error:  # MuJoCo's message spans lines (an XML parse error's text is on the second)
+        raise ConfigError(f"the MJCF model does not compile: {' '.join(str(error).split())}") from None
 
 
 def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:

@@ -36,7 +36,7 @@ from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controll
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.leg_wheel import BED_NUMERICS
 from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import check_planar, load_model
+from terrasph.robots.mjcf import check_planar, load_model, mujoco_warnings
 from terrasph.robots.plots import plot_robot_3d
 from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, RobotLoads3D, rft_robot, wheel_radii
 from terrasph.robots.run import RobotRun, run_coupled
@@ -107,7 +107,8 @@ class MjcfScene:
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
         if not pathlib.Path(str(self.model)).is_file():
-            raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: allowed the path of an MJCF file")
+            raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: no such file (allowed the path of an "
+                              "MJCF file)")
         for name in ("bed_width", "bed_depth", "spacing", "t_end", "couple_below", "freeboard",
                      "series_interval", "frame_interval"):
             value = getattr(self, name)
@@ -285,12 +286,13 @@ def rigid_floor_run(model_path: str | os.PathLike[str], controller: Controller |
     mujoco.mj_forward(model, data)
     drive = controller or spec_controller(ctrl, model, data, settle_time)
     path = [(0.0, *data.subtree_com[0][[0, 2]])]
-    while data.time < duration * (1 - 1e-12):
-        data.ctrl[:] = drive(data.time, model, data)
-        mujoco.mj_step(model, data)
-        mujoco.mj_kinematics(model, data)  # mj_step leaves the derived quantities at the step's start
-        mujoco.mj_comPos(model, data)
-        path.append((float(data.time), *data.subtree_com[0][[0, 2]]))
+    with mujoco_warnings():
+        while data.time < duration * (1 - 1e-12):
+            data.ctrl[:] = drive(data.time, model, data)
+            mujoco.mj_step(model, data)
+            mujoco.mj_kinematics(model, data)  # mj_step leaves the derived quantities at the step's start
+            mujoco.mj_comPos(model, data)
+            path.append((float(data.time), *data.subtree_com[0][[0, 2]]))
     trajectory = np.array(path)
     driven = trajectory[trajectory[:, 0] >= settle_time]
     distance = float(driven[-1, 1] - driven[0, 1])
