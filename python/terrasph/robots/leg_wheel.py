@@ -64,7 +64,9 @@ class WheelScene:
     wheel: str = option("c-leg", choices=WHEELS, help="morphology (Fig. 4.2) or plain wheel")
     legs: int = option(3, help="legs of a leg-wheel, 1-12")
     omega: float = option(1.5, help="commanded spin after the pause, clockwise", unit="rad/s")
-    leg_length: float = shared("leg_length", 0.08)  #: "2R = 8 cm", the tip radius
+    #: hip-to-toe length of each leg, so the radius of the circle of its tips (the dissertation's
+    #: "2R = 8 cm" read as this length, module docstring)
+    leg_length: float = shared("leg_length", 0.08)
     thickness: float = option(0.005, help="leg thickness, >= 3 dx", unit="m")
     width: float = option(0.1, help="each wheel's out-of-plane width; loads are for it", unit="m")
     foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
