@@ -448,3 +448,14 @@ def test_a_resumed_robot_run_has_the_summary_of_the_run_that_never_stopped(tmp_p
         err = capsys.readouterr().err
         assert refused.value.code == 2 and words in err and len(err.strip().splitlines()) == 1, err
     assert read_run(resumed).group_attrs["/run"]["steps"] == steps  # nothing ran again
+
+
+def test_a_plate_drag_stopped_before_its_measured_part_is_undefined_without_warnings(tmp_path) -> None:
+    """The tiny plate drag stopped at T1, before the measured part of its travel: its means are NaN
+    (null in JSON), said so by the summary, with no numpy warning ("mean of empty slice")."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        summary = run("plate-drag", tmp_path / "drag.h5").summary()
+    assert all(math.isnan(summary[key]) for key in ("alpha_x", "alpha_z", "alpha_x_spread", "alpha_z_spread"))

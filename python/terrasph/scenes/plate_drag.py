@@ -142,12 +142,17 @@ class PlateDragResult:
 
     def summary(self) -> dict[str, Any]:
         """β, γ and the means of α_x, α_z over the measured part of the travel (N/m³) with their
-        spread (standard deviation over those samples)."""
+        spread (standard deviation over those samples); NaN (undefined) for a run stopped before
+        the measured part."""
         measured = self.travel >= (1 - self.config.measure_fraction) * self.config.travel - 1e-12
+
+        def over_measured(statistic: Any, values: np.ndarray) -> float:
+            return float(statistic(values[measured])) if measured.any() else math.nan
+
         return {"attack_angle": self.config.attack_angle, "direction": self.config.direction,
-                "alpha_x": float(np.mean(self.alpha_x[measured])), "alpha_z": float(np.mean(self.alpha_z[measured])),
-                "alpha_x_spread": float(np.std(self.alpha_x[measured])),
-                "alpha_z_spread": float(np.std(self.alpha_z[measured])),
+                "alpha_x": over_measured(np.mean, self.alpha_x), "alpha_z": over_measured(np.mean, self.alpha_z),
+                "alpha_x_spread": over_measured(np.std, self.alpha_x),
+                "alpha_z_spread": over_measured(np.std, self.alpha_z),
                 "spacing": self.config.spacing, "plate_thickness": self.config.plate_thickness,
                 "leaked_particles": self.leaked_particles, "steps": self.run.steps, "wall_time": self.run.wall_time,
                 "status": self.run.status}
