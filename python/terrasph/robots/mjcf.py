@@ -25,8 +25,8 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.scene import Scene
 
-__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "MujocoWarning", "PlanarRobot", "check_planar", "load_model",
-           "mujoco_warnings", "shape_inertial"]
+__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "MujocoWarning", "PlanarRobot", "body_name", "check_planar",
+           "load_model", "mujoco_warnings", "shape_inertial"]
 
 
 class MujocoWarning(UserWarning):
@@ -138,13 +138,35 @@ def load_model(mjcf: str | os.PathLike[str] | mujoco.MjModel) -> mujoco.MjModel:
 
 
 def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:
+    if kind == mujoco.mjtObj.mjOBJ_BODY:
+        return body_name(model, index)
     return mujoco.mj_id2name(model, kind, index) or f"#{index}"
+
+
+def body_name(model: mujoco.MjModel, body: int) -> str:
+    """The name a body goes by in terrasph (series, figures, messages, ``--bodies``): its MJCF name;
+    for an unnamed body (gymnasium's ant names its lower legs' bodies only by their geoms) its first
+    named geom's name without a ``_geom`` ending, as ``left_ankle``, if no body has that name; else
+    its parent's name and its id, as ``aux_1/#4``."""
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body)
+    if name:
+        return name
+    for geom in range(int(model.body_geomadr[body]), int(model.body_geomadr[body] + model.body_geomnum[body])):
+        geom_name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom)
+        if geom_name:
+            readable = geom_name.removesuffix("_geom")
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, readable) < 0:
+                return readable
+    parent = int(model.body_parentid[body])
+    return f"{body_name(model, parent) if parent > 0 else 'world'}/#{body}"
 
 
 def coupled_body_id(model: mujoco.MjModel, name: str) -> int:
     """The id of the body `name` that is to meet the terrain; ConfigError listing the model's bodies
     if it has none of that name."""
     body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+    if body_id < 0:  # an unnamed body, by the name terrasph gives it
+        body_id = next((b for b in range(1, model.nbody) if body_name(model, b) == name), -1)
     if body_id < 0:
         bodies = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, model.nbody)]
         raise ConfigError(f"coupled body '{name}' is not a body of the MJCF model; its bodies: {bodies}")

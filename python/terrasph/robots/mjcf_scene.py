@@ -36,8 +36,8 @@ from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controll
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.leg_wheel import BED_NUMERICS
 from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import check_planar, load_model, mujoco_warnings
-from terrasph.robots.plots import plot_robot_3d
+from terrasph.robots.mjcf import body_name, check_planar, load_model, mujoco_warnings
+from terrasph.robots.plots import body_legend, plot_robot_3d
 from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, RobotLoads3D, rft_robot, wheel_radii
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.robots.terrain_robot import COUPLE_BELOW, BedCrossings, terrain_robot
@@ -264,7 +264,7 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
         mujoco.mj_comPos(model, data)
         rotation = data.xmat[1].reshape(3, 3)
         summary.update({"final_com": data.subtree_com[0].tolist(),
-                        "root_body": mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, 1) or "#1",
+                        "root_body": body_name(model, 1),
                         "final_heading_deg": math.degrees(math.atan2(rotation[1, 0], rotation[0, 0])),
                         "final_pitch_deg": math.degrees(math.asin(max(-1.0, min(1.0, -rotation[2, 0])))),
                         "final_roll_deg": math.degrees(math.atan2(rotation[2, 1], rotation[2, 2]))})
@@ -323,7 +323,7 @@ def plot_mjcf(series: dict[str, dict[str, np.ndarray]], bodies: list[str], path:
     com_ax.set(ylabel="centre of mass (cm)", title=title or "MJCF model on the bed")
     sink_ax.set(ylabel="sinkage (cm)")
     force_ax.set(xlabel="t (s)", ylabel="vertical granular force (N)")
-    sink_ax.legend(fontsize="small")
+    body_legend(figure, [sink_ax], bodies)
     if settle_time is not None:
         for ax in (com_ax, sink_ax, force_ax):
             ax.axvline(settle_time, color="0.5", linestyle=":", linewidth=1)

@@ -48,6 +48,7 @@ from terrasph.config import ConfigError
 from terrasph.rft3d import BodyElements, body_wrench
 from terrasph.robots.coupling import _velocity_servos, divergences, mujoco_state, restore_mujoco_state
 from terrasph.robots.metrics import slip
+from terrasph.robots.mjcf import body_name
 from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, advance_native, check_integrated, mujoco_library
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
@@ -96,7 +97,7 @@ def rft_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence
     model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below)
     coupled = []
     for body in chosen:
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+        name = body_name(model, body)
         if not model.body_mass[body] > 0:
             raise ConfigError(f"coupled body '{name}' has no mass in the MJCF model; give it geoms with mass or an "
                               "<inertial>")

@@ -28,7 +28,7 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
-from terrasph.robots.mjcf import Coupling, PlanarRobot, load_model, coupled_body_id
+from terrasph.robots.mjcf import Coupling, PlanarRobot, body_name, coupled_body_id, load_model
 
 if TYPE_CHECKING:  # the 3D RFT terrain builds on this module
     from terrasph.robots.rft3d_terrain import Robot3D
@@ -132,7 +132,7 @@ def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float,
     widths = dict(widths or {})
     couplings = {}
     for body in chosen:
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+        name = body_name(model, body)
         couplings[name] = Coupling(body_shape(model, body, spacing, widths.pop(name, None)))
     if widths:
         raise ConfigError(f"parameter 'widths' names {sorted(widths)}, which are not coupled bodies "
