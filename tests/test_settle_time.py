@@ -19,9 +19,9 @@ REQUIRED = {"mjcf": [str(ROVER)]}
 
 
 def _pause_option(scene: str) -> str:
-    """The option that sets the scene's pause (its field settle_time's, or column-collapse's gate)."""
-    fields = {f.name for f in dataclasses.fields(scene_entry(scene).config_type)}
-    return "--settle-time" if "settle_time" in fields else "--release-time"
+    """The option that sets the scene's pause: --settle-time in every scene (tests/test_option_names.py)."""
+    assert "settle_time" in {f.name for f in dataclasses.fields(scene_entry(scene).config_type)}
+    return "--settle-time"
 
 
 @pytest.mark.parametrize("scene", sorted(SCENES))

@@ -90,7 +90,7 @@ class MjcfScene:
                                      default_text="every body with a collision geom below --couple-below",
                                      help="a body that meets the terrain")
     couple_below: float = option(COUPLE_BELOW, help="height above the floor that selects the coupled bodies", unit="m")
-    widths: dict[str, float] = option(cli="width", repeat=True, unit="NAME=METRES", parse=_body_width,
+    widths: dict[str, float] = option(cli="body-width", repeat=True, unit="NAME=METRES", parse=_body_width,
                                       default_factory=dict, default_text="its geoms' extent across the plane",
                                       help="a coupled body's out-of-plane width")
     freeboard: float = option(0.2, help="container wall height above the bed's surface", unit="m")
