@@ -214,8 +214,8 @@ def test_the_standalone_example_builds_only_the_lstm(tmp_path) -> None:
         pytest.skip("cmake is not installed")
     root = Path(__file__).resolve().parents[1]
     build = tmp_path / "build-ex"
-    subprocess.run(["cmake", "-S", str(root), "-B", str(build), "-DTERRASPH_BUILD_EXAMPLES=ON", "-DTERRASPH_PYTHON=OFF"],
-                   check=True, capture_output=True, text=True, timeout=300)
+    subprocess.run(["cmake", "-S", str(root), "-B", str(build), "-DTERRASPH_BUILD_EXAMPLES=ON",
+                    "-DTERRASPH_PYTHON=OFF"], check=True, capture_output=True, text=True, timeout=300)
     targets = subprocess.run(["cmake", "--build", str(build), "--target", "help"], check=True, capture_output=True,
                              text=True, timeout=120).stdout
     assert "lstm_predict" in targets and "terrasph_core" not in targets

@@ -418,9 +418,10 @@ DRIVEN_WHEEL = ["run", "leg-wheel", "--spacing", "0.005", "--thickness", "0.015"
 
 def test_a_resumed_robot_run_has_the_summary_of_the_run_that_never_stopped(tmp_path, capsys) -> None:
     """`terrasph run ... --t-end 0.25` then `terrasph resume --until 0.3` against a run straight to
-    0.3 s (the motor does positive work at the checkpoint, 0.24 s): the summaries bitwise equal, the motor work and the cost of transport included (they sum
-    the motor's power, force × speed, over every step: the speed at the checkpoint must be the one
-    the run had, not one MuJoCo recomputes). Then the end time and the time shown: a plain resume
+    0.3 s (the motor does positive work at the checkpoint, 0.24 s): the summaries bitwise equal, the
+    motor work and the cost of transport included (they sum the motor's power, force × speed, over
+    every step: the speed at the checkpoint must be the one the run had, not one MuJoCo recomputes).
+    Then the end time and the time shown: a plain resume
     continues to the last --until, so the finished run is refused, and so is an --until before the
     time reached (the time `terrasph info` shows), without running anything again."""
     def summary(argv: list[str]) -> dict:

@@ -48,9 +48,9 @@ import numpy as np
 
 from terrasph.config import ConfigError
 
-__all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult", "Recorder",
-           "RunLoop", "Stepper", "StopRequest", "building_scene", "check_end_time", "check_run_options", "checkpoint_path",
-           "claimed_output", "lock_path", "output_lock", "recorded_end", "simulated_time_bar"]
+__all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult",
+           "Recorder", "RunLoop", "Stepper", "StopRequest", "building_scene", "check_end_time", "check_run_options",
+           "checkpoint_path", "claimed_output", "lock_path", "output_lock", "recorded_end", "simulated_time_bar"]
 
 #: Wall time (s) between writes of the series' rows into the run file (and before every checkpoint and
 #: at the end, so a checkpoint's row counts are what the file holds): a write costs a resize and a

@@ -158,7 +158,8 @@ def available_memory() -> tuple[float, str] | None:
     physical memory available now (MemAvailable), the process's address-space and data limits
     (RLIMIT_AS, RLIMIT_DATA) and its control group's memory limit; None if none is known."""
     bounds = [(value, name) for value, name in ((_meminfo_available(), "available"),
-                                                 (_address_space_left(), "left under the process's address-space limit"),
+                                                 (_address_space_left(),
+                                                  "left under the process's address-space limit"),
                                                  (_cgroup_memory_left(), "left under the control group's limit"))
               if value is not None]
     return min(bounds) if bounds else None
@@ -176,7 +177,8 @@ def check_size(config: Sized | Any, *, confirmed: bool, threads: int | None = No
     spacing = f"spacing {footprint.spacing:g} m"
     if memory is not None and size.memory_bytes > memory[0]:
         raise ConfigError(f"{spacing} is too fine for this process: {size.describe()}, but only "
-                          f"{memory[0] / 2**30:.2g} GiB of memory is {memory[1]}; use a coarser spacing or a smaller bed")
+                          f"{memory[0] / 2**30:.2g} GiB of memory is {memory[1]}; use a coarser spacing or a "
+                          "smaller bed")
     if size.hours > CONFIRM_HOURS and not confirmed:
         raise ConfigError(f"{spacing}: {size.describe()} (over {CONFIRM_HOURS:g} h at the measured "
                           f"{SECONDS_PER_PARTICLE_STEP * 1e6:g} us per particle-step); add --yes to run it anyway")

@@ -38,6 +38,7 @@ from terrasph.robots.leg_wheel import BED_NUMERICS
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import body_name, check_planar, load_model, mujoco_warnings
 from terrasph.robots.plots import body_legend, plot_robot_3d
+from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, RobotLoads3D, rft_robot, wheel_radii
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.robots.terrain_robot import COUPLE_BELOW, BedCrossings, terrain_robot
@@ -63,7 +64,7 @@ def _body_width(text: str) -> tuple[str, float]:
 
 
 @dataclass(frozen=True)
-class MjcfScene:
+class MjcfScene(BeadBed):
     """Configuration of an MJCF model on the bed (a planar model) or on the 3D RFT terrain (any
     model). Lengths in m, times in s."""
 
@@ -71,7 +72,8 @@ class MjcfScene:
     RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
     #: the settings of the SPH bed only, refused on the RFT terrain unless at their defaults
     SPH_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "bed_depth", "spacing", "start_x", "widths",
-                                                  "freeboard", "fidelity", "numerics")
+                                                  "freeboard", "fidelity", "numerics", "mu1_deg", "mu2_deg",
+                                                  "water_content")
     #: the settings of the RFT terrain only, refused on the SPH bed unless at their defaults
     RFT_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("rft_table", "element_length")
 
@@ -106,6 +108,7 @@ class MjcfScene:
 
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
+        self.check_bed_material()
         if not pathlib.Path(str(self.model)).is_file():
             raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: no such file (allowed the path of an "
                               "MJCF file)")
@@ -138,7 +141,6 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
     container and the model standing on it (a planar model only). On RFT: the model in its own frame
     on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
     every step (a ``hold`` spec is a servo), as on the SPH."""
-    from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
 
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
@@ -156,7 +158,7 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
                           bodies=config.bodies, couple_below=config.couple_below, widths=config.widths,
                           gravity=scene.gravity)
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
+    return CoupledSimulation(robot, Simulation(scene, config.bed_material(), numerics))
 
 
 def _check_planar_model(path: str) -> None:

@@ -36,7 +36,6 @@ from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
 from terrasph.options import option, shared
 from terrasph.scene import Scene
-from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.scenes.plate_intrusion import PlateConfig
 from terrasph.simulation import RunResult, Simulation
 
@@ -70,6 +69,7 @@ class PlateDrag(PlateConfig):
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
     def __post_init__(self) -> None:
+        self.check_bed_material()
         check_tier(self.fidelity)
         for name in ("attack_angle", "direction"):
             value = getattr(self, name)
@@ -125,7 +125,7 @@ def build_plate_drag(config: PlateDrag) -> tuple[Scene, Material, Numerics]:
                            angle=-config.attack_angle, motion=Motion(tuple(pieces)), width=config.width,
                            clear_granular=False)
     scene.clear_granular_near(plate.position, 0.5 * config.spacing)
-    return scene, glass_beads(), numerics
+    return scene, config.bed_material(), numerics
 
 
 @dataclass

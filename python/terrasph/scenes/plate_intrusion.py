@@ -37,14 +37,20 @@ import numpy as np
 
 from terrasph import bodies
 from terrasph.analysis import fit_line
-from terrasph.config import ConfigError, Material, Numerics, check_settle_time, parameter
+from terrasph.config import (
+    ConfigError,
+    Material,
+    Numerics,
+    check_settle_time,
+    parameter,
+)
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
 from terrasph.options import option, shared
 from terrasph.scene import GRAVITY, Scene
-from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
 
@@ -67,9 +73,10 @@ FIT_FROM_DEPTH = 0.01
 RESOLUTIONS: dict[str, float] = {"coarse": 0.0025, "fine": 0.002, "finer": 0.0016}
 
 
-class PlateConfig:
-    """What the plate scenes' configurations share (plate-intrusion, plate-drag): the numerics at
-    their `spacing` and fidelity tier with their `numerics` overrides, and the plate's thickness."""
+class PlateConfig(BeadBed):
+    """What the plate scenes' configurations share (plate-intrusion, plate-drag): the bed's material
+    options, the numerics at their `spacing` and fidelity tier with their `numerics` overrides, and the
+    plate's thickness."""
 
     SCENE: ClassVar[str]  #: the registered scene, whose fidelity tiers apply
     spacing: float
@@ -124,6 +131,7 @@ class PlateIntrusion(PlateConfig):
     t_end: float | None = shared("t_end", None, default_text="the end of the strokes")
 
     def __post_init__(self) -> None:
+        self.check_bed_material()
         check_tier(self.fidelity)
         for name in ("speed", "max_depth", "spacing", "plate_length", "width", "bed_width", "bed_depth",
                      "sample_travel", "frame_interval"):
@@ -172,8 +180,8 @@ class PlateIntrusion(PlateConfig):
                               "(the plate must stay clear of the floor's kernel support)")
 
     def material(self) -> Material:
-        """The chapter 3 glass beads (``glass_beads()``) under the configured constitutive model."""
-        return dataclasses.replace(glass_beads(), model=self.model)
+        """The bed's glass beads (:meth:`bed_material`) under the configured constitutive model."""
+        return dataclasses.replace(self.bed_material(), model=self.model)
 
     def footprint(self) -> Footprint:
         """The bed and the plate, the container's floor and sides (size guard)."""
