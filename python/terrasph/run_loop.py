@@ -144,7 +144,7 @@ def output_lock(output: str | os.PathLike[str]) -> Iterator[None]:
         descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        except BlockingIOError:
             holder = os.read(descriptor, 4096).decode("utf-8", "replace")
             os.close(descriptor)
             try:
@@ -154,6 +154,11 @@ def output_lock(output: str | os.PathLike[str]) -> Iterator[None]:
                 who = "its lock is being written"
             raise FileExistsError(f"--out {output}: another run is writing it ({who}); wait for it to end or stop "
                                   f"it, then rerun") from None
+        except OSError as error:  # a filesystem without locks (ENOLCK, EOPNOTSUPP): run, but say so
+            import warnings
+
+            warnings.warn(f"{path}: cannot lock it ({error.strerror}); a second run into {output} would not be "
+                          "refused", RuntimeWarning, stacklevel=3)
         try:  # the file locked is still the one at `path` (not one a finishing run just removed)
             same = os.path.samestat(os.fstat(descriptor), os.stat(path))
         except FileNotFoundError:
