@@ -15,11 +15,23 @@ Skipped tests say how to run them.
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 pytest_plugins = ("pytester",)  # test_test_tiers.py runs the tier switches on a throw-away suite
+
+
+@pytest.fixture(scope="session", autouse=True)
+def no_mujoco_log_file():
+    """MuJoCo's default warning handler appends to MUJOCO_LOG.TXT in the working directory; terrasph
+    passes MuJoCo's warnings on through Python's (terrasph.robots.mjcf.mujoco_warnings), so the suite
+    (gymnasium's half cheetah with its deprecated attribute, diverging robots) must leave none."""
+    log = Path.cwd() / "MUJOCO_LOG.TXT"
+    existed = log.exists()
+    yield
+    assert existed or not log.exists(), f"the tests left MuJoCo's {log}: a MuJoCo warning bypassed mujoco_warnings"
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

@@ -204,3 +204,20 @@ def test_example_program_predicts_with_a_model_found_by_name(example_program, tm
     expected = model.engine.predict(np.column_stack([columns[f] for f in model.feature_names]))
     assert got.shape == expected.shape == (steps, len(model.target_names))
     assert np.max(np.abs(got - expected)) <= 1e-12
+
+
+def test_the_standalone_example_builds_only_the_lstm(tmp_path) -> None:
+    """The build the docs give for the C++ example (-DTERRASPH_BUILD_EXAMPLES=ON -DTERRASPH_PYTHON=OFF)
+    has the example and not the SPH core (which took two minutes to compile and is not used by it),
+    and its folder, build-ex/, is ignored by git."""
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake is not installed")
+    root = Path(__file__).resolve().parents[1]
+    build = tmp_path / "build-ex"
+    subprocess.run(["cmake", "-S", str(root), "-B", str(build), "-DTERRASPH_BUILD_EXAMPLES=ON",
+                    "-DTERRASPH_PYTHON=OFF"], check=True, capture_output=True, text=True, timeout=300)
+    targets = subprocess.run(["cmake", "--build", str(build), "--target", "help"], check=True, capture_output=True,
+                             text=True, timeout=120).stdout
+    assert "lstm_predict" in targets and "terrasph_core" not in targets
+    ignored = subprocess.run(["git", "-C", str(root), "check-ignore", "-q", "build-ex/lstm_predict"])
+    assert ignored.returncode == 0

@@ -18,6 +18,7 @@ from robot_helpers import assert_same_series, run_interrupted
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
+from terrasph.robots.mjcf import load_model
 from terrasph.robots.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
 from terrasph.robots.terrain_robot import terrain_robot
 
@@ -73,7 +74,7 @@ def test_the_shipped_models_run_from_the_command_line(tmp_path, capsys, model: s
     summary = json.loads(capsys.readouterr().out)
     assert summary["leaked_particles"] == 0 and (tmp_path / "run.png").is_file()
     series = read_run(out).series
-    assert series["robot/actuators"]["ctrl"].shape[1] == mujoco.MjModel.from_xml_path(model).nu
+    assert series["robot/actuators"]["ctrl"].shape[1] == load_model(model).nu  # MuJoCo's warnings as Python's
     for name in summary["coupled_bodies"]:
         assert np.isfinite(series[f"robot/{name}"]["sinkage"]).all()
 
@@ -190,3 +191,32 @@ def test_an_interrupted_mjcf_run_resumes_bitwise(tmp_path, monkeypatch, capsys) 
     assert json.loads(capsys.readouterr().out)["leaked_particles"] == 0
     a, b = read_run(tmp_path / "whole.h5"), read_run(stopped)
     assert_same_series(a, b)
+
+
+def test_mujoco_warnings_reach_python_and_no_log_file(tmp_path, monkeypatch) -> None:
+    """gymnasium's half cheetah uses the deprecated compiler attribute settotalmass: MuJoCo's warning
+    about it is a Python warning, MuJoCo's own handler (a MUJOCO_LOG.TXT in the working directory)
+    is not used, and the handler is MuJoCo's default again afterwards (no process-wide change)."""
+    from terrasph.robots.mjcf import MujocoWarning, load_model
+
+    monkeypatch.chdir(tmp_path)
+    before = mujoco.get_mju_user_warning()
+    with pytest.warns(MujocoWarning, match="settotalmass"):
+        load_model(CHEETAH)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    assert mujoco.get_mju_user_warning() is before
+
+
+def test_a_missing_or_broken_model_is_one_clear_line(tmp_path, capsys) -> None:
+    """`run mjcf /missing.xml` names the argument as it is typed (no option --ROBOT.xml); an XML
+    parse error keeps MuJoCo's text (line and element); `resume` of a missing file says so."""
+    broken = tmp_path / "broken.xml"
+    broken.write_text("<mujoco>\n<worldbody>\n<body>\n</worldbody></mujoco>\n")
+    for argv, words in ((["run", "mjcf", str(tmp_path / "missing.xml")], "'model' (ROBOT.xml)"),
+                        (["run", "mjcf", str(broken)], "Line number=3"),
+                        (["resume", str(tmp_path / "missing.h5")], "missing.h5: no such run file")):
+        with pytest.raises(SystemExit) as refused:
+            main([*argv, "--no-progress"])
+        err = capsys.readouterr().err
+        assert refused.value.code == 2 and words in err and "--ROBOT.xml" not in err, err
+        assert len(err.strip().splitlines()) == 1

@@ -212,15 +212,65 @@ def test_unstable_run_is_recorded(scene, tmp_path) -> None:
     assert out.with_suffix(".xdmf").is_file()
 
 
-def test_a_second_writer_refuses_and_the_first_file_stays_whole(tmp_path, capsys) -> None:
+@pytest.mark.parametrize("force", [False, True], ids=["plain", "force"])
+def test_a_second_writer_refuses_and_the_first_file_stays_whole(tmp_path, capsys, force) -> None:
     """Two runs into one file started together: the one that comes second refuses in one line,
-    exit 2, before any work; the first writes its run undisturbed."""
+    exit 2, before any work, naming the first run (its pid), even with --force; the first writes
+    its run undisturbed."""
     out = tmp_path / "run.h5"
     with claimed_output(out, force=False):  # the first run holds the file
         with pytest.raises(SystemExit) as refused:
-            main(["run", "column-collapse", "--t-end", "0.01", "--no-progress", "--out", str(out)])
+            main(["run", "column-collapse", "--t-end", "0.01", "--no-progress", "--out", str(out),
+                  *(["--force"] if force else [])])
         assert refused.value.code == 2
-        assert "exists" in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert f"another run is writing it (pid {os.getpid()} on " in err and len(err.strip().splitlines()) == 1
+        run("column-collapse", out)
+        with pytest.raises(SystemExit) as refused:  # resume leaves a file being written alone too
+            main(["resume", str(out), "--no-progress"])
+        assert refused.value.code == 2 and f"pid {os.getpid()}" in capsys.readouterr().err
+    assert read_run(out).group_attrs["/run"]["status"] == "completed"
+    assert not run_loop.lock_path(out).exists()
+
+
+def test_two_concurrent_forced_runs_one_writes_the_other_refuses(tmp_path) -> None:
+    """`terrasph run ... --force` into one existing file, a second such run started while the first
+    writes it: the second refuses in one line naming the first (its pid; no raw errno) and leaves its
+    file alone; the first, stopped by Ctrl-C afterwards, leaves a readable file."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run.h5"
+    out.write_bytes(b"an earlier run's file")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p), "OMP_NUM_THREADS": "1"}
+    command = [sys.executable, "-m", "terrasph.cli", "run", "leg-rotation", "--no-progress", "--threads", "1",
+               "--out", str(out), "--force"]  # minutes of run: still writing when the second starts
+    first = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not run_loop.lock_path(out).exists() and first.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        second = subprocess.run(command, env=env, capture_output=True, text=True, timeout=300)
+        assert first.poll() is None, first.communicate()[1]
+    finally:
+        first.send_signal(signal.SIGINT)
+        first_err = first.communicate(timeout=300)[1]
+    refusal = second.stderr.strip()
+    assert second.returncode == 2, refusal
+    assert f"another run is writing it (pid {first.pid} on " in refusal and "Errno" not in refusal, refusal
+    assert len(refusal.splitlines()) == 1
+    assert first.returncode == 130, first_err
+    assert read_run(out).group_attrs["/run"]["status"] == "interrupted"
+
+
+def test_an_empty_file_left_by_a_killed_run_does_not_block_the_next(tmp_path) -> None:
+    """A run killed (SIGKILL) before it wrote anything leaves its empty claim; no live run holds it,
+    so the next run into that file starts without --force."""
+    out = tmp_path / "run.h5"
+    out.write_bytes(b"")
+    with claimed_output(out, force=False):
         run("column-collapse", out)
     assert read_run(out).group_attrs["/run"]["status"] == "completed"
 
@@ -242,12 +292,12 @@ def test_a_stale_checkpoint_is_refused_without_force(tmp_path) -> None:
 
 
 def test_a_run_ended_in_the_settling_pause_has_a_valid_summary(tmp_path, capsys) -> None:
-    """A leg-wheel run shorter than its pause (no driven phase): the undefined means print as null,
-    valid JSON; a leg rotation resumed within its pause gives a summary without a sweep."""
+    """A leg-wheel run stopped and resumed within its pause (no driven phase yet; a run configured to end
+    in its pause is refused, tests/test_settle_time.py): the undefined means print as null, valid
+    JSON; a leg rotation resumed within its pause gives a summary without a sweep."""
     out = tmp_path / "wheel.h5"
-    assert main(["run", "leg-wheel", "--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04",
-                 "--bed-width", "0.2", "--bed-depth", "0.04", "--start-x", "0.08", "--settle-time", "5",
-                 "--t-end", "0.01", "--no-progress", "--threads", "1", "--out", str(out)]) == 0
+    run("leg-wheel", out, until=0.004, settle_time=0.02)
+    assert main(["resume", str(out), "--until", "0.008", "--no-progress", "--threads", "1"]) == 0
     summary = json.loads(capsys.readouterr().out, parse_constant=lambda name: pytest.fail(f"{name} printed"))
     assert summary["mean_slip"] is None and summary["final_sinkage"] is not None
     leg = tmp_path / "leg.h5"
@@ -312,11 +362,13 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypa
     """MuJoCo does not fail on a state it cannot integrate: it resets the robot to its initial pose
     and counts a warning. The coupled step, on the SPH terrain and on RFT's, turns that into an
     InstabilityError, which the run loop records as ``unstable`` with the frames so far (here the
-    robot's speed is made non-finite after 0.01 s)."""
+    robot's speed is made non-finite after 0.01 s). MuJoCo's warning reaches the user as a Python
+    warning, not as a MUJOCO_LOG.TXT in the working directory."""
     from terrasph.robots.leg_wheel import build_leg_wheel
+    from terrasph.robots.mjcf import MujocoWarning
     from terrasph.robots.run import run_coupled
 
-    monkeypatch.chdir(tmp_path)  # MuJoCo logs its warning to MUJOCO_LOG.TXT in the working directory
+    monkeypatch.chdir(tmp_path)  # where MuJoCo's own handler would write its log
     coupled = build_leg_wheel(CASES[case][0])
 
     def spoil(run) -> None:
@@ -324,8 +376,10 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypa
             run.robot.data.qvel[0] = math.nan
 
     out = tmp_path / "run.h5"
-    with pytest.raises(InstabilityError, match="MuJoCo could not integrate"):
+    with pytest.raises(InstabilityError, match="MuJoCo could not integrate"), \
+            pytest.warns(MujocoWarning, match="MuJoCo: Nan, Inf or huge value"):
         run_coupled(coupled, 0.03, output=out, control=spoil)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
     data = read_run(out)
     status = data.group_attrs["/run"]
     assert status["status"] == "unstable" and status["particle"] == -1
@@ -351,3 +405,56 @@ def test_ctrl_c_on_a_sweep_says_how_to_go_on(tmp_path, monkeypatch, capsys) -> N
     err = capsys.readouterr().err
     assert stopped.value.code == 130 and len(err.strip().splitlines()) == 1
     assert "sweep interrupted" in err and f"terrasph sweep {spec} --out {tmp_path / 'sweep'}" in err
+
+
+#: a leg-wheel driven long enough that its motor works across the checkpoint, with the scene's own
+#: sampling (a sample every 0.01 s, a frame every 0.05 s)
+DRIVEN_WHEEL = ["run", "leg-wheel", "--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04",
+                "--bed-width", "0.2", "--bed-depth", "0.04", "--start-x", "0.08", "--settle-time", "0.02",
+                "--load", "2", "--no-progress", "--threads", "1"]
+
+
+def test_a_resumed_robot_run_has_the_summary_of_the_run_that_never_stopped(tmp_path, capsys) -> None:
+    """`terrasph run ... --t-end 0.25` then `terrasph resume --until 0.3` against a run straight to
+    0.3 s (the motor does positive work at the checkpoint, 0.24 s): the summaries bitwise equal, the
+    motor work and the cost of transport included (they sum the motor's power, force × speed, over
+    every step: the speed at the checkpoint must be the one the run had, not one MuJoCo recomputes).
+    Then the end time and the time shown: a plain resume
+    continues to the last --until, so the finished run is refused, and so is an --until before the
+    time reached (the time `terrasph info` shows), without running anything again."""
+    def summary(argv: list[str]) -> dict:
+        assert main(argv) == 0
+        printed = json.loads(capsys.readouterr().out)
+        return {key: value for key, value in printed.items() if key not in ("output", "plot")}
+
+    resumed, straight = tmp_path / "resumed.h5", tmp_path / "straight.h5"
+    summary([*DRIVEN_WHEEL, "--t-end", "0.25", "--out", str(resumed)])
+    continued = summary(["resume", str(resumed), "--until", "0.3", "--no-progress", "--threads", "1"])
+    reference = summary([*DRIVEN_WHEEL, "--t-end", "0.3", "--out", str(straight)])
+    assert continued["motor_work"] > 0
+    assert continued == reference
+    assert_same_run(resumed, straight)
+
+    reached = read_run(resumed).group_attrs["/run"]["time"]
+    assert main(["info", str(resumed)]) == 0
+    assert f"reached t = {reached:.6g} s" in capsys.readouterr().out
+    steps = read_run(resumed).group_attrs["/run"]["steps"]
+    for argv, words in ((["resume", str(resumed)], "already ran to its end"),
+                        (["resume", str(resumed), "--until", "0.3"], f"allowed > the time the run reached, "
+                                                                      f"t = {reached:.6g} s")):
+        with pytest.raises(SystemExit) as refused:
+            main([*argv, "--no-progress"])
+        err = capsys.readouterr().err
+        assert refused.value.code == 2 and words in err and len(err.strip().splitlines()) == 1, err
+    assert read_run(resumed).group_attrs["/run"]["steps"] == steps  # nothing ran again
+
+
+def test_a_plate_drag_stopped_before_its_measured_part_is_undefined_without_warnings(tmp_path) -> None:
+    """The tiny plate drag stopped at T1, before the measured part of its travel: its means are NaN
+    (null in JSON), said so by the summary, with no numpy warning ("mean of empty slice")."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        summary = run("plate-drag", tmp_path / "drag.h5").summary()
+    assert all(math.isnan(summary[key]) for key in ("alpha_x", "alpha_z", "alpha_x_spread", "alpha_z_spread"))

@@ -37,6 +37,7 @@ from terrasph.scenes.plate_intrusion import (
     PlateIntrusion,
     PlateResult,
     build_plate_intrusion,
+    plot_intrusion,
     run_plate_intrusion,
 )
 
@@ -159,3 +160,20 @@ def test_cli_refuses_a_negative_speed(capsys, tmp_path) -> None:
     assert exit_info.value.code == 2
     assert "'speed'" in capsys.readouterr().err
     assert not (tmp_path / "x.h5").exists()
+
+
+def test_the_figure_draws_the_summarys_fit(tmp_path) -> None:
+    """One fit of F_z against depth for the summary and the figure (the same depth range, fit_from
+    to the deepest): the legend's k and α are the summary's slope and alpha, rounded as printed."""
+    import re
+
+    config = PlateIntrusion(bed_width=0.06, bed_depth=0.04, plate_length=0.02, max_depth=0.006, speed=0.1,
+                            settle_time=0.0, frame_interval=0.01)
+    result = run_plate_intrusion(config, output=tmp_path / "plate.h5")
+    summary = result.summary()
+    figure = plot_intrusion(result)
+    labels = [text.get_text() for text in figure.axes[0].get_legend().get_texts()]
+    fit_label = next(label for label in labels if label.startswith("fit"))
+    k, alpha = (float(v) for v in re.search(r"k = (\S+) N/m.*α = (\S+)$", fit_label).groups())
+    assert summary["fit_from"] > 0 and f"fit from {1e3 * summary['fit_from']:.3g} mm" in fit_label
+    assert k == float(f"{summary['slope']:.3g}") and alpha == float(f"{summary['alpha']:.3g}")

@@ -33,7 +33,7 @@ STEPS = 120
 
 # Small configurations of the three scenes; the collapse's gate goes between the two halves.
 CASES = {
-    "column-collapse": ColumnCollapse(resolution="coarse", release_time=0.03),
+    "column-collapse": ColumnCollapse(resolution="coarse", settle_time=0.03),
     "leg-rotation": LegRotation(settle_time=0.002, omega=2.0, bed_depth=0.07, bed_width=0.12),
     "plate-intrusion": PlateIntrusion(spacing=0.005, bed_width=0.12, bed_depth=0.07, settle_time=0.002,
                                       speed=0.2, max_depth=0.02),

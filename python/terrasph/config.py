@@ -20,8 +20,8 @@ import numpy as np
 
 from terrasph import _core
 
-__all__ = ["PARAMETERS", "ConfigError", "Material", "Numerics", "Parameter", "as_dict", "from_mapping",
-           "parameter", "parameter_units"]
+__all__ = ["PARAMETERS", "ConfigError", "Material", "Numerics", "Parameter", "as_dict", "check_settle_time",
+           "from_mapping", "parameter", "parameter_units"]
 
 
 class ConfigError(ValueError):
@@ -223,6 +223,20 @@ class Numerics(_ParameterGroup):
 
 
 T = TypeVar("T", Material, Numerics)
+
+
+def check_settle_time(settle_time: Any, t_end: Any, name: str = "settle_time") -> None:
+    """The one rule of a scene's settling pause and its end time: the pause `settle_time` (s) is a
+    finite number in [0, t_end), so every run has a phase after it (a run that ends in its pause
+    never drives, never pushes, never turns: its summary would be all undefined). `t_end` None is the
+    scene's own end, after the pause by construction. ConfigError naming the parameter otherwise,
+    before any work; the same in every scene."""
+    if isinstance(settle_time, bool) or not isinstance(settle_time, numbers.Real) or not (
+            np.isfinite(settle_time) and settle_time >= 0):
+        raise ConfigError(f"parameter '{name}' = {settle_time!r} is invalid: allowed a finite number >= 0 s")
+    if t_end is not None and not settle_time < t_end:
+        raise ConfigError(f"parameter '{name}' = {settle_time!r} is invalid: allowed in [0, t_end = {t_end!r}) s "
+                          "(the run would end before its pause does)")
 
 
 def from_mapping(cls: type[T], values: Mapping[str, Any]) -> T:

@@ -67,6 +67,9 @@ SHARED: dict[str, Option] = {
     "settle_time": Option("pause before the motion starts, while the bed settles", "s"),
     "t_end": Option("simulated time", "s"),
     "frame_interval": Option("time between saved frames", "s"),
+    "mu1_deg": Option("the bed's quasi-static friction angle atan mu1 (Eq. 2.31)", "degrees"),
+    "mu2_deg": Option("the bed's dynamic friction angle atan mu2, >= mu1-deg", "degrees"),
+    "water_content": Option("the bed's water content w; > 0: wet beads with cohesion (Table 2.1)", "kg/kg"),
     "terrain": Option("the SPH bed, or resistive force theory on a flat surface (terrasph.rft, docs/rft.md)",
                       choices=("sph", "rft")),
     "rft_table": Option('terrain rft: the coefficient map, "generic" or a JSON table (terrasph rft-calibrate)'),
@@ -159,7 +162,8 @@ def with_option_names(message: str, config_type: type) -> str:
     """`message` (a ConfigError's) with the option beside each offered field it names:
     "parameter 'settle_time' (--settle-time) = ..."."""
     for f, meta, _ in _offered(config_type):
-        message = message.replace(f"'{f.name}'", f"'{f.name}' ({', '.join(_option_names(f, meta))})")
+        names = (meta.cli or f.name.upper(),) if meta.positional else _option_names(f, meta)  # an argument: no "--"
+        message = message.replace(f"'{f.name}'", f"'{f.name}' ({', '.join(names)})")
     return message
 
 

@@ -32,10 +32,12 @@ is not on the longer run's path, the state before that stretch is).
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import math
 import os
 import pathlib
 import signal
+import sys
 import threading
 import time as wallclock
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -46,8 +48,9 @@ import numpy as np
 
 from terrasph.config import ConfigError
 
-__all__ = ["CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult", "Recorder", "RunLoop", "Stepper",
-           "StopRequest", "check_run_options", "checkpoint_path", "claimed_output", "simulated_time_bar"]
+__all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult",
+           "Recorder", "RunLoop", "Stepper", "StopRequest", "building_scene", "check_end_time", "check_run_options",
+           "checkpoint_path", "claimed_output", "lock_path", "output_lock", "recorded_end", "simulated_time_bar"]
 
 #: Wall time (s) between writes of the series' rows into the run file (and before every checkpoint and
 #: at the end, so a checkpoint's row counts are what the file holds): a write costs a resize and a
@@ -62,6 +65,12 @@ CHUNK_SECONDS = 0.2
 MAX_STEPS_PER_CHUNK = 500
 #: the statuses of a run that reached its end
 FINISHED_STATUSES = ("completed", "at_rest")
+#: a scene build quieter than this (s of wall time) shows nothing; a longer one a status line
+BUILD_QUIET_SECONDS = 2.0
+
+#: the status line of the scene being built (:func:`building_scene`), ended by the run loop when it starts
+_BUILD_STATUS: contextvars.ContextVar[Callable[[], None] | None] = contextvars.ContextVar("terrasph_build_status",
+                                                                                          default=None)
 
 
 class Stepper(Protocol):
@@ -113,31 +122,92 @@ def check_run_options(intervals: dict[str, float], checkpoint_every: float | Non
         raise ConfigError("parameter 'resume' needs 'output', the file of the run to continue")
 
 
+def lock_path(output: str | os.PathLike[str]) -> pathlib.Path:
+    """The lock file a run writing `output` holds: ``run.h5`` → ``run.h5.lock``."""
+    path = pathlib.Path(output)
+    return path.with_name(path.name + ".lock")
+
+
+@contextlib.contextmanager
+def output_lock(output: str | os.PathLike[str]) -> Iterator[None]:
+    """Holds the lock of `output` (:func:`lock_path`) for the block: the lock file is created if need
+    be, locked exclusively (``flock``: the lock ends with the process, so a killed run's lock file is
+    no obstacle) and given this run's pid, host and start time; removed at the end. While another
+    live run holds it, FileExistsError names that run, in one line, whatever ``--force`` says."""
+    import datetime
+    import fcntl
+    import json
+    import socket
+
+    path = lock_path(output)
+    while True:
+        descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(descriptor, 4096).decode("utf-8", "replace")
+            os.close(descriptor)
+            try:
+                other = json.loads(holder)
+                who = f"pid {other['pid']} on {other['host']}, started {other['started']}"
+            except (ValueError, KeyError, TypeError):
+                who = "its lock is being written"
+            raise FileExistsError(f"--out {output}: another run is writing it ({who}); wait for it to end or stop "
+                                  f"it, then rerun") from None
+        except OSError as error:  # a filesystem without locks (ENOLCK, EOPNOTSUPP): run, but say so
+            import warnings
+
+            warnings.warn(f"{path}: cannot lock it ({error.strerror}); a second run into {output} would not be "
+                          "refused", RuntimeWarning, stacklevel=3)
+        try:  # the file locked is still the one at `path` (not one a finishing run just removed)
+            same = os.path.samestat(os.fstat(descriptor), os.stat(path))
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(descriptor)
+    try:
+        started = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        os.ftruncate(descriptor, 0)
+        os.write(descriptor, json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                                         "started": started}).encode())
+        yield
+    finally:
+        path.unlink(missing_ok=True)  # before the lock ends, so a waiting run locks a new file
+        os.close(descriptor)
+
+
 @contextlib.contextmanager
 def claimed_output(output: str | os.PathLike[str], force: bool) -> Iterator[pathlib.Path]:
-    """Claims `output` for one run before any work: the file is created exclusively (``O_EXCL``), so
-    of two runs started together into the same file the second refuses with FileExistsError; with
-    `force` an existing file and its checkpoint are replaced first. A stale checkpoint beside a new
-    output is refused likewise. If the run fails before writing its file (say, a scene the spacing
-    cannot build), the empty claim is removed again."""
+    """Claims `output` for one run before any work: its lock (:func:`output_lock`) refuses a second
+    run while one writes it, even with `force`; the file is then created exclusively (``O_EXCL``).
+    Without `force` an existing file, or a stale checkpoint beside it, is refused; with `force` both
+    are replaced. An empty file no live run holds (the claim of a run killed before it wrote
+    anything) is no obstacle. If the run fails or is stopped before writing its file (say, a scene
+    the spacing cannot build, or Ctrl-C while it is built), the empty claim is removed again."""
+    from terrasph.cli_common import check_output_file
+
     path = pathlib.Path(output)
     checkpoint = checkpoint_path(path)
-    if force:
-        path.unlink(missing_ok=True)
-        checkpoint.unlink(missing_ok=True)
-    elif checkpoint.exists():
-        raise FileExistsError(f"--out {path}: its checkpoint {checkpoint.name} exists (use --force to replace it)")
-    try:
-        os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
-    except FileExistsError:
-        raise FileExistsError(f"--out {path}: file exists, or another run is writing it (use --force to "
-                              "replace it)") from None
-    try:
-        yield path
-    except BaseException:
-        if path.is_file() and path.stat().st_size == 0:  # still the claim: the run wrote nothing
+    check_output_file(path, force=True)  # its directory exists and it is not a directory
+    with output_lock(path):
+        if path.is_file() and path.stat().st_size == 0:  # a dead run's claim: nothing in it
             path.unlink()
-        raise
+        if force:
+            path.unlink(missing_ok=True)
+            checkpoint.unlink(missing_ok=True)
+        elif checkpoint.exists():
+            raise FileExistsError(f"--out {path}: its checkpoint {checkpoint.name} exists (use --force to replace it)")
+        try:
+            os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+        except FileExistsError:
+            raise FileExistsError(f"--out {path}: file exists (use --force to replace it)") from None
+        try:
+            yield path
+        except BaseException:
+            if path.is_file() and path.stat().st_size == 0:  # still the claim: the run wrote nothing
+                path.unlink()
+            raise
 
 
 def simulated_time_bar(total: float, progress: bool) -> Any:
@@ -148,6 +218,78 @@ def simulated_time_bar(total: float, progress: bool) -> Any:
         from tqdm import tqdm
     return tqdm(total=round(total, 9), unit="s", disable=not progress, mininterval=0.5,
                 bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
+
+
+def _raise_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def recorded_end(output: str | os.PathLike[str]) -> tuple[str | None, float | None, float | None]:
+    """The status, the simulated time reached and the end time aimed at of the run in `output`, as its
+    ``/run`` group records them (each None if not recorded: the run file of an older version has no
+    end time, one still being written no status)."""
+    import h5py
+
+    with h5py.File(output, "r") as file:
+        attrs = dict(file["run"].attrs) if "run" in file else {}
+    status, reached, end = attrs.get("status"), attrs.get("time"), attrs.get("t_end")
+    return (None if status is None else str(status), None if reached is None else float(reached),
+            None if end is None else float(end))
+
+
+def check_end_time(t_end: float, reached: float, name: str = "t_end") -> None:
+    """ConfigError unless the end time `t_end` lies after the time `reached` by the run to continue
+    (the time its file records, the one ``terrasph info`` prints, not its checkpoint's, which may be
+    before it)."""
+    if not t_end > reached:
+        raise ConfigError(f"parameter '{name}' = {t_end!r} is invalid: allowed > the time the run reached, "
+                          f"t = {reached:.6g} s")
+
+
+@contextlib.contextmanager
+def building_scene(progress: bool, what: str = "the scene") -> Iterator[None]:
+    """The time before a run loop starts (building the scene): SIGINT and SIGTERM raise
+    KeyboardInterrupt, also where the process was started with SIGINT ignored (a shell's background
+    job), so a build of minutes stops at once and the callers' cleanup runs (an empty output claim
+    removed); with `progress`, once the build has taken BUILD_QUIET_SECONDS, a status line on stderr
+    says what is built and for how long, until the run loop's own bar starts (or the block ends)."""
+    finished = threading.Event()
+    started = wallclock.monotonic()
+
+    def show() -> None:
+        if finished.wait(BUILD_QUIET_SECONDS):
+            return
+        tty = sys.stderr.isatty()
+        while True:
+            line = f"terrasph: building {what}: {wallclock.monotonic() - started:.0f} s (Ctrl-C stops it)"
+            sys.stderr.write(f"\r{line}" if tty else f"{line}\n")
+            sys.stderr.flush()
+            if finished.wait(1.0 if tty else 10.0):
+                if tty:
+                    sys.stderr.write(f"\rterrasph: built {what} in {wallclock.monotonic() - started:.0f} s"
+                                     + " " * 20 + "\n")
+                return
+
+    watcher = threading.Thread(target=show, daemon=True) if progress else None
+
+    def end() -> None:
+        finished.set()
+        if watcher is not None and watcher.is_alive():
+            watcher.join()
+
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        previous = {sig: signal.signal(sig, _raise_interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
+    token = _BUILD_STATUS.set(end)
+    if watcher is not None:
+        watcher.start()
+    try:
+        yield
+    finally:
+        end()
+        _BUILD_STATUS.reset(token)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 class StopRequest:
@@ -224,10 +366,13 @@ class RunLoop:
 
         check_run_options({"frame_interval": self.frame_interval, "sample_interval": self.sample_interval},
                           self.checkpoint_every, resume, self.output)
+        end_of_build = _BUILD_STATUS.get()
+        if end_of_build is not None:
+            end_of_build()  # the scene is built: the run's own bar follows
         stepper = self.stepper
+        reached = recorded_end(self.output)[1] if resume else None  # before the run file is reopened
         saved = stepper.restore(checkpoint_path(self.output)) if resume else {}
-        if not t_end > stepper.time:
-            raise ConfigError(f"parameter 't_end' = {t_end} is invalid: allowed > current time {stepper.time}")
+        check_end_time(t_end, stepper.time if reached is None else max(reached, stepper.time))
         writer = self._open_writer(saved, resume)
         sampled = bool(self.recorders)
         series: dict[str, dict[str, list[Any]]] = {}
@@ -293,7 +438,7 @@ class RunLoop:
             if not writer:
                 return
             write_rows()
-            writer.set_attrs("/run", {"status": status, "wall_time": wallclock.perf_counter() - start,
+            writer.set_attrs("/run", {"status": status, "t_end": t_end, "wall_time": wallclock.perf_counter() - start,
                                       "steps": stepper.step_count, "time": stepper.time,
                                       **stepper.run_attributes(), **extra})
             writer.close()

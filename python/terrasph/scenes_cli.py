@@ -10,19 +10,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import pathlib
 from typing import Any
 
-from terrasph.cli_common import (
-    add_force_option,
-    add_numerics_option,
-    add_threads_option,
-    check_output_file,
-    numerics_overrides,
-)
+from terrasph.cli_common import add_force_option, add_numerics_option, add_threads_option, numerics_overrides
 from terrasph.config import ConfigError
 from terrasph.io import defined_values
 from terrasph.options import add_config_options, config_values, with_option_names
-from terrasph.run_loop import claimed_output
+from terrasph.run_loop import (
+    FINISHED_STATUSES,
+    building_scene,
+    check_end_time,
+    claimed_output,
+    output_lock,
+    recorded_end,
+)
 from terrasph.scenes import SCENES, SceneEntry, run_case, scene_entry
 from terrasph.threads import use_threads
 
@@ -66,11 +68,13 @@ def _run_scene(args: argparse.Namespace) -> int:
                                     "numerics": numerics_overrides(args.numerics)})
     except ConfigError as error:
         raise ConfigError(with_option_names(str(error), entry.config_type)) from None
-    check_output_file(args.out, args.force)
-    check_size(config, confirmed=args.yes, threads=args.threads)
-    use_threads(args.threads)
-    with claimed_output(args.out, args.force):  # a second run into the same file refuses, before any work
-        summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
+    # a second run into the same file refuses, before any work, even with --force while the first writes;
+    # Ctrl-C or SIGTERM while the scene is built stops it at once and removes the empty claim
+    with claimed_output(args.out, args.force):
+        check_size(config, confirmed=args.yes, threads=args.threads)
+        use_threads(args.threads)
+        with building_scene(not args.no_progress, f"the {args.scene} scene"):
+            summary = run_case(args.scene, config, args.out, progress=not args.no_progress)
     return _print_summary(summary, args.out, summary.plot)
 
 
@@ -90,24 +94,39 @@ def _register_resume(subparsers: argparse._SubParsersAction[argparse.ArgumentPar
                     "so each appears once, and the result is bitwise the run that never stopped.")
     resume.add_argument("run_file", metavar="RUN.h5", help="the run's HDF5 file")
     resume.add_argument("--until", type=float, default=None,
-                        help="simulated end time in s (default: the scene's own end time)")
+                        help="simulated end time in s, after the time the run reached (default: the end time the run "
+                             "aimed at, its scene's or the last --until; a run that reached it needs a later one)")
     add_threads_option(resume)
     resume.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     resume.set_defaults(handler=_resume)
 
 
 def _resume(args: argparse.Namespace) -> int:
+    """Continues the run in ``RUN.h5`` (held by its lock, so a run still writing it is named and
+    left alone) from its checkpoint; prints its summary."""
     import h5py
 
     from terrasph.config import ConfigError
     from terrasph.scenes import scene_of_run
 
+    if not pathlib.Path(args.run_file).is_file():
+        raise FileNotFoundError(f"{args.run_file}: no such run file")
     use_threads(args.threads)
-    try:
-        with h5py.File(args.run_file, "r") as file:
-            config_json = str(file.attrs["config_json"])
-    except (OSError, KeyError) as error:
-        raise ConfigError(f"{args.run_file} is not a readable terrasph run file: {error}") from error
-    entry, config = scene_of_run(config_json)
-    result = entry.run(config, output=args.run_file, progress=not args.no_progress, resume=True, until=args.until)
+    with output_lock(args.run_file):
+        try:
+            with h5py.File(args.run_file, "r") as file:
+                config_json = str(file.attrs["config_json"])
+            status, reached, aimed = recorded_end(args.run_file)
+        except (OSError, KeyError) as error:
+            raise ConfigError(f"{args.run_file} is not a readable terrasph run file: {error}") from error
+        entry, config = scene_of_run(config_json)
+        until = args.until if args.until is not None else aimed  # None: the scene's own end time
+        if reached is not None:
+            if args.until is None and status in FINISHED_STATUSES:
+                raise ConfigError(f"{args.run_file} already ran to its end (status {status}, t = {reached:.6g} s); "
+                                  f"--until T with T > {reached:.6g} continues it")
+            if until is not None:
+                check_end_time(until, reached, "until")
+        with building_scene(not args.no_progress, f"the {entry.name} scene"):
+            result = entry.run(config, output=args.run_file, progress=not args.no_progress, resume=True, until=until)
     return _print_summary(result.summary(), args.run_file, result.plot)

@@ -90,8 +90,8 @@ def estimate(footprint: Footprint, threads: int = 1) -> SizeEstimate:
     return SizeEstimate(int(particles), BASE_BYTES + particles * BYTES_PER_PARTICLE, steps, seconds / 3600.0)
 
 
-def available_memory() -> float | None:
-    """Bytes of memory available now (/proc/meminfo's MemAvailable), else None."""
+def _meminfo_available() -> float | None:
+    """Bytes of physical memory available now (/proc/meminfo's MemAvailable), else None."""
     try:
         with open("/proc/meminfo", encoding="ascii") as meminfo:
             for line in meminfo:
@@ -100,6 +100,69 @@ def available_memory() -> float | None:
     except (OSError, ValueError, IndexError):
         return None
     return None
+
+
+def _address_space_left() -> float | None:
+    """Bytes the process may still map under its address-space and data limits (RLIMIT_AS,
+    RLIMIT_DATA soft limits, e.g. ``ulimit -v``) beyond what it maps now (/proc/self/status VmSize),
+    else None (no limit)."""
+    try:
+        import resource
+    except ImportError:  # not a POSIX system
+        return None
+    limits = [resource.getrlimit(kind)[0] for kind in (resource.RLIMIT_AS, resource.RLIMIT_DATA)]
+    limits = [float(limit) for limit in limits if limit != resource.RLIM_INFINITY]
+    if not limits:
+        return None
+    mapped = 0.0
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    mapped = float(line.split()[1]) * 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
+    return max(0.0, min(limits) - mapped)
+
+
+def _cgroup_memory_left() -> float | None:
+    """Bytes the process's control group may still use (cgroup v2 memory.max − memory.current, or
+    v1 memory.limit_in_bytes − memory.usage_in_bytes), else None (no limit, or no cgroup)."""
+    try:
+        with open("/proc/self/cgroup", encoding="ascii") as cgroups:
+            lines = cgroups.read().splitlines()
+    except OSError:
+        return None
+    for line in lines:
+        _, controllers, path = line.split(":", 2)
+        if controllers == "":  # v2
+            folder, names = f"/sys/fs/cgroup{path}", ("memory.max", "memory.current")
+        elif "memory" in controllers.split(","):  # v1
+            folder, names = f"/sys/fs/cgroup/memory{path}", ("memory.limit_in_bytes", "memory.usage_in_bytes")
+        else:
+            continue
+        try:
+            with open(os.path.join(folder, names[0]), encoding="ascii") as limit_file:
+                limit = limit_file.read().strip()
+            with open(os.path.join(folder, names[1]), encoding="ascii") as usage_file:
+                usage = float(usage_file.read().strip())
+        except (OSError, ValueError):
+            continue
+        if limit != "max" and float(limit) < 2.0**62:  # v1 writes "no limit" as a huge number
+            return max(0.0, float(limit) - usage)
+    return None
+
+
+def available_memory() -> tuple[float, str] | None:
+    """The bytes of memory this process can still use and what bounds them: the least of the
+    physical memory available now (MemAvailable), the process's address-space and data limits
+    (RLIMIT_AS, RLIMIT_DATA) and its control group's memory limit; None if none is known."""
+    bounds = [(value, name) for value, name in ((_meminfo_available(), "available"),
+                                                 (_address_space_left(),
+                                                  "left under the process's address-space limit"),
+                                                 (_cgroup_memory_left(), "left under the control group's limit"))
+              if value is not None]
+    return min(bounds) if bounds else None
 
 
 def check_size(config: Sized | Any, *, confirmed: bool, threads: int | None = None) -> SizeEstimate | None:
@@ -112,9 +175,10 @@ def check_size(config: Sized | Any, *, confirmed: bool, threads: int | None = No
     size = estimate(footprint, threads or os.cpu_count() or 1)
     memory = available_memory()
     spacing = f"spacing {footprint.spacing:g} m"
-    if memory is not None and size.memory_bytes > memory:
-        raise ConfigError(f"{spacing} is too fine for this machine: {size.describe()}, but only "
-                          f"{memory / 2**30:.2g} GiB of memory is available; use a coarser spacing or a smaller bed")
+    if memory is not None and size.memory_bytes > memory[0]:
+        raise ConfigError(f"{spacing} is too fine for this process: {size.describe()}, but only "
+                          f"{memory[0] / 2**30:.2g} GiB of memory is {memory[1]}; use a coarser spacing or a "
+                          "smaller bed")
     if size.hours > CONFIRM_HOURS and not confirmed:
         raise ConfigError(f"{spacing}: {size.describe()} (over {CONFIRM_HOURS:g} h at the measured "
                           f"{SECONDS_PER_PARTICLE_STEP * 1e6:g} us per particle-step); add --yes to run it anyway")

@@ -229,25 +229,29 @@ def mujoco_derived(robot: PlanarRobot) -> None:
 
 def mujoco_state(robot: PlanarRobot) -> dict[str, Any]:
     """MuJoCo's state (time, qpos, qvel, act, warm start, ctrl) as plain data (JSON floats round-trip
-    exactly), for a checkpoint's progress, with the actuator forces of the last step: a servo given
-    its force for a step (at its torque limit) ends it with a force mj_forward would not recompute,
-    and a controller may read it (the leg-wheel's motor work)."""
+    exactly), for a checkpoint's progress, with the actuator forces and velocities of the last step,
+    which a controller may read (the leg-wheel's motor work, their product) and mj_forward would not
+    give back: a servo given its force for a step (at its torque limit) ends it with a force
+    mj_forward would not recompute, and mj_step leaves the actuators' velocities at the step's start
+    (:func:`mujoco_derived` brings the poses, not them, to its end)."""
     data = robot.data
     return {"time": data.time, "qpos": data.qpos.tolist(), "qvel": data.qvel.tolist(), "act": data.act.tolist(),
             "qacc_warmstart": data.qacc_warmstart.tolist(), "ctrl": data.ctrl.tolist(),
-            "actuator_force": data.actuator_force.tolist()}
+            "actuator_force": data.actuator_force.tolist(), "actuator_velocity": data.actuator_velocity.tolist()}
 
 
 def restore_mujoco_state(robot: PlanarRobot, saved: dict[str, Any]) -> None:
-    """Puts back a :func:`mujoco_state` (a checkpoint without actuator forces keeps mj_forward's)."""
+    """Puts back a :func:`mujoco_state` (a checkpoint without actuator forces or velocities, from an
+    earlier version, keeps mj_forward's)."""
     data = robot.data
     data.time = saved["time"]
     for key in ("qpos", "qvel", "act", "ctrl"):
         getattr(data, key)[:] = saved[key]
     mujoco.mj_forward(robot.model, data)
     data.qacc_warmstart[:] = saved["qacc_warmstart"]
-    if "actuator_force" in saved:
-        data.actuator_force[:] = saved["actuator_force"]
+    for key in ("actuator_force", "actuator_velocity"):
+        if key in saved:
+            getattr(data, key)[:] = saved[key]
 
 
 def velocity_servos(robot: PlanarRobot) -> list[_VelocityServo]:

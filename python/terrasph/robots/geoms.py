@@ -30,6 +30,7 @@ import numpy as np
 
 from terrasph.bodies import BodyShape, _merge_indices, nearest_edge_normals
 from terrasph.config import ConfigError
+from terrasph.robots.mjcf import body_name
 
 __all__ = ["CONVERTIBLE", "SUPPORT_DIRECTIONS", "body_shape", "body_surface", "geom_extent_y", "geom_loop",
            "geom_support", "geom_surface", "geom_thickness", "inside_geom", "is_collision_geom", "shape_from_loops"]
@@ -237,7 +238,7 @@ def shape_from_loops(name: str, loops: Sequence[np.ndarray], spacing: float, wid
 def body_shape(model: mujoco.MjModel, body: int, spacing: float, width: float | None = None) -> BodyShape:
     """The particle shape of MuJoCo body `body`, in its frame, from its collision geoms (the union of
     their outlines in x–z); `width` (m) defaults to the geoms' extent across the plane."""
-    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+    name = body_name(model, body)
     geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body and is_collision_geom(model, g)]
     if not geoms:
         raise ConfigError(f"body '{name}' has no collision geom to meet the terrain with")
@@ -410,7 +411,7 @@ def body_surface(model: mujoco.MjModel, body: int, length: float) -> tuple[np.nd
     :func:`body_shape`'s) in its frame: patches about `length` (m) across (:func:`geom_surface`),
     without those just outside which lies another of its geoms (the union's inside); centres,
     outward normals, areas."""
-    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+    name = body_name(model, body)
     geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body and is_collision_geom(model, g)]
     if not geoms:
         raise ConfigError(f"body '{name}' has no collision geom to meet the terrain with")

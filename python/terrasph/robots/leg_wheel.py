@@ -30,7 +30,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from terrasph import bodies, rft
-from terrasph.config import ConfigError, Material, Numerics
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -42,6 +42,7 @@ from terrasph.robots.plots import plot_robot
 from terrasph.robots.rft_terrain import RFTCoupling
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.scene import GRAVITY, Scene
+from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.schedules import check_knots, evaluate
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
@@ -53,9 +54,9 @@ WHEELS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg", "whe
 
 
 @dataclass(frozen=True)
-class WheelScene:
-    """What the leg-wheel and rover configurations share: the wheel, the bed, the times. Lengths in
-    m, times in s, angles in rad (clockwise)."""
+class WheelScene(BeadBed):
+    """What the leg-wheel and rover configurations share: the wheel, the bed (its material options
+    from BeadBed), the times. Lengths in m, times in s, angles in rad (clockwise)."""
 
     #: fields saved under another name by earlier versions (run files, sweep SPECs): old → new
     RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
@@ -64,7 +65,9 @@ class WheelScene:
     wheel: str = option("c-leg", choices=WHEELS, help="morphology (Fig. 4.2) or plain wheel")
     legs: int = option(3, help="legs of a leg-wheel, 1-12")
     omega: float = option(1.5, help="commanded spin after the pause, clockwise", unit="rad/s")
-    leg_length: float = shared("leg_length", 0.08)  #: "2R = 8 cm", the tip radius
+    #: hip-to-toe length of each leg, so the radius of the circle of its tips (the dissertation's
+    #: "2R = 8 cm" read as this length, module docstring)
+    leg_length: float = shared("leg_length", 0.08)
     thickness: float = option(0.005, help="leg thickness, >= 3 dx", unit="m")
     width: float = option(0.1, help="each wheel's out-of-plane width; loads are for it", unit="m")
     foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
@@ -95,10 +98,6 @@ class LegWheel(WheelScene):
     wheel_density: float = option(1200.0, help="the wheel's material (a printed polymer)", unit="kg/m^3")
     motor_gain: float = option(20.0, help="velocity servo gain", unit="N m s/rad")
     motor_torque: float = option(5.0, help="motor torque limit", unit="N m")
-    mu1_deg: float = option(23.0, help="the bed's quasi-static friction angle atan mu1 (Eq. 2.31)", unit="degrees")
-    mu2_deg: float = option(33.0, help="the bed's dynamic friction angle atan mu2, >= mu1-deg", unit="degrees")
-    water_content: float = option(0.0, help="the bed's water content w; > 0: wet beads with cohesion (Table 2.1)",
-                                  unit="kg/kg")
     terrain: str = shared("terrain", "sph")
     rft_table: str = shared("rft_table", "generic")
 
@@ -109,30 +108,10 @@ class LegWheel(WheelScene):
         if not self.leg_length < self.start_x < self.bed_width - self.leg_length:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between leg_length and "
                               "bed_width − leg_length (the wheel must start clear of the container)")
-        for name in ("mu1_deg", "mu2_deg"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 <= value < 90):
-                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a number in [0, 90) degrees")
-        if self.mu1_deg > self.mu2_deg:
-            raise ConfigError(f"parameter 'mu1_deg' = {self.mu1_deg!r} is invalid: allowed <= mu2_deg = {self.mu2_deg!r}")
-        try:
-            self.material()  # the material's own checks (the pendular range of the water content)
-        except ConfigError as error:
-            raise ConfigError(f"parameter 'water_content' = {self.water_content!r} is refused by the bed material: "
-                              f"{error}") from None
 
     def material(self) -> Material:
-        """The bed: chapter 3's 3 mm glass beads with these friction angles and water content (a wet
-        material's densities × (1 + w), as Material.wet)."""
-        from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
-
-        beads = dataclasses.replace(glass_beads(), mu1=math.tan(math.radians(self.mu1_deg)),
-                                    mu2=math.tan(math.radians(self.mu2_deg)))
-        if self.water_content == 0:
-            return beads
-        w = self.water_content
-        return dataclasses.replace(beads, water_content=w, grain_density=beads.grain_density * (1 + w),
-                                   reference_density=beads.reference_density * (1 + w))
+        """The bed (:meth:`terrasph.scenes.leg_rotation.BeadBed.bed_material`)."""
+        return self.bed_material()
 
     def shape(self) -> bodies.BodyShape:
         """The wheel in its own frame (axle at the origin; leg 0 pointing down)."""
@@ -159,6 +138,7 @@ def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative:
     fidelity) and the extra `positive` / `nonnegative` numbers of each; ConfigError naming the first
     offender."""
     check_tier(config.fidelity)
+    config.check_bed_material()
     if config.wheel not in WHEELS:
         raise ConfigError(f"parameter 'wheel' = {config.wheel!r} is invalid: allowed one of {', '.join(WHEELS)}")
     if isinstance(config.legs, bool) or not isinstance(config.legs, int) or not 1 <= config.legs <= 12:
@@ -168,7 +148,8 @@ def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative:
         value = getattr(config, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
-    for name in ("omega", "settle_time", *nonnegative):
+    check_settle_time(config.settle_time, config.t_end)
+    for name in ("omega", *nonnegative):
         value = getattr(config, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
             raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number >= 0")

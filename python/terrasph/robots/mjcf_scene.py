@@ -28,7 +28,7 @@ from matplotlib.figure import Figure
 
 from terrasph import rft
 from terrasph.cli_common import positive_float
-from terrasph.config import ConfigError
+from terrasph.config import ConfigError, Material, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -38,12 +38,13 @@ from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.geoms import is_collision_geom
 from terrasph.robots.leg_wheel import BED_NUMERICS
 from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import PlanarRobot, check_planar, load_model
-from terrasph.robots.plots import plot_robot_3d
+from terrasph.robots.mjcf import PlanarRobot, body_name, check_planar, load_model, mujoco_warnings
+from terrasph.robots.plots import body_legend, plot_robot_3d
 from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, RobotLoads3D, rft_robot, wheel_radii
 from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot, world_support
 from terrasph.scene import Scene
+from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.simulation import Simulation
 
 __all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf", "sph_coupling"]
@@ -65,7 +66,7 @@ def _body_width(text: str) -> tuple[str, float]:
 
 
 @dataclass(frozen=True)
-class MjcfScene:
+class MjcfScene(BeadBed):
     """Configuration of an MJCF model on the bed (a planar model) or on the 3D RFT terrain (any
     model). Lengths in m, times in s."""
 
@@ -73,7 +74,8 @@ class MjcfScene:
     RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
     #: the settings of the SPH bed only, refused on the RFT terrain unless at their defaults
     SPH_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "bed_depth", "spacing", "start_x", "widths",
-                                                  "freeboard", "fidelity", "numerics")
+                                                  "freeboard", "fidelity", "numerics", "mu1_deg", "mu2_deg",
+                                                  "water_content")
     #: the settings of the RFT terrain only, refused on the SPH bed unless at their defaults
     RFT_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("rft_table", "element_length")
 
@@ -92,7 +94,7 @@ class MjcfScene:
                                      default_text="every body with a collision geom below --couple-below",
                                      help="a body that meets the terrain")
     couple_below: float = option(COUPLE_BELOW, help="height above the floor that selects the coupled bodies", unit="m")
-    widths: dict[str, float] = option(cli="width", repeat=True, unit="NAME=METRES", parse=_body_width,
+    widths: dict[str, float] = option(cli="body-width", repeat=True, unit="NAME=METRES", parse=_body_width,
                                       default_factory=dict, default_text="its geoms' extent across the plane",
                                       help="a coupled body's out-of-plane width")
     freeboard: float = option(0.2, help="container wall height above the bed's surface", unit="m")
@@ -108,15 +110,16 @@ class MjcfScene:
 
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
+        self.check_bed_material()
         if not pathlib.Path(str(self.model)).is_file():
-            raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: allowed the path of an MJCF file")
+            raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: no such file (allowed the path of an "
+                              "MJCF file)")
         for name in ("bed_width", "bed_depth", "spacing", "t_end", "couple_below", "freeboard",
                      "series_interval", "frame_interval"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
-        if not (isinstance(self.settle_time, (int, float)) and 0 <= self.settle_time < self.t_end):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed in [0, t_end)")
+        check_settle_time(self.settle_time, self.t_end)
         if self.start_x is not None and not 0 < self.start_x < self.bed_width:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed in (0, bed_width)")
         object.__setattr__(self, "ctrl", tuple(str(c) for c in self.ctrl))
@@ -147,16 +150,17 @@ def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
     return sph_coupling(config.model, spacing=config.spacing, bed_width=config.bed_width, bed_depth=config.bed_depth,
                         freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics,
                         start_x=config.start_x, bodies=config.bodies, couple_below=config.couple_below,
-                        widths=config.widths)
+                        widths=config.widths, material=config.bed_material())
 
 
 def sph_coupling(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: float, bed_width: float,
                  bed_depth: float, freeboard: float, fidelity: str, numerics: Mapping[str, Any] | None = None,
                  start_x: float | None = None, bodies: tuple[str, ...] = (), couple_below: float | None = COUPLE_BELOW,
-                 widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None) -> CoupledSimulation:
+                 widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None,
+                 material: Material | None = None) -> CoupledSimulation:
     """A planar model standing on an SPH bed of glass beads (`bed_width` × `bed_depth` m in its
     container, `freeboard` m of wall above it, particle spacing `spacing` m, the tier `fidelity`
-    with `numerics` overrides), its centre of mass at `start_x` (default mid-bed), coupled as
+    with `numerics` overrides; the bed's `material`, glass beads by default), its centre of mass at `start_x` (default mid-bed), coupled as
     :func:`terrasph.robots.terrain_robot.terrain_robot` chooses; with `data`, the caller's data of
     the compiled model `mjcf` is the robot's. ConfigError naming the joint or body of a model that
     is not planar."""
@@ -172,7 +176,7 @@ def sph_coupling(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: floa
     robot = terrain_robot(mjcf, spacing, surface, 0.5 * inner if start_x is None else start_x,
                           bodies=bodies, couple_below=couple_below, widths=widths, gravity=scene.gravity, data=data)
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, glass_beads(), settings))
+    return CoupledSimulation(robot, Simulation(scene, material or glass_beads(), settings))
 
 
 def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: mujoco.MjData | None = None) -> None:
@@ -280,7 +284,7 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
         mujoco.mj_comPos(model, data)
         rotation = data.xmat[1].reshape(3, 3)
         summary.update({"final_com": data.subtree_com[0].tolist(),
-                        "root_body": mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, 1) or "#1",
+                        "root_body": body_name(model, 1),
                         "final_heading_deg": math.degrees(math.atan2(rotation[1, 0], rotation[0, 0])),
                         "final_pitch_deg": math.degrees(math.asin(max(-1.0, min(1.0, -rotation[2, 0])))),
                         "final_roll_deg": math.degrees(math.atan2(rotation[2, 1], rotation[2, 2]))})
@@ -294,8 +298,7 @@ def rigid_floor_run(model_path: str | os.PathLike[str], controller: Controller |
     specs) for `duration` s at `timestep` (default the model's): the distance and mean speed of
     its centre of mass after `settle_time`, for comparison with the bed, and its path (rows of
     time, x, z in the model's frame, each step)."""
-    if not 0 <= settle_time < duration:
-        raise ConfigError(f"parameter 'settle_time' = {settle_time} is invalid: allowed in [0, duration = {duration})")
+    check_settle_time(settle_time, duration)
     model = load_model(model_path)
     if timestep is not None:
         model.opt.timestep = timestep
@@ -303,12 +306,13 @@ def rigid_floor_run(model_path: str | os.PathLike[str], controller: Controller |
     mujoco.mj_forward(model, data)
     drive = controller or spec_controller(ctrl, model, data, settle_time)
     path = [(0.0, *data.subtree_com[0][[0, 2]])]
-    while data.time < duration * (1 - 1e-12):
-        data.ctrl[:] = drive(data.time, model, data)
-        mujoco.mj_step(model, data)
-        mujoco.mj_kinematics(model, data)  # mj_step leaves the derived quantities at the step's start
-        mujoco.mj_comPos(model, data)
-        path.append((float(data.time), *data.subtree_com[0][[0, 2]]))
+    with mujoco_warnings():
+        while data.time < duration * (1 - 1e-12):
+            data.ctrl[:] = drive(data.time, model, data)
+            mujoco.mj_step(model, data)
+            mujoco.mj_kinematics(model, data)  # mj_step leaves the derived quantities at the step's start
+            mujoco.mj_comPos(model, data)
+            path.append((float(data.time), *data.subtree_com[0][[0, 2]]))
     trajectory = np.array(path)
     driven = trajectory[trajectory[:, 0] >= settle_time]
     distance = float(driven[-1, 1] - driven[0, 1])
@@ -339,7 +343,7 @@ def plot_mjcf(series: dict[str, dict[str, np.ndarray]], bodies: list[str], path:
     com_ax.set(ylabel="centre of mass (cm)", title=title or "MJCF model on the bed")
     sink_ax.set(ylabel="sinkage (cm)")
     force_ax.set(xlabel="t (s)", ylabel="vertical granular force (N)")
-    sink_ax.legend(fontsize="small")
+    body_legend(figure, [sink_ax], bodies)
     if settle_time is not None:
         for ax in (com_ax, sink_ax, force_ax):
             ax.axvline(settle_time, color="0.5", linestyle=":", linewidth=1)

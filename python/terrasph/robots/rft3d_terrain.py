@@ -53,11 +53,8 @@ from terrasph.robots.coupling import (
     restore_mujoco_state,
 )
 from terrasph.robots.metrics import slip
-from terrasph.robots.rft_terrain import (
-    RFT_CONTROL_INTERVAL,
-    NativeRFTStepper,
-    mujoco_library,
-)
+from terrasph.robots.mjcf import body_name
+from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, NativeRFTStepper, mujoco_library
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = [
@@ -121,7 +118,7 @@ def bodies_3d(model: mujoco.MjModel, chosen: Sequence[int], element_length: floa
     naming a body without mass."""
     coupled = []
     for body in chosen:
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+        name = body_name(model, body)
         if not model.body_mass[body] > 0:
             raise ConfigError(f"coupled body '{name}' has no mass in the MJCF model; give it geoms with mass or an "
                               "<inertial>")

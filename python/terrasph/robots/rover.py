@@ -69,22 +69,19 @@ class Rover(WheelScene):
 
     def footprint(self) -> Footprint:
         """The bed, both wheels and the container (size guard)."""
-        from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
-
-        return wheel_footprint(self, wheels=len(WHEEL_BODIES), material=glass_beads())
+        return wheel_footprint(self, wheels=len(WHEEL_BODIES), material=self.bed_material())
 
 
 def build_rover(config: Rover) -> CoupledSimulation:
     """Bed, container and the rover standing on it (wheels Δx/2 above the surface)."""
     # imported here, as the scene registry imports this module
-    from terrasph.scenes.leg_rotation import glass_beads
 
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
     robot = PlanarRobot(config.mjcf or ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
                         gravity=scene.gravity, initial={"x": config.start_x, "z": axle_z})
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, glass_beads(), numerics))
+    return CoupledSimulation(robot, Simulation(scene, config.bed_material(), numerics))
 
 
 def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False,

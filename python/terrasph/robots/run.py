@@ -27,6 +27,7 @@ import numpy as np
 from terrasph.io import defined_values
 from terrasph.robots.coupling import CoupledSimulation, RobotStepper
 from terrasph.robots.metrics import sinkage, slip
+from terrasph.robots.mjcf import mujoco_warnings
 from terrasph.robots.rft3d_terrain import RFT3DCoupling
 from terrasph.run_loop import Recorder
 
@@ -168,4 +169,5 @@ def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: 
                    series_interval, [recorder or RobotLoads(coupled), *([walls] if walls and walls.groups else [])],
                    config or coupled.describe(), {**versions(), "mujoco": mujoco.__version__}, checkpoint_every,
                    progress)
-    return loop.run(t_end, resume).series
+    with mujoco_warnings():  # MuJoCo's warnings as Python's, not into MUJOCO_LOG.TXT in the working directory
+        return loop.run(t_end, resume).series

@@ -26,7 +26,7 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
-from terrasph.robots.mjcf import Coupling, PlanarRobot, coupled_body_id, load_model
+from terrasph.robots.mjcf import Coupling, PlanarRobot, body_name, coupled_body_id, load_model
 
 __all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "check_couple_below", "coupled_body_ids", "floor_geoms",
            "lowest_points", "switch_off_floor", "terrain_model", "terrain_robot", "world_support"]
@@ -152,7 +152,7 @@ def terrain_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, spacing: float,
     widths = dict(widths or {})
     couplings = {}
     for body in chosen:
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+        name = body_name(model, body)
         couplings[name] = Coupling(body_shape(model, body, spacing, widths.pop(name, None)))
     if widths:
         raise ConfigError(f"parameter 'widths' names {sorted(widths)}, which are not coupled bodies "

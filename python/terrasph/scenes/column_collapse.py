@@ -8,13 +8,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
-from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time, parameter
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import aligned_wall_layers, elliptical_arc, trough_height, wall_layers_needed
 from terrasph.io import write_results
@@ -56,6 +57,9 @@ TABLE_2_1_REFERENCE_DENSITY = 2507.0  #: ρ0 of Table 2.1 (kg/m³), the "table_2
 class ColumnCollapse:
     """Configuration of a column collapse. Lengths in m, times in s, friction angles in degrees."""
 
+    #: fields saved under another name by earlier versions (run files, sweep SPECs): old → new
+    RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"release_time": "settle_time"}
+
     column_width: float = option(0.07, help="column width L0", unit="m")
     column_height: float = option(0.08, help="column height H0", unit="m")
     resolution: str = option("coarse", choices=tuple(RESOLUTIONS), help="about " + "/".join(
@@ -74,7 +78,8 @@ class ColumnCollapse:
     bed_radius: float = option(0.35, help="radius of the circular trough", unit="m")
     bed_axes: tuple[float, float] = option((0.35, 0.15), help="semi-axes of the elliptical trough, along x then z",
                                            unit="m")
-    release_time: float = option(0.0, help="the gate is removed at this time", unit="s")
+    settle_time: float = shared("settle_time", 0.0, help="pause before the gate is removed, while the column "
+                                                          "settles")
     t_end: float = shared("t_end", 1.0, help="simulated time; the run stops earlier once at rest")
     rest_threshold: float = 1e-4  #: stop once mean ½|v|² < rest_threshold·g·Δx (after 0.3 s)
     frame_interval: float = shared("frame_interval", 0.02)
@@ -114,8 +119,7 @@ class ColumnCollapse:
                               f"half-width > 2*column_width = {2 * self.column_width:g} m")
         if self.floor_length <= self.column_width:
             raise ConfigError(f"parameter 'floor_length' = {self.floor_length} is invalid: allowed > column_width")
-        if not 0 <= self.release_time < self.t_end:
-            raise ConfigError(f"parameter 'release_time' = {self.release_time} is invalid: allowed [0, t_end)")
+        check_settle_time(self.settle_time, self.t_end)
         if self.material_preset not in MATERIAL_PRESETS:
             raise ConfigError(f"parameter 'material_preset' = {self.material_preset!r} is invalid: allowed one of "
                               f"{', '.join(MATERIAL_PRESETS)}")
@@ -193,7 +197,7 @@ def build_column_collapse(config: ColumnCollapse) -> tuple[Scene, Material, Nume
         bed_right, bed_top = semi_axes
     gate_bottom = float(config.bed_height(np.array([right]))[0])
     scene.add_wall("gate", [(right, gate_bottom), (right, wall_top)], layers=layers, no_slip=False,
-                   remove_at=config.release_time)
+                   remove_at=config.settle_time)
     scene.domain_lower = (-margin, -margin)
     scene.domain_upper = (bed_right + margin, max(wall_top, bed_top) + 0.5 * config.column_height)
     return scene, config.material(), numerics
@@ -271,7 +275,7 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
                   frame_interval=config.frame_interval, progress=progress,
                   config={"scene": "column-collapse", "column_collapse": dataclasses.asdict(config),
                           **sim.describe()},
-                  stop_when_at_rest=config.rest_threshold, min_time=config.release_time + 0.3)
+                  stop_when_at_rest=config.rest_threshold, min_time=config.settle_time + 0.3)
     final = np.array(sim.position)
     front = analysis.deposit_front(final, dx, DEPOSIT_THICKNESS_GRAIN_DIAMETERS * material.grain_diameter,
                                    bed_height=config.bed_height)

@@ -19,7 +19,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from terrasph import bodies, rft
-from terrasph.config import ConfigError, Material, Numerics
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -29,8 +29,8 @@ from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
 
-__all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "LegResult", "LegRotation", "RFTLegSweep", "build_leg_rotation",
-           "glass_beads", "run_leg_rotation"]
+__all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "BeadBed", "LegResult", "LegRotation", "RFTLegSweep",
+           "build_leg_rotation", "glass_beads", "run_leg_rotation"]
 
 #: Leg shapes by name (bodies.py documents each reading of the dissertation's figures).
 LEGS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
@@ -59,11 +59,49 @@ def glass_beads() -> Material:
 
 
 @dataclass(frozen=True)
-class LegRotation:
+class BeadBed:
+    """The material options of every scene on chapter 3's glass beads (the leg rotation, the plates,
+    the robots): the friction angles and the water content of the bed, each a --option of the
+    scene. At the defaults the material is :func:`glass_beads` itself."""
+
+    mu1_deg: float = shared("mu1_deg", 23.0)
+    mu2_deg: float = shared("mu2_deg", 33.0)
+    water_content: float = shared("water_content", 0.0)
+
+    def check_bed_material(self) -> None:
+        """ConfigError naming the first bad material option (called by each scene's checks)."""
+        for name in ("mu1_deg", "mu2_deg"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not (isinstance(value, (int, float)) and 0 <= value < 90):
+                raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a number in [0, 90) degrees")
+        if self.mu1_deg > self.mu2_deg:
+            raise ConfigError(f"parameter 'mu1_deg' = {self.mu1_deg!r} is invalid: allowed <= mu2_deg = "
+                              f"{self.mu2_deg!r}")
+        try:
+            self.bed_material()  # the material's own checks (the pendular range of the water content)
+        except ConfigError as error:
+            raise ConfigError(f"parameter 'water_content' = {self.water_content!r} is refused by the bed material: "
+                              f"{error}") from None
+
+    def bed_material(self) -> Material:
+        """The bed: the glass beads with these friction angles and water content (a wet material's
+        densities × (1 + w), as Material.wet)."""
+        beads = dataclasses.replace(glass_beads(), mu1=math.tan(math.radians(self.mu1_deg)),
+                                    mu2=math.tan(math.radians(self.mu2_deg)))
+        if self.water_content == 0:
+            return beads
+        w = self.water_content
+        return dataclasses.replace(beads, water_content=w, grain_density=beads.grain_density * (1 + w),
+                                   reference_density=beads.reference_density * (1 + w))
+
+
+@dataclass(frozen=True)
+class LegRotation(BeadBed):
     """Configuration of a leg-rotation run. Lengths in m, times in s, angles in rad (clockwise)."""
 
     #: the settings of the SPH bed only, refused on the RFT terrain unless at their defaults
-    SPH_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "bed_depth", "fidelity", "numerics")
+    SPH_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "bed_depth", "fidelity", "numerics", "mu1_deg",
+                                                  "mu2_deg", "water_content")
 
     leg: str = option("c-leg", choices=LEGS, help="leg shape")
     omega: float = option(0.2, help="angular velocity of the sweep, clockwise", unit="rad/s")
@@ -93,6 +131,7 @@ class LegRotation:
 
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
+        self.check_bed_material()
         object.__setattr__(self, "leg", OLD_LEG_NAMES.get(self.leg, self.leg))
         if self.leg not in LEGS:
             raise ConfigError(f"parameter 'leg' = {self.leg!r} is invalid: allowed one of {', '.join(LEGS)}")
@@ -104,8 +143,7 @@ class LegRotation:
         if self.t_end is not None and not (isinstance(self.t_end, (int, float)) and math.isfinite(self.t_end)
                                            and self.t_end > 0):
             raise ConfigError(f"parameter 't_end' = {self.t_end!r} is invalid: allowed a finite number > 0 s or None")
-        if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
+        check_settle_time(self.settle_time, self.t_end)
         if not 0 < self.foot_ratio <= 2:
             raise ConfigError(f"parameter 'foot_ratio' = {self.foot_ratio!r} is invalid: allowed (0, 2]")
         if self.spacing is None and self.resolution not in RESOLUTIONS:
@@ -143,7 +181,7 @@ class LegRotation:
     def footprint(self) -> Footprint:
         """The bed and the leg, the container's floor and sides (size guard)."""
         return Footprint(self.grid_spacing, self.bed_width * self.bed_depth + self.leg_length * self.thickness,
-                         self.bed_width + 2.0 * (self.bed_depth + self.leg_length), self.end_time, glass_beads(),
+                         self.bed_width + 2.0 * (self.bed_depth + self.leg_length), self.end_time, self.bed_material(),
                          self.build_numerics())
 
     def shape(self) -> bodies.BodyShape:
@@ -181,7 +219,7 @@ def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
                           f"deeper than {config.bed_depth - lowest + 3 * dx:.4f} m (or a higher hip)")
     motion = hold_then_rotate(config.settle_time, config.omega, config.end_angle - config.start_angle)
     scene.add_body("leg", shape, reference=hip, angle=config.start_angle, motion=motion, width=config.width)
-    return scene, glass_beads(), numerics
+    return scene, config.bed_material(), numerics
 
 
 @dataclass

@@ -29,14 +29,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from terrasph import bodies
-from terrasph.config import ConfigError, Material, Numerics
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
 from terrasph.options import option, shared
 from terrasph.scene import Scene
-from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.scenes.plate_intrusion import PlateConfig
 from terrasph.simulation import RunResult, Simulation
 
@@ -70,6 +69,7 @@ class PlateDrag(PlateConfig):
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
 
     def __post_init__(self) -> None:
+        self.check_bed_material()
         check_tier(self.fidelity)
         for name in ("attack_angle", "direction"):
             value = getattr(self, name)
@@ -83,8 +83,7 @@ class PlateDrag(PlateConfig):
             raise ConfigError(f"parameter 'samples' = {self.samples!r} is invalid: allowed an integer >= 4")
         if not 0 < self.measure_fraction <= 1:
             raise ConfigError(f"parameter 'measure_fraction' = {self.measure_fraction!r} is invalid: allowed (0, 1]")
-        if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
+        check_settle_time(self.settle_time, self.t_end)
         numerics = self.build_numerics()
         half = 0.5 * self.plate_length * abs(math.sin(self.attack_angle)) + self.plate_thickness
         shallowest = self.start_depth - half - self.travel * max(0.0, -math.sin(self.direction))
@@ -126,7 +125,7 @@ def build_plate_drag(config: PlateDrag) -> tuple[Scene, Material, Numerics]:
                            angle=-config.attack_angle, motion=Motion(tuple(pieces)), width=config.width,
                            clear_granular=False)
     scene.clear_granular_near(plate.position, 0.5 * config.spacing)
-    return scene, glass_beads(), numerics
+    return scene, config.bed_material(), numerics
 
 
 @dataclass
@@ -143,12 +142,17 @@ class PlateDragResult:
 
     def summary(self) -> dict[str, Any]:
         """β, γ and the means of α_x, α_z over the measured part of the travel (N/m³) with their
-        spread (standard deviation over those samples)."""
+        spread (standard deviation over those samples); NaN (undefined) for a run stopped before
+        the measured part."""
         measured = self.travel >= (1 - self.config.measure_fraction) * self.config.travel - 1e-12
+
+        def over_measured(statistic: Any, values: np.ndarray) -> float:
+            return float(statistic(values[measured])) if measured.any() else math.nan
+
         return {"attack_angle": self.config.attack_angle, "direction": self.config.direction,
-                "alpha_x": float(np.mean(self.alpha_x[measured])), "alpha_z": float(np.mean(self.alpha_z[measured])),
-                "alpha_x_spread": float(np.std(self.alpha_x[measured])),
-                "alpha_z_spread": float(np.std(self.alpha_z[measured])),
+                "alpha_x": over_measured(np.mean, self.alpha_x), "alpha_z": over_measured(np.mean, self.alpha_z),
+                "alpha_x_spread": over_measured(np.std, self.alpha_x),
+                "alpha_z_spread": over_measured(np.std, self.alpha_z),
                 "spacing": self.config.spacing, "plate_thickness": self.config.plate_thickness,
                 "leaked_particles": self.leaked_particles, "steps": self.run.steps, "wall_time": self.run.wall_time,
                 "status": self.run.status}

@@ -37,14 +37,20 @@ import numpy as np
 
 from terrasph import bodies
 from terrasph.analysis import fit_line
-from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.config import (
+    ConfigError,
+    Material,
+    Numerics,
+    check_settle_time,
+    parameter,
+)
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import Hold, Motion, Move
 from terrasph.options import option, shared
 from terrasph.scene import GRAVITY, Scene
-from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
 
@@ -67,9 +73,10 @@ FIT_FROM_DEPTH = 0.01
 RESOLUTIONS: dict[str, float] = {"coarse": 0.0025, "fine": 0.002, "finer": 0.0016}
 
 
-class PlateConfig:
-    """What the plate scenes' configurations share (plate-intrusion, plate-drag): the numerics at
-    their `spacing` and fidelity tier with their `numerics` overrides, and the plate's thickness."""
+class PlateConfig(BeadBed):
+    """What the plate scenes' configurations share (plate-intrusion, plate-drag): the bed's material
+    options, the numerics at their `spacing` and fidelity tier with their `numerics` overrides, and the
+    plate's thickness."""
 
     SCENE: ClassVar[str]  #: the registered scene, whose fidelity tiers apply
     spacing: float
@@ -124,6 +131,7 @@ class PlateIntrusion(PlateConfig):
     t_end: float | None = shared("t_end", None, default_text="the end of the strokes")
 
     def __post_init__(self) -> None:
+        self.check_bed_material()
         check_tier(self.fidelity)
         for name in ("speed", "max_depth", "spacing", "plate_length", "width", "bed_width", "bed_depth",
                      "sample_travel", "frame_interval"):
@@ -132,8 +140,7 @@ class PlateIntrusion(PlateConfig):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
         if self.t_end is not None and not (_is_number(self.t_end) and math.isfinite(self.t_end) and self.t_end > 0):
             raise ConfigError(f"parameter 't_end' = {self.t_end!r} is invalid: allowed a finite number > 0 s or None")
-        if not (_is_number(self.settle_time) and math.isfinite(self.settle_time) and self.settle_time >= 0):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
+        check_settle_time(self.settle_time, self.t_end)
         numerics = self.build_numerics()  # raises ConfigError for bad overrides
         self.material()  # raises ConfigError for an unknown model
         least = bodies.minimum_thickness(self.spacing, numerics.h_factor)
@@ -173,8 +180,8 @@ class PlateIntrusion(PlateConfig):
                               "(the plate must stay clear of the floor's kernel support)")
 
     def material(self) -> Material:
-        """The chapter 3 glass beads (``glass_beads()``) under the configured constitutive model."""
-        return dataclasses.replace(glass_beads(), model=self.model)
+        """The bed's glass beads (:meth:`bed_material`) under the configured constitutive model."""
+        return dataclasses.replace(self.bed_material(), model=self.model)
 
     def footprint(self) -> Footprint:
         """The bed and the plate, the container's floor and sides (size guard)."""
@@ -292,10 +299,17 @@ class PlateResult:
         order = np.argsort(self.depth[mask])
         return self.depth[mask][order], self.force[mask][order]
 
-    def fit(self, min_depth: float = 0.0, max_depth: float | None = None) -> tuple[float, float, float]:
-        """Line F_z = k·depth + b over the down stroke for min_depth < depth ≤ max_depth (default:
-        the deepest); returns (k in N/m, b in N, R²), NaN for a run stopped before two samples of
-        that range."""
+    @property
+    def fit_from(self) -> float:
+        """The depth (m) from which the run's line is fitted: FIT_FROM_DEPTH, or a quarter of a
+        stroke shallower than 4 cm."""
+        return min(FIT_FROM_DEPTH, 0.25 * self.config.max_depth)
+
+    def fit(self, min_depth: float | None = None, max_depth: float | None = None) -> tuple[float, float, float]:
+        """Line F_z = k·depth + b over the down stroke for min_depth < depth ≤ max_depth (defaults:
+        :attr:`fit_from` and the deepest: the one fit of the summary and the figure); returns (k in
+        N/m, b in N, R²), NaN for a run stopped before two samples of that range."""
+        min_depth = self.fit_from if min_depth is None else min_depth
         depth, force = self.stroke("down")
         upper = (depth.max() if depth.size else math.nan) if max_depth is None else max_depth
         mask = (depth > min_depth) & (depth <= upper + 1e-12)
@@ -308,8 +322,8 @@ class PlateResult:
         """ρ0 g L W (N/m): the slope of F_z against depth for α = 1 in σ_z = α ρ g z."""
         return self.bulk_density * GRAVITY * self.config.plate_length * self.config.width
 
-    def alpha(self, min_depth: float = 0.0) -> float:
-        """α = k / (ρ0 g L W), the slope of the down-stroke fit in units of the hydrostatic one."""
+    def alpha(self, min_depth: float | None = None) -> float:
+        """α = k / (ρ0 g L W), the slope of the down-stroke fit (:meth:`fit`) in units of the hydrostatic one."""
         return self.fit(min_depth)[0] / self.reference_slope
 
     def hysteresis(self, depths: np.ndarray) -> np.ndarray:
@@ -356,8 +370,8 @@ class PlateResult:
                     "peak_uplift": uplift, "dead_weight": refs["dead_weight"],
                     "vertical_slip": refs["vertical_slip"], "peak_over_dead_weight": peak / refs["dead_weight"],
                     "peak_over_vertical_slip": peak / refs["vertical_slip"], **run}
-        fit_from = min(FIT_FROM_DEPTH, 0.25 * self.config.max_depth)
-        slope, intercept, r_squared = self.fit(fit_from)
+        fit_from = self.fit_from
+        slope, intercept, r_squared = self.fit()
         _, down_force = self.stroke("down")
         return {"speed": self.config.speed, "max_depth": self.config.max_depth, "spacing": self.config.spacing,
                 "plate_thickness": self.config.plate_thickness, "fit_from": fit_from,
@@ -463,15 +477,17 @@ def _draw_pull(axes: Axes, result: PlateResult) -> None:
 
 
 def _draw_strokes(axes: Axes, result: PlateResult) -> None:
-    """Start above the bed: F_z against depth for both strokes, with the down stroke's line fit."""
+    """Start above the bed: F_z against depth for both strokes, with the down stroke's line fit (the
+    summary's, from its fit_from depth: the line is drawn over that range)."""
     for phase, style in (("down", "o-"), ("up", "s-")):
         depth, force = result.stroke(phase)
         axes.plot(1e3 * depth, force, style, ms=3, label=f"{phase} stroke")
     slope, intercept, r_squared = result.fit()
     if math.isfinite(slope):  # a run stopped early may have no fit yet
-        line = np.array([0.0, result.config.max_depth])
+        line = np.array([result.fit_from, result.config.max_depth])
         axes.plot(1e3 * line, slope * line + intercept, "k--",
-                  label=f"fit: k = {slope:.3g} N/m, R² = {r_squared:.3f}, α = {slope / result.reference_slope:.2g}")
+                  label=f"fit from {1e3 * result.fit_from:.3g} mm: k = {slope:.3g} N/m, R² = {r_squared:.3f}, "
+                        f"α = {slope / result.reference_slope:.3g}")
     axes.axhline(0.0, color="0.6", lw=0.8)
     axes.axvline(0.0, color="0.6", lw=0.8)
     axes.set_xlabel("depth of the plate underside (mm)")

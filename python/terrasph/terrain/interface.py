@@ -57,7 +57,6 @@ from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3
 from terrasph.robots.rft_terrain import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
 from terrasph.robots.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
 
-
 __all__ = ["INTEGRATORS", "PLANAR_SPACING", "SPH_BED", "TERRAINS", "RFTTerrain", "SPHTerrain", "Terrain",
            "attach"]
 
