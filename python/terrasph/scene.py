@@ -113,6 +113,8 @@ class Scene:
     gravity: float = GRAVITY
     #: z of the undisturbed free surface, for the sinkage of bodies (docs/design.md §3.8); None: not reported
     surface_level: float | None = None
+    #: x of the bed's two ends (its container's inner walls, m), where a robot's run ends; None: no bed
+    bed_ends: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if not (self.spacing > 0 and np.isfinite(self.spacing)):
@@ -165,7 +167,7 @@ class Scene:
         """A `width` × `depth` bed at the origin in a container drawn as one polyline (a box of
         separate walls would leave gaps at its corners) reaching `freeboard` above the bed's
         surface, with the domain box around it and room above for lifted grains. Sets
-        `surface_level`; returns (surface z, inner width) as realised on the lattice."""
+        `surface_level` and `bed_ends`; returns (surface z, inner width) as realised on the lattice."""
         bed = self.add_block(0.0, 0.0, width, depth)
         surface = float(bed[:, 1].max()) + 0.5 * self.spacing
         right = float(bed[:, 0].max()) + 0.5 * self.spacing
@@ -173,6 +175,7 @@ class Scene:
         self.add_wall("container", [(0.0, top), (0.0, 0.0), (right, 0.0), (right, top)], layers=layers,
                       no_slip=no_slip)
         self.surface_level = surface
+        self.bed_ends = (0.0, right)
         margin = (layers + 2) * self.spacing
         self.domain_lower = (-margin, -margin)
         self.domain_upper = (right + margin, top + 0.1)

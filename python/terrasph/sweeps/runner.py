@@ -11,7 +11,7 @@ Layout of a sweep directory::
                                with the session (one invocation) that caused it
 
 A case counts as finished only if ``runs/<case_id>.h5`` opens as HDF5 and its ``/run`` status is
-"completed" or "at_rest"; anything else (no file, a partial or corrupted file, a failed run) is
+finished (terrasph.run_loop.FINISHED_STATUSES: completed, at_rest, end_of_bed); anything else (no file, a partial or corrupted file, a failed run) is
 run again by the next invocation. A worker runs in ``runs/<case_id>.partial/`` and moves the run
 file and the files beside it (figure, XDMF sidecars) into ``runs/``, the run file last.
 """
@@ -29,11 +29,10 @@ import uuid
 from pathlib import Path
 from typing import Any
 
+from terrasph.run_loop import FINISHED_STATUSES
 from terrasph.sweeps.spec import Case, SweepSpec
 
 __all__ = ["is_finished", "run_one", "run_sweep"]
-
-FINISHED_STATUSES = ("completed", "at_rest")
 
 
 def _write_json_atomically(path: Path, data: Any) -> None:
