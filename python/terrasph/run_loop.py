@@ -39,6 +39,7 @@ import pathlib
 import signal
 import threading
 import time as wallclock
+import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -245,6 +246,8 @@ class RunLoop:
             next_frame = stepper.time + self.frame_interval
             next_sample = stepper.time + self.sample_interval if sampled else math.inf
 
+        # when the leak counter first rose above 0 (a frame's time), warned of once and kept in /run
+        leak: dict[str, float] = {"first_leak_time": saved["first_leak_time"]} if "first_leak_time" in saved else {}
         unwritten: dict[str, list[dict[str, Any]]] = {}  # rows since the last write, written in one batch
         last_write = wallclock.perf_counter()
 
@@ -273,6 +276,12 @@ class RunLoop:
                 writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
                 frames += 1
             append("diagnostics", row)
+            if row.get("leaked_particles", 0) > 0 and not leak:
+                leak["first_leak_time"] = stepper.time
+                warnings.warn(f"{int(row['leaked_particles'])} grain(s) came inside a wall or body (closer than Δx/2 "
+                              f"to its interior particles) by t = {stepper.time:.4g} s: a leak, counted as "
+                              "leaked_particles in the run file (a part too thin for its load, or too coarse a "
+                              "spacing); the run goes on", RuntimeWarning, stacklevel=2)
             if wallclock.perf_counter() - last_write >= SERIES_WRITE_SECONDS:
                 write_rows()
             if self.on_frame:
@@ -289,7 +298,7 @@ class RunLoop:
             if writer:
                 stepper.checkpoint(checkpoint_path(self.output), {
                     "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
-                    "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start})
+                    "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start, **leak})
 
         def record_end(status: str, **extra: Any) -> None:
             """The final /run attributes, the file closed and its XDMF sidecars, however the run ends."""
@@ -300,7 +309,7 @@ class RunLoop:
             write_rows()
             writer.set_attrs("/run", {"status": status, "wall_time": wallclock.perf_counter() - start,
                                       "steps": stepper.step_count, "time": stepper.time,
-                                      **stepper.run_attributes(), **extra})
+                                      **stepper.run_attributes(), **leak, **extra})
             writer.close()
             if frames:
                 write_xdmf(self.output)

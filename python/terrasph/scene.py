@@ -11,10 +11,21 @@ from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import lattice_block, polyline_wall
 from terrasph.motion import Motion
 
-__all__ = ["BodyGroup", "Scene", "WallGroup", "earth_pressure_at_rest", "geostatic_deviatoric_stress",
-           "hydrostatic_density"]
+__all__ = ["LAUNCH_HEIGHT_FACTOR", "BodyGroup", "Scene", "WallGroup", "earth_pressure_at_rest", "flung_height",
+           "geostatic_deviatoric_stress", "hydrostatic_density"]
 
 GRAVITY = 9.81
+#: grains struck by a part moving at speed v rise up to about v²/2g above the bed: at ω = 30 rad/s
+#: the coarse C-leg of `leg-rotation` (tip speed 2.29 m/s, v²/2g = 0.266 m) threw them 0.255 m above
+#: the surface, over its container's side walls; walls this many times that height keep them in
+LAUNCH_HEIGHT_FACTOR = 1.5
+
+
+def flung_height(speed: float, gravity: float = GRAVITY) -> float:
+    """How high above the bed (m) grains flung by a part moving at `speed` (m/s) may rise: the
+    ballistic height v²/2g times :data:`LAUNCH_HEIGHT_FACTOR`. Container walls at least this high keep
+    them in the container, instead of letting them fall outside it and out of the domain box."""
+    return LAUNCH_HEIGHT_FACTOR * speed * speed / (2.0 * gravity)
 
 
 @dataclass

@@ -41,7 +41,7 @@ from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.plots import plot_robot
 from terrasph.robots.rft_terrain import RFTCoupling
 from terrasph.robots.run import BedEnds, RobotRun, run_coupled
-from terrasph.scene import GRAVITY, Scene
+from terrasph.scene import GRAVITY, Scene, flung_height
 from terrasph.schedules import check_knots, evaluate
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
@@ -205,13 +205,22 @@ def bed_and_wheel(config: WheelScene) -> tuple[Scene, Numerics, float, bodies.Bo
     wheel's shape; a shape the spacing cannot build is refused naming the wheel."""
     numerics = wheel_numerics(config)
     scene = Scene(spacing=config.spacing)
-    surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
-                                            layers=wall_layers_needed(numerics.h_factor))
     try:
         shape = wheel_shape(config)
     except ValueError as error:
         raise ConfigError(f"wheel '{config.wheel}': {error}") from None
+    surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, wheel_freeboard(config, shape),
+                                            layers=wall_layers_needed(numerics.h_factor))
     return scene, numerics, surface, shape
+
+
+def wheel_freeboard(config: WheelScene, shape: bodies.BodyShape) -> float:
+    """Height (m) of the container's walls above the bed: 2.5 leg lengths, or more if grains flung by
+    the wheel's farthest point (at the highest commanded spin, its axle's speed neglected) may rise
+    higher (:func:`terrasph.scene.flung_height`)."""
+    knots = getattr(config, "omega_schedule", ())
+    spin = max([config.omega, *(w for _, w in knots)])
+    return max(2.5 * config.leg_length, flung_height(spin * float(np.hypot(*shape.position.T).max()), GRAVITY))
 
 
 def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float, float], gravity: float) -> str:
