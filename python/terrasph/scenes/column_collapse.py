@@ -269,9 +269,11 @@ def _above_bed(points: np.ndarray, config: ColumnCollapse, dx: float) -> np.ndar
 
 @dataclass
 class ColumnResult:
-    """Outcome of a column collapse: normalised runout L* = (L − L0)/L0 (L: front of the deposit at
-    least DEPOSIT_THICKNESS_GRAIN_DIAMETERS grain diameters thick, measured from the bed) and height
-    H* = H_f/H0; `toe_front` is the x reached by any connected particle, the monolayer toe included."""
+    """Outcome of a column collapse: normalised runout L* = (L − L0)/L0 (L: front of the connected
+    deposit where it is at least DEPOSIT_THICKNESS_GRAIN_DIAMETERS grain diameters thick, measured from
+    the bed: :func:`terrasph.analysis.deposit_front`) with its resolution error `runout_error` = Δx/L0
+    (the front is known to one bin of the surface profile, Δx wide), and height H* = H_f/H0;
+    `toe_front` is the x reached by any connected particle, the monolayer toe included."""
 
     runout_normalised: float
     final_height_normalised: float
@@ -281,12 +283,14 @@ class ColumnResult:
     spacing: float
     run: RunResult
     toe_front: float = float("nan")
+    runout_error: float = float("nan")
     final_position: np.ndarray | None = None
     plot: str | None = None
 
     def summary(self) -> dict[str, Any]:
         """Flat dict for tables and HDF5 attributes."""
-        return {"runout_normalised": self.runout_normalised, "final_height_normalised": self.final_height_normalised,
+        return {"runout_normalised": self.runout_normalised, "runout_error": self.runout_error,
+                "final_height_normalised": self.final_height_normalised,
                 "initial_length": self.initial_length, "initial_height": self.initial_height,
                 "toe_front": self.toe_front,
                 "granular_particles": self.granular_particles, "spacing": self.spacing,
@@ -322,7 +326,7 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
     toe = analysis.front_position(final, dx)
     result = ColumnResult(analysis.normalised_runout(front, 0.0, length0),
                           analysis.final_height(final, dx) / height0, length0, height0, len(final), dx, run,
-                          toe_front=toe, final_position=final)
+                          toe_front=toe, runout_error=dx / length0, final_position=final)
     if output is not None:
         write_results(output, result.summary())
         if plot:
@@ -331,7 +335,7 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
             png = Path(output).with_suffix(".png")
             centres0, heights0 = analysis.surface_profile(initial, dx)
             centres, heights = analysis.surface_profile(final, dx)
-            label = (f"t = {run.time:.2f} s, L* = {result.runout_normalised:.2f}, "
+            label = (f"t = {run.time:.2f} s, L* = {result.runout_normalised:.2f} ± {result.runout_error:.2f}, "
                      f"H* = {result.final_height_normalised:.2f}")
             bed = None
             if config.bed_semi_axes is not None:
