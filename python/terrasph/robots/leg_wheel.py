@@ -73,9 +73,9 @@ class WheelScene:
     bed_depth: float = shared("bed_depth", 0.1)
     start_x: float = option(0.12, help="axle x at start (the rover: the middle of its axles)", unit="m")
     settle_time: float = shared("settle_time", 2.0)
-    #: 2.5 s of driving: the default C-leg wheel's axle moves 9.6 cm/s on the SPH bed after the pause
-    #: (0.129 m at 2.0 s, 0.312 m at 3.9 s), so at 4.5 s it is near 0.37 m and its legs reach at most
-    #: 0.45 m, short of the 0.5 m bed's end less BED_END_MARGIN; at 6 s it ran off the bed (docs/robots.md)
+    #: 2.5 s of driving: the default C-leg wheel's axle, measured on the SPH bed, is at 0.129 m at 2.0 s
+    #: and 0.360 m at 4.5 s, so its legs reach at most 0.44 m, short of the 0.5 m bed's end less
+    #: BED_END_MARGIN; at 6 s it was at 0.536 m, off the bed (docs/robots.md)
     t_end: float = shared("t_end", 4.5)
     series_interval: float = option(0.01, help="time between series samples", unit="s")
     frame_interval: float = shared("frame_interval", 0.05)
