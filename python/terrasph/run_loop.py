@@ -48,7 +48,8 @@ import numpy as np
 
 from terrasph.config import ConfigError
 
-__all__ = ["CHUNK_SECONDS", "END_OF_BED", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult", "Recorder", "RunLoop", "Stepper",
+__all__ = ["CHUNK_SECONDS", "END_OF_BED", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult", "Recorder",
+           "RunLoop", "Stepper",
            "StopRequest", "check_run_options", "checkpoint_path", "claimed_output", "simulated_time_bar"]
 
 #: Wall time (s) between writes of the series' rows into the run file (and before every checkpoint and

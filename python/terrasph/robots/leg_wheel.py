@@ -316,7 +316,8 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                                                        float(coupled.robot.data.qpos[0]) - work["start_x"]),
                # Eq. 4.8 of the phase's mean speed and spin (a mean of the samples would be dominated
                # by the spin-up, where Rω is near 0)
-               "mean_slip": float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any() else math.nan,
+               "mean_slip": (float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any()
+                             else math.nan),
                "end_of_bed": bed.reason}
     if output is not None:
         write_results(output, summary)

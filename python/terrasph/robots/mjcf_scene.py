@@ -192,7 +192,9 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     surface = coupled.robot.surface if on_rft else float(coupled.sim.scene.surface_level)
     crossings = BedCrossings(coupled.robot, surface, memory)
     # the SPH bed ends at its container's walls; the 3D RFT terrain is a plane without ends
-    bed = None if on_rft else BedEnds(coupled, coupled.sim.scene.bed_ends, resume=resume)
+    bed = None
+    if isinstance(coupled, CoupledSimulation) and coupled.sim.scene.bed_ends is not None:
+        bed = BedEnds(coupled, coupled.sim.scene.bed_ends, resume=resume)
 
     def control(run: CoupledSimulation | RFT3DCoupling) -> None:
         crossings.check(run.time)

@@ -91,7 +91,8 @@ def build_rover(config: Rover) -> CoupledSimulation:
 def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
               plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
     """Runs the scene; returns a summary (distance, mean speed and slip of each wheel after the
-    pause, final sinkage of each wheel, pitch, leaks; ``end_of_bed`` as in :func:`run_leg_wheel`) and the series, and with `plot` and an
+    pause, final sinkage of each wheel, pitch, leaks; ``end_of_bed`` as in :func:`run_leg_wheel`) and
+    the series, and with `plot` and an
     `output` draws the PNG beside it. ``resume`` and ``until`` as in :func:`run_leg_wheel`."""
     coupled = build_rover(config)
     bed = wheel_bed_ends(config, coupled, resume)

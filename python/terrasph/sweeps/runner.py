@@ -11,9 +11,10 @@ Layout of a sweep directory::
                                with the session (one invocation) that caused it
 
 A case counts as finished only if ``runs/<case_id>.h5`` opens as HDF5 and its ``/run`` status is
-finished (terrasph.run_loop.FINISHED_STATUSES: completed, at_rest, end_of_bed); anything else (no file, a partial or corrupted file, a failed run) is
-run again by the next invocation. A worker runs in ``runs/<case_id>.partial/`` and moves the run
-file and the files beside it (figure, XDMF sidecars) into ``runs/``, the run file last.
+finished (terrasph.run_loop.FINISHED_STATUSES: completed, at_rest, end_of_bed); anything else (no
+file, a partial or corrupted file, a failed run) is run again by the next invocation. A worker runs
+in ``runs/<case_id>.partial/`` and moves the run file and the files beside it (figure, XDMF
+sidecars) into ``runs/``, the run file last.
 """
 
 from __future__ import annotations
