@@ -78,6 +78,8 @@ def describe_run(path: str | os.PathLike[str]) -> dict[str, Any]:
     for key in ("message", "reason", "checkpoint"):
         if key in status:
             info[key] = str(status[key])
+    if "first_leak_time" in status:
+        info["first_leak_time"] = float(status["first_leak_time"])
     return info
 
 
@@ -102,6 +104,9 @@ def _cmd_info(args: argparse.Namespace) -> int:
         print(f"  message: {info['message']}")
     if "reason" in info:
         print(f"  ended early: {info['reason']}")
+    if "first_leak_time" in info:
+        print(f"  grains leaked into a wall or body from t = {info['first_leak_time']:.4g} s on "
+              f"(leaked_particles in /run)")
     if info["bodies"]:
         print(f"  bodies: {', '.join(info['bodies'])} (series in /series/bodies/<name>)")
     for key, value in info["results"].items():
