@@ -87,7 +87,7 @@ def test_run_attributes_of_a_finished_run(files) -> None:
     rows = re.findall(r"^\| `(\w+)`\s*\| ([^|]+)\|", DOC.read_text().split("### `/run`")[1].split("###")[0], re.M)
     finished = {name for name, when in rows
                 if when.strip() in ("every run", "finished runs", "every run but an unstable or failed one")}
-    assert len(rows) == 12
+    assert len(rows) == 14
     for path in scene_files(files):
         with h5py.File(path, "r") as f:
             assert set(f["run"].attrs) == finished, path.name

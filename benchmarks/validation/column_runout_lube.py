@@ -18,22 +18,14 @@ import math
 import time
 
 from terrasph.cli_common import add_numerics_option, numerics_overrides
-from terrasph.scenes.column_collapse import ColumnCollapse, run_column_collapse
+from terrasph.scenes.column_collapse import ColumnCollapse, lube_runout, run_column_collapse
 
 #: L0·H0 of the dissertation's column (m²)
 COLUMN_AREA = 0.07 * 0.08
 
 
-def lube_fit(aspect: float) -> float:
-    """Lube et al. (2005)'s quasi-2D runout L* for aspect ratio a: 1.2a for a ≤ 1.8, 1.9a^(2/3) for
-    a ≥ 2.8, and in the transition between them the value of the nearer branch's end, linearly
-    interpolated (their data pass from one law to the other there)."""
-    if aspect <= 1.8:
-        return 1.2 * aspect
-    if aspect >= 2.8:
-        return 1.9 * aspect ** (2.0 / 3.0)
-    low, high = 1.2 * 1.8, 1.9 * 2.8 ** (2.0 / 3.0)
-    return low + (high - low) * (aspect - 1.8) / (2.8 - 1.8)
+#: Lube et al. (2005)'s quasi-2D runout L* for aspect ratio a (the scene's, which sizes its floor by it)
+lube_fit = lube_runout
 
 
 def column(aspect: float, resolution: str, numerics: dict, t_end: float,

@@ -372,28 +372,56 @@ def vertical_stress_scatter(
     return float(np.mean([sigma_zz[layer == k].std() for k in np.unique(layer)]))
 
 
+#: grains closer than this many spacings belong to one deposit (neighbours on the lattice are 1 Δx
+#: apart, diagonal ones √2 Δx; a grain farther from every other one is detached)
+DEPOSIT_LINK_SPACINGS = 1.5
+
+
+def connected_deposit(position: np.ndarray, spacing: float, link: float = DEPOSIT_LINK_SPACINGS) -> np.ndarray:
+    """Which particles (bool mask) belong to the main deposit: the largest set of particles each
+    closer than `link`·spacing to another of the set (the lowest-x set on ties). Grains thrown
+    ahead or left behind, alone or in clumps, are not part of it."""
+    points = _points("position", position)
+    radius = _positive("link", link) * _positive("spacing", spacing)
+    i, j = _pairs_within(points, radius)
+    label = np.arange(len(points))
+    while True:  # each particle takes the smallest label among its neighbours until none changes
+        lowest = label.copy()
+        np.minimum.at(lowest, i, label[j])
+        lowest = lowest[lowest]  # pointer jumping: labels of labels, so chains settle in few rounds
+        if np.array_equal(lowest, label):
+            break
+        label = lowest
+    sizes = np.bincount(label, minlength=len(points))
+    return label == int(np.argmax(sizes))
+
+
 def deposit_front(position: np.ndarray, spacing: float, min_thickness: float, *, floor: float = 0.0,
                   bed_height: Callable[[np.ndarray], np.ndarray] | None = None) -> float:
-    """Front of a deposit: the right edge of the first surface-profile bin, going right from the
-    leftmost occupied bin, after which the deposit is thinner than `min_thickness` (m).
+    """Front of a deposit: going right from the leftmost occupied bin of the connected deposit's
+    surface profile (:func:`connected_deposit`, bins one spacing wide), the right edge of the last
+    bin at least `min_thickness` (m) thick before the first two consecutive bins thinner than it.
 
     The thickness is measured above `floor`, or above the bed surface z = bed_height(x) of a curved
-    bed at each bin's centre. Unlike :func:`front_position`, a thin tail or a detached clump beyond
-    the first drop does not count, so the front is where the deposit is resolved.
+    bed at each bin's centre. Unlike :func:`front_position`, a thin tail beyond the front does not
+    count, so the front is where the deposit is resolved; a dip of one bin (a gap between the few
+    grains of a thin deposit's top) does not cut it short, and detached grains do not count at
+    all. It is known to within one bin, ±spacing.
     """
     if not min_thickness > 0:
         raise ValueError(f"min_thickness must be > 0, got {min_thickness!r}")
-    centres, heights = surface_profile(position, spacing, floor=floor)
+    points = _points("position", position)
+    centres, heights = surface_profile(points[connected_deposit(points, spacing)], spacing, floor=floor)
     if bed_height is not None:
         heights = np.where(heights > 0, heights - np.asarray(bed_height(centres), float), 0.0)
     occupied = np.flatnonzero(heights > 0)
     if len(occupied) == 0:
         raise ValueError("position holds no particle above the floor")
-    thick = heights[occupied[0]:] >= min_thickness
+    thick = np.append(heights[occupied[0]:] >= min_thickness, [False, False])
     if not thick[0]:
         return float(centres[occupied[0]] - 0.5 * spacing)
-    last = occupied[0] + (len(thick) if thick.all() else int(np.argmin(thick))) - 1
-    return float(centres[last] + 0.5 * spacing)
+    end = int(np.flatnonzero(~thick[:-1] & ~thick[1:])[0])  # the first of two thin bins in a row
+    return float(centres[occupied[0] + end - 1] + 0.5 * spacing)
 
 
 # -- strain from displacements -------------------------------------------------------------------

@@ -13,6 +13,7 @@ import numpy as np
 
 from terrasph.cli_common import add_force_option, check_output_file, positive_float, positive_int
 from terrasph.io import RunData, read_run, write_xdmf
+from terrasph.run_loop import END_OF_BED, FINISHED_STATUSES
 
 __all__ = ["describe_run", "plot_fields", "plot_profiles_over_time", "plot_run", "register"]
 
@@ -21,7 +22,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     """Adds the ``info`` and ``plot`` commands."""
     info = subparsers.add_parser("info", help="configuration, status, time reached and results of a run file",
                                  description="Print what a run file holds: scene, status (completed, at_rest, "
-                                             "interrupted, unstable), time and steps reached, frames, results.")
+                                             "end_of_bed, interrupted, unstable), time and steps reached, frames, "
+                                             "reason, results.")
     info.add_argument("run", metavar="RUN.h5", type=Path)
     info.add_argument("--json", action="store_true", help="print the same as JSON")
     info.set_defaults(handler=_cmd_info)
@@ -55,7 +57,8 @@ def _read(path: str | os.PathLike[str]) -> RunData:
 
 
 def describe_run(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """A run file's scene, status, time and steps reached, frames, bodies and results (plain data)."""
+    """A run file's scene, status, time and steps reached, frames, bodies, results and the message or
+    reason of a run that did not end at its end time (plain data)."""
     run = _read(path)
     status = run.group_attrs.get("/run", {})
     reached_time = float(run.times[-1]) if run.n_frames else 0.0
@@ -72,9 +75,11 @@ def describe_run(path: str | os.PathLike[str]) -> dict[str, Any]:
         "results": {k: _plain(v) for k, v in run.group_attrs.get("/results", {}).items()},
         "versions": {k: v for k, v in run.attrs.items() if k.startswith("version")},
     }
-    for key in ("message", "checkpoint"):
+    for key in ("message", "reason", "checkpoint"):
         if key in status:
             info[key] = str(status[key])
+    if "first_leak_time" in status:
+        info["first_leak_time"] = float(status["first_leak_time"])
     return info
 
 
@@ -97,15 +102,22 @@ def _cmd_info(args: argparse.Namespace) -> int:
           f"{info['granular_particles']} grains")
     if "message" in info:
         print(f"  message: {info['message']}")
+    if "reason" in info:
+        print(f"  ended early: {info['reason']}")
+    if "first_leak_time" in info:
+        print(f"  grains leaked into a wall or body from t = {info['first_leak_time']:.4g} s on "
+              f"(leaked_particles in /run)")
     if info["bodies"]:
         print(f"  bodies: {', '.join(info['bodies'])} (series in /series/bodies/<name>)")
     for key, value in info["results"].items():
         print(f"  {key} = {value}")
-    if info["status"] not in ("completed", "at_rest"):
+    if info["status"] not in FINISHED_STATUSES:
         next_step = (f"`terrasph resume {info['file']}` continues it from {info['checkpoint']}"
                      if "checkpoint" in info else "to go further, run the scene again")
         print(f"  the run did not finish: its frames up to the time reached are readable and "
               f"`terrasph plot {info['file']}` draws them; {next_step}")
+    elif info["status"] == END_OF_BED:
+        print("  the robot reached the end of its bed: a longer run needs a longer bed (or a start farther back)")
     elif "checkpoint" in info:
         print(f"  `terrasph resume {info['file']} --until T` continues it to a later time T from {info['checkpoint']}")
     return 0

@@ -21,10 +21,11 @@ module that needs them (the bodies' and fixed walls' loads by terrasph.simulatio
 terrasph.robots.run): each returns one row per series group at every sample.
 
 The output contract (docs/hdf5_schema.md), whatever the stepper: ``/run`` holds the status
-(completed, at_rest, interrupted, unstable or failed) with the time, steps, wall time and leak
-counter reached; the XDMF sidecars are written however the run ends; every run but an unstable or
-failed one leaves a checkpoint (:func:`checkpoint_path`) from which ``resume=True`` continues it,
-bitwise the longer run: an interrupted run from where it stopped, a finished one from the start of
+(completed, at_rest, end_of_bed, interrupted, unstable or failed) with the time, steps, wall time
+and leak counter reached (and the reason of a run its `end_check` ended early); the XDMF sidecars
+are written however the run ends; every run but an unstable or failed one leaves a checkpoint
+(:func:`checkpoint_path`) from which ``resume=True`` continues it, bitwise the longer run: an
+interrupted run from where it stopped, a finished one from the start of
 its last stretch (the step that lands on the end time is cut short, so the state at the end time
 is not on the longer run's path, the state before that stretch is).
 """
@@ -40,6 +41,7 @@ import signal
 import sys
 import threading
 import time as wallclock
+import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -48,9 +50,10 @@ import numpy as np
 
 from terrasph.config import ConfigError
 
-__all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS", "LoopResult",
-           "Recorder", "RunLoop", "Stepper", "StopRequest", "building_scene", "check_end_time", "check_run_options",
-           "checkpoint_path", "claimed_output", "lock_path", "output_lock", "recorded_end", "simulated_time_bar"]
+__all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "END_OF_BED", "FINISHED_STATUSES", "SERIES_WRITE_SECONDS",
+           "LoopResult", "Recorder", "RunLoop", "Stepper", "StopRequest", "building_scene", "check_end_time",
+           "check_run_options", "checkpoint_path", "claimed_output", "lock_path", "output_lock", "recorded_end",
+           "simulated_time_bar"]
 
 #: Wall time (s) between writes of the series' rows into the run file (and before every checkpoint and
 #: at the end, so a checkpoint's row counts are what the file holds): a write costs a resize and a
@@ -63,8 +66,10 @@ SERIES_WRITE_SECONDS = 1.0
 #: however slow a step is; the steps per call follow from the last call's seconds per step.
 CHUNK_SECONDS = 0.2
 MAX_STEPS_PER_CHUNK = 500
-#: the statuses of a run that reached its end
-FINISHED_STATUSES = ("completed", "at_rest")
+#: the status of a robot's run that ended where its bed ends (terrasph.robots.run.BedEnds)
+END_OF_BED = "end_of_bed"
+#: the statuses of a run that reached its end: its end time, a state at rest, or (a robot) the end of its bed
+FINISHED_STATUSES = ("completed", "at_rest", END_OF_BED)
 #: a scene build quieter than this (s of wall time) shows nothing; a longer one a status line
 BUILD_QUIET_SECONDS = 2.0
 
@@ -339,8 +344,9 @@ class RunLoop:
     """Runs a :class:`Stepper` to an end time, writing the run file `output` (None: nothing
     written) — frames every `frame_interval` s, the recorders' series every `sample_interval` s —
     and checkpointing every `checkpoint_every` s of wall time (None: only at the end). `at_rest`,
-    given a frame's diagnostics row, ends the run early (status ``at_rest``); `on_frame` is called
-    after each frame."""
+    given a frame's diagnostics row, ends the run early (status ``at_rest``); `end_check`, asked on
+    each frame, ends it early when it returns a (status, reason) pair (a status of
+    :data:`FINISHED_STATUSES`; the reason goes to ``/run``); `on_frame` is called after each frame."""
 
     stepper: Stepper
     output: str | os.PathLike[str] | None = None
@@ -353,6 +359,7 @@ class RunLoop:
     progress: bool = False
     at_rest: Callable[[dict[str, float]], bool] | None = None
     on_frame: Callable[[], None] | None = None
+    end_check: Callable[[], tuple[str, str] | None] | None = None
 
     def run(self, t_end: float, resume: bool = False) -> LoopResult:
         """Runs to `t_end` (s); ``resume=True`` continues the run in `output` from its checkpoint
@@ -385,6 +392,8 @@ class RunLoop:
             next_frame = stepper.time + self.frame_interval
             next_sample = stepper.time + self.sample_interval if sampled else math.inf
 
+        # when the leak counter first rose above 0 (a frame's time), warned of once and kept in /run
+        leak: dict[str, float] = {"first_leak_time": saved["first_leak_time"]} if "first_leak_time" in saved else {}
         unwritten: dict[str, list[dict[str, Any]]] = {}  # rows since the last write, written in one batch
         last_write = wallclock.perf_counter()
 
@@ -413,6 +422,12 @@ class RunLoop:
                 writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
                 frames += 1
             append("diagnostics", row)
+            if row.get("leaked_particles", 0) > 0 and not leak:
+                leak["first_leak_time"] = stepper.time
+                warnings.warn(f"{int(row['leaked_particles'])} grain(s) came inside a wall or body (closer than Δx/2 "
+                              f"to its interior particles) by t = {stepper.time:.4g} s: a leak, counted as "
+                              "leaked_particles in the run file (a part too thin for its load, or too coarse a "
+                              "spacing); the run goes on", RuntimeWarning, stacklevel=2)
             if wallclock.perf_counter() - last_write >= SERIES_WRITE_SECONDS:
                 write_rows()
             if self.on_frame:
@@ -429,7 +444,7 @@ class RunLoop:
             if writer:
                 stepper.checkpoint(checkpoint_path(self.output), {
                     "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
-                    "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start})
+                    "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start, **leak})
 
         def record_end(status: str, **extra: Any) -> None:
             """The final /run attributes, the file closed and its XDMF sidecars, however the run ends."""
@@ -440,7 +455,7 @@ class RunLoop:
             write_rows()
             writer.set_attrs("/run", {"status": status, "t_end": t_end, "wall_time": wallclock.perf_counter() - start,
                                       "steps": stepper.step_count, "time": stepper.time,
-                                      **stepper.run_attributes(), **extra})
+                                      **stepper.run_attributes(), **leak, **extra})
             writer.close()
             if frames:
                 write_xdmf(self.output)
@@ -451,6 +466,7 @@ class RunLoop:
         load_watch = LoadWatch(_core.set_num_threads, _core.get_max_threads)
         final_stretch_saved = False
         status = "completed"
+        ended: dict[str, str] = {}  # the reason of an early end by end_check
         at_step_boundary = False  # a second Ctrl-C may stop the run anywhere, even inside a step
         stop = StopRequest()
         try:
@@ -486,6 +502,11 @@ class RunLoop:
                             status = "at_rest"
                             save_checkpoint()  # a stop on a frame: the longer run's path
                             break
+                        early_end = self.end_check() if self.end_check is not None else None
+                        if early_end is not None:
+                            status, ended["reason"] = early_end
+                            save_checkpoint()
+                            break
                     if at_end:  # no checkpoint here: the end state is off a longer run's path
                         break
                     if stop.requested:
@@ -517,7 +538,7 @@ class RunLoop:
         bar.total = bar.n  # a run that ends early (at rest) ends its bar at 100 %
         bar.refresh()
         bar.close()
-        record_end(status, **({"checkpoint": checkpoint_path(self.output).name} if writer else {}))
+        record_end(status, **ended, **({"checkpoint": checkpoint_path(self.output).name} if writer else {}))
         if resume:  # the whole run's series, not only the resumed part
             from terrasph.io import read_run
 

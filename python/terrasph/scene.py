@@ -11,10 +11,21 @@ from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import lattice_block, polyline_wall
 from terrasph.motion import Motion
 
-__all__ = ["BodyGroup", "Scene", "WallGroup", "earth_pressure_at_rest", "geostatic_deviatoric_stress",
-           "hydrostatic_density"]
+__all__ = ["LAUNCH_HEIGHT_FACTOR", "BodyGroup", "Scene", "WallGroup", "earth_pressure_at_rest", "flung_height",
+           "geostatic_deviatoric_stress", "hydrostatic_density"]
 
 GRAVITY = 9.81
+#: grains struck by a part moving at speed v rise up to about v²/2g above the bed: at ω = 30 rad/s
+#: the coarse C-leg of `leg-rotation` (tip speed 2.29 m/s, v²/2g = 0.266 m) threw them 0.255 m above
+#: the surface, over its container's side walls; walls this many times that height keep them in
+LAUNCH_HEIGHT_FACTOR = 1.5
+
+
+def flung_height(speed: float, gravity: float = GRAVITY) -> float:
+    """How high above the bed (m) grains flung by a part moving at `speed` (m/s) may rise: the
+    ballistic height v²/2g times :data:`LAUNCH_HEIGHT_FACTOR`. Container walls at least this high keep
+    them in the container, instead of letting them fall outside it and out of the domain box."""
+    return LAUNCH_HEIGHT_FACTOR * speed * speed / (2.0 * gravity)
 
 
 @dataclass
@@ -113,6 +124,8 @@ class Scene:
     gravity: float = GRAVITY
     #: z of the undisturbed free surface, for the sinkage of bodies (docs/design.md §3.8); None: not reported
     surface_level: float | None = None
+    #: x of the bed's two ends (its container's inner walls, m), where a robot's run ends; None: no bed
+    bed_ends: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if not (self.spacing > 0 and np.isfinite(self.spacing)):
@@ -165,7 +178,7 @@ class Scene:
         """A `width` × `depth` bed at the origin in a container drawn as one polyline (a box of
         separate walls would leave gaps at its corners) reaching `freeboard` above the bed's
         surface, with the domain box around it and room above for lifted grains. Sets
-        `surface_level`; returns (surface z, inner width) as realised on the lattice."""
+        `surface_level` and `bed_ends`; returns (surface z, inner width) as realised on the lattice."""
         bed = self.add_block(0.0, 0.0, width, depth)
         surface = float(bed[:, 1].max()) + 0.5 * self.spacing
         right = float(bed[:, 0].max()) + 0.5 * self.spacing
@@ -173,6 +186,7 @@ class Scene:
         self.add_wall("container", [(0.0, top), (0.0, 0.0), (right, 0.0), (right, top)], layers=layers,
                       no_slip=no_slip)
         self.surface_level = surface
+        self.bed_ends = (0.0, right)
         margin = (layers + 2) * self.spacing
         self.domain_lower = (-margin, -margin)
         self.domain_upper = (right + margin, top + 0.1)

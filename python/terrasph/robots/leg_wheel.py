@@ -40,8 +40,8 @@ from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.plots import plot_robot
 from terrasph.robots.rft_terrain import RFTCoupling
-from terrasph.robots.run import RobotRun, run_coupled
-from terrasph.scene import GRAVITY, Scene
+from terrasph.robots.run import BedEnds, RobotRun, run_coupled
+from terrasph.scene import GRAVITY, Scene, flung_height
 from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.schedules import check_knots, evaluate
 from terrasph.simulation import Simulation
@@ -76,7 +76,10 @@ class WheelScene(BeadBed):
     bed_depth: float = shared("bed_depth", 0.1)
     start_x: float = option(0.12, help="axle x at start (the rover: the middle of its axles)", unit="m")
     settle_time: float = shared("settle_time", 2.0)
-    t_end: float = shared("t_end", 6.0)
+    #: 2.5 s of driving: the default C-leg wheel's axle, measured on the SPH bed, is at 0.129 m at 2.0 s
+    #: and 0.360 m at 4.5 s, so its legs reach at most 0.44 m, short of the 0.5 m bed's end less
+    #: BED_END_MARGIN; at 6 s it was at 0.536 m, off the bed (docs/robots.md)
+    t_end: float = shared("t_end", 4.5)
     series_interval: float = option(0.01, help="time between series samples", unit="s")
     frame_interval: float = shared("frame_interval", 0.05)
     fidelity: str = fidelity_option("leg-wheel")
@@ -183,13 +186,22 @@ def bed_and_wheel(config: WheelScene) -> tuple[Scene, Numerics, float, bodies.Bo
     wheel's shape; a shape the spacing cannot build is refused naming the wheel."""
     numerics = wheel_numerics(config)
     scene = Scene(spacing=config.spacing)
-    surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, 2.5 * config.leg_length,
-                                            layers=wall_layers_needed(numerics.h_factor))
     try:
         shape = wheel_shape(config)
     except ValueError as error:
         raise ConfigError(f"wheel '{config.wheel}': {error}") from None
+    surface, _ = scene.add_bed_in_container(config.bed_width, config.bed_depth, wheel_freeboard(config, shape),
+                                            layers=wall_layers_needed(numerics.h_factor))
     return scene, numerics, surface, shape
+
+
+def wheel_freeboard(config: WheelScene, shape: bodies.BodyShape) -> float:
+    """Height (m) of the container's walls above the bed: 2.5 leg lengths, or more if grains flung by
+    the wheel's farthest point (at the highest commanded spin, its axle's speed neglected) may rise
+    higher (:func:`terrasph.scene.flung_height`)."""
+    knots = getattr(config, "omega_schedule", ())
+    spin = max([config.omega, *(w for _, w in knots)])
+    return max(2.5 * config.leg_length, flung_height(spin * float(np.hypot(*shape.position.T).max()), GRAVITY))
 
 
 def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float, float], gravity: float) -> str:
@@ -235,13 +247,23 @@ def build_leg_wheel(config: LegWheel) -> CoupledSimulation | RFTCoupling:
     return CoupledSimulation(robot, Simulation(scene, config.material(), numerics))
 
 
+def wheel_bed_ends(config: WheelScene, coupled: CoupledSimulation | RFTCoupling, resume: bool) -> BedEnds:
+    """Where a wheel scene's run ends (:class:`terrasph.robots.run.BedEnds`): the container's inner
+    walls on the SPH, the same bed (0 to bed_width) on the RFT terrain, so both cover the same ground."""
+    ends = coupled.sim.scene.bed_ends if isinstance(coupled, CoupledSimulation) else (0.0, config.bed_width)
+    return BedEnds(coupled, ends, resume=resume)
+
+
 def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
                   plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
     """Runs the scene; returns a summary (mean forward speed, slip and sinkage after the pause, final
-    and maximum sinkage, motor work, cost of transport, leaks) and the series, and with `plot` and an
-    `output` draws the PNG beside it. ``resume=True`` continues the run in `output` from its
-    checkpoint, ``until`` replaces the end time (:func:`terrasph.robots.run.run_coupled`)."""
+    and maximum sinkage, motor work, cost of transport, leaks; ``end_of_bed``, the reason, when the
+    wheel reached the end of its bed and the run ended there: :func:`wheel_bed_ends`) and the series,
+    and with `plot` and an `output` draws the PNG beside it. ``resume=True`` continues the run in
+    `output` from its checkpoint, ``until`` replaces the end time
+    (:func:`terrasph.robots.run.run_coupled`)."""
     coupled = build_leg_wheel(config)
+    bed = wheel_bed_ends(config, coupled, resume)
     # positive motor work since the pause (J) and the axle's x when the spin began (NaN before)
     work = {"motor": 0.0, "start_x": math.nan}
 
@@ -257,7 +279,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
 
     series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
-                         control=motor, progress=progress, memory=work, resume=resume,
+                         control=motor, progress=progress, memory=work, resume=resume, end_check=bed,
                          config={"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config), **coupled.describe()})
     wheel = series["robot/wheel"]
     # the driven phase: after the pause, once the servo has brought ω to half the command
@@ -275,7 +297,9 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                                                        float(coupled.robot.data.qpos[0]) - work["start_x"]),
                # Eq. 4.8 of the phase's mean speed and spin (a mean of the samples would be dominated
                # by the spin-up, where Rω is near 0)
-               "mean_slip": float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any() else math.nan}
+               "mean_slip": (float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any()
+                             else math.nan),
+               "end_of_bed": bed.reason}
     if output is not None:
         write_results(output, summary)
     figure = None

@@ -41,7 +41,7 @@ from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import PlanarRobot, body_name, check_planar, load_model, mujoco_warnings
 from terrasph.robots.plots import body_legend, plot_robot_3d
 from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, RobotLoads3D, rft_robot, wheel_radii
-from terrasph.robots.run import RobotRun, run_coupled
+from terrasph.robots.run import BedEnds, RobotRun, run_coupled
 from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot, world_support
 from terrasph.scene import Scene
 from terrasph.scenes.leg_rotation import BeadBed
@@ -199,7 +199,9 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     a summary (:func:`_summary`: travel of the centre of mass after the pause, each coupled body's
     sinkage, the terrain's lift over the robot's weight, on RFT the final pose, each body's load and
     each wheel's slip, and ``through_the_bed``: the uncoupled bodies that reached below the
-    terrain's surface, with the first time, each also warned of) and the series; with `plot` and an
+    terrain's surface, with the first time, each also warned of; on the SPH bed ``end_of_bed``, the
+    reason, when a coupled body reached an end of the bed and the run ended there:
+    :class:`terrasph.robots.run.BedEnds`) and the series; with `plot` and an
     `output`, the PNG beside it. ``resume`` and ``until`` as in
     :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
     coupled = build_mjcf(config)
@@ -209,6 +211,10 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     on_rft = isinstance(coupled, RFT3DCoupling)
     surface = coupled.robot.surface if on_rft else float(coupled.sim.scene.surface_level)
     crossings = BedCrossings(coupled.robot, surface, memory)
+    # the SPH bed ends at its container's walls; the 3D RFT terrain is a plane without ends
+    bed = None
+    if isinstance(coupled, CoupledSimulation) and coupled.sim.scene.bed_ends is not None:
+        bed = BedEnds(coupled, coupled.sim.scene.bed_ends, resume=resume)
 
     def control(run: CoupledSimulation | RFT3DCoupling) -> None:
         crossings.check(run.time)
@@ -218,9 +224,10 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
-                         recorder=RobotLoads3D(coupled) if on_rft else None,
+                         recorder=RobotLoads3D(coupled) if on_rft else None, end_check=bed,
                          config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **terrain})
-    summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"])}
+    summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"]),
+               "end_of_bed": bed.reason if bed else None}
     if output is not None:  # /results holds plain values: the bodies that went through, by name
         write_results(output, {**summary, "through_the_bed": json.dumps(summary["through_the_bed"])})
     figure = None

@@ -19,7 +19,14 @@ from terrasph.config import ConfigError
 from terrasph.io import write_results
 from terrasph.options import option, redefault
 from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import WheelScene, bed_and_wheel, check_wheel_config, wheel_footprint, wheel_shape
+from terrasph.robots.leg_wheel import (
+    WheelScene,
+    bed_and_wheel,
+    check_wheel_config,
+    wheel_bed_ends,
+    wheel_footprint,
+    wheel_shape,
+)
 from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
 from terrasph.robots.plots import plot_robot
@@ -87,21 +94,23 @@ def build_rover(config: Rover) -> CoupledSimulation:
 def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
               plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
     """Runs the scene; returns a summary (distance, mean speed and slip of each wheel after the
-    pause, final sinkage of each wheel, pitch, leaks) and the series, and with `plot` and an
+    pause, final sinkage of each wheel, pitch, leaks; ``end_of_bed`` as in :func:`run_leg_wheel`) and
+    the series, and with `plot` and an
     `output` draws the PNG beside it. ``resume`` and ``until`` as in :func:`run_leg_wheel`."""
     coupled = build_rover(config)
+    bed = wheel_bed_ends(config, coupled, resume)
 
     def motors(run: CoupledSimulation) -> None:
         run.robot.data.ctrl[:] = config.omega if run.time >= config.settle_time else 0.0
 
     series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
-                         control=motors, progress=progress, resume=resume,
+                         control=motors, progress=progress, resume=resume, end_check=bed,
                          config={"scene": "rover", "rover": dataclasses.asdict(config), **coupled.sim.describe()})
     summary: dict[str, Any] = {"wheel": config.wheel, "steps": coupled.sim.step_count,
                                "leaked_particles": coupled.sim.leaked_particles,
                                "distance": float(coupled.robot.data.qpos[0] - config.start_x),
-                               "final_pitch": float(coupled.robot.data.qpos[2])}
+                               "final_pitch": float(coupled.robot.data.qpos[2]), "end_of_bed": bed.reason}
     radius = coupled.robot.coupled[0].shape.radius
     for name in WHEEL_BODIES:
         body = series[f"robot/{name}"]

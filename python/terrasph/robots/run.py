@@ -24,14 +24,20 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from terrasph.config import ConfigError
 from terrasph.io import defined_values
-from terrasph.robots.coupling import CoupledSimulation, RobotStepper
+from terrasph.robots.coupling import SURFACE_MARGIN, CoupledSimulation, RobotStepper
 from terrasph.robots.metrics import sinkage, slip
 from terrasph.robots.mjcf import mujoco_warnings
 from terrasph.robots.rft3d_terrain import RFT3DCoupling
-from terrasph.run_loop import Recorder
+from terrasph.run_loop import END_OF_BED, Recorder
 
-__all__ = ["ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled"]
+__all__ = ["BED_END_MARGIN", "BedEnds", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled"]
+
+#: a coupled body that comes this close (m) to an end of its bed has reached it: the grains between
+#: it and the end wall are those it disturbs (SURFACE_MARGIN), so from there on the wall is part of
+#: what it measures
+BED_END_MARGIN = SURFACE_MARGIN
 
 
 def body_row(coupled: RobotStepper, name: str, surface: float) -> dict[str, Any]:
@@ -51,6 +57,46 @@ def _actuator_row(coupled: RobotStepper) -> dict[str, Any]:
     return {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(), "ctrl": data.ctrl.copy(),
             "com": data.subtree_com[0][[0, 2]].copy(), "actuator_force": data.actuator_force.copy(),
             "power": float(np.dot(data.actuator_force, data.actuator_velocity))}
+
+
+class BedEnds:
+    """The run loop's `end_check` of a robot on a bed between x = `ends` (m): the run ends (status
+    :data:`END_OF_BED`, its reason recorded) on the first frame at which a coupled body's x extent
+    at its pose (its shape's particles) comes within `margin` of either end, so every series and
+    summary value covers the robot's time on the bed only. A robot that starts that close is refused
+    before any step (unless `resume`: the run then ends on its first frame, as before). `reason`
+    holds the reason once the check has ended a run (None until then)."""
+
+    def __init__(self, coupled: RobotStepper, ends: tuple[float, float], margin: float = BED_END_MARGIN,
+                 resume: bool = False) -> None:
+        self.coupled, self.ends, self.margin = coupled, (float(ends[0]), float(ends[1])), float(margin)
+        self.reason: str | None = None
+        if not resume:
+            for name, (low, high) in self.extents().items():
+                if low < self.ends[0] + margin or high > self.ends[1] - margin:
+                    raise ConfigError(f"coupled body '{name}' starts at x in [{low:.4g}, {high:.4g}] m, within "
+                                      f"{margin:g} m of the bed's ends x = {self.ends[0]:.4g} and {self.ends[1]:.4g} m;"
+                                      " place the robot farther from them (start_x) or widen the bed (bed_width)")
+
+    def extents(self) -> dict[str, tuple[float, float]]:
+        """Each coupled body's x extent (m) at its pose now."""
+        coupled, extents = self.coupled, {}
+        for body in coupled.robot.coupled:
+            points, _ = body.shape.transformed(coupled.angle(body.name), tuple(coupled.robot.reference(body)))
+            extents[body.name] = (float(points[:, 0].min()), float(points[:, 0].max()))
+        return extents
+
+    def __call__(self) -> tuple[str, str] | None:
+        """(END_OF_BED, reason) once a coupled body has reached an end of the bed, else None."""
+        for name, (low, high) in self.extents().items():
+            for reached, end, side in ((high > self.ends[1] - self.margin, self.ends[1], "far"),
+                                       (low < self.ends[0] + self.margin, self.ends[0], "near")):
+                if reached:
+                    self.reason = (f"coupled body '{name}' reached the {side} end of the bed (x = {end:.4g} m, "
+                                   f"margin {self.margin:g} m) at t = {self.coupled.time:.4g} s: the run ends "
+                                   "there and its values cover the time on the bed")
+                    return END_OF_BED, self.reason
+        return None
 
 
 class RobotLoads:
@@ -132,7 +178,8 @@ def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: 
                 config: dict[str, Any] | None = None, control: Callable[[Any], None] | None = None,
                 progress: bool = False, memory: dict[str, Any] | None = None,
                 checkpoint_every: float | None = 600.0, resume: bool = False,
-                recorder: Recorder | None = None) -> dict[str, dict[str, np.ndarray]]:
+                recorder: Recorder | None = None,
+                end_check: Callable[[], tuple[str, str] | None] | None = None) -> dict[str, dict[str, np.ndarray]]:
     """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`RobotStepper`, e.g. the RFT terrain's
     :class:`terrasph.robots.rft_terrain.RFTCoupling`, or the 3D RFT terrain's
     :class:`terrasph.robots.rft3d_terrain.RFT3DCoupling` with its `recorder`) to `t_end` (s); writes frames (the grains and
@@ -144,7 +191,8 @@ def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: 
     the grains on each fixed wall (:meth:`terrasph.Simulation.wall_loads`) is sampled too, as
     ``walls/<name>`` (kept in checkpoints: track them again, about the same point, before resuming).
     `recorder` records the robot's series (default :class:`RobotLoads`, the planar robot's; the 3D
-    RFT terrain's is :class:`terrasph.robots.rft3d_terrain.RobotLoads3D`).
+    RFT terrain's is :class:`terrasph.robots.rft3d_terrain.RobotLoads3D`). `end_check`, asked on each
+    frame (a :class:`BedEnds`, say), ends the run early when it returns (status, reason).
 
     As :meth:`terrasph.Simulation.run` (the same loop, terrasph.run_loop.RunLoop): with an `output`,
     the SPH State, MuJoCo's state (qpos, qvel, act, ctrl, warm start, time), the coupling's memory
@@ -168,6 +216,6 @@ def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: 
     loop = RunLoop(ControlledRun(coupled, control, {} if memory is None else memory), output, frame_interval,
                    series_interval, [recorder or RobotLoads(coupled), *([walls] if walls and walls.groups else [])],
                    config or coupled.describe(), {**versions(), "mujoco": mujoco.__version__}, checkpoint_every,
-                   progress)
+                   progress, end_check=end_check)
     with mujoco_warnings():  # MuJoCo's warnings as Python's, not into MUJOCO_LOG.TXT in the working directory
         return loop.run(t_end, resume).series

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,8 +25,29 @@ from terrasph.scene import Scene
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
 
-__all__ = ["BEDS", "MATERIAL_PRESETS", "RESOLUTIONS", "ColumnCollapse", "ColumnResult", "build_column_collapse",
-           "run_column_collapse"]
+__all__ = ["BEDS", "FLOOR_RUNOUT_FACTOR", "MATERIAL_PRESETS", "MIN_FLOOR_LENGTH", "RESOLUTIONS", "ColumnCollapse",
+           "ColumnResult", "build_column_collapse", "lube_runout", "run_column_collapse"]
+
+#: the flat floor's least length (m), the dissertation's
+MIN_FLOOR_LENGTH = 0.35
+#: the flat floor reaches this many times the runout of Lube et al.'s fit (:func:`lube_runout`) past
+#: the column: the 0.5 m tall column (a = 7.25, coarse) ran out 1.35 times the fit to its deposit
+#: front and its toe 1.39 times, so a floor of the fit's reach let it run past its end (the run ended
+#: "unstable" as its grains left the domain box)
+FLOOR_RUNOUT_FACTOR = 2.0
+
+
+def lube_runout(aspect: float) -> float:
+    """The quasi-2D runout L* = (L∞ − L0)/L0 of Lube, Huppert, Sparks & Freundt (2005, Phys. Rev. E 72,
+    041301) for aspect ratio a = H0/L0: 1.2a for a ≤ 1.8, 1.9a^(2/3) for a ≥ 2.8, and in the
+    transition between them the value of the nearer branch's end, linearly interpolated (their data
+    pass from one law to the other there)."""
+    if aspect <= 1.8:
+        return 1.2 * aspect
+    if aspect >= 2.8:
+        return 1.9 * aspect ** (2.0 / 3.0)
+    low, high = 1.2 * 1.8, 1.9 * 2.8 ** (2.0 / 3.0)
+    return low + (high - low) * (aspect - 1.8) / (2.8 - 1.8)
 
 #: The runout front is where the deposit first becomes thinner than this many grain diameters (8 mm
 #: for the 2 mm beads; 0.1·H0 for the 8 cm column). A physical thickness, not a fraction of H0, so
@@ -72,7 +94,10 @@ class ColumnCollapse:
     #: > 0 gives the wet material of Table 2.1 with cohesion; help and range from the parameter table
     water_content: float = option(0.0, help=f"{parameter('material.water_content').doc}; allowed "
                                             f"{parameter('material.water_content').allowed}", unit="kg/kg")
-    floor_length: float = option(0.35, help="length of the rough flat floor right of the left wall", unit="m")
+    floor_length: float | None = option(None, help="length of the rough flat floor right of the left wall", unit="m",
+                                        default_text=f"{MIN_FLOOR_LENGTH} m, or the column's width plus "
+                                                     f"{FLOOR_RUNOUT_FACTOR:g} times its runout by the quasi-2D fit "
+                                                     "if longer")
     bed: str = option("flat", choices=BEDS, help="bed under the column: flat floor, or a circular or elliptical "
                                                  "trough whose lowest point is at the left wall (Fig. 2.7-2.8)")
     bed_radius: float = option(0.35, help="radius of the circular trough", unit="m")
@@ -94,7 +119,7 @@ class ColumnCollapse:
     def __post_init__(self) -> None:
         check_tier(self.fidelity)
         check_tier(self.fidelity)
-        for name in ("column_width", "column_height", "floor_length", "t_end", "frame_interval", "width"):
+        for name in ("column_width", "column_height", "t_end", "frame_interval", "width"):
             value = getattr(self, name)
             if not (value > 0 and math.isfinite(value)):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
@@ -117,8 +142,16 @@ class ColumnCollapse:
             name = "bed_radius" if self.bed == "circular" else "bed_axes"
             raise ConfigError(f"parameter '{name}' = {getattr(self, name)!r} is invalid: allowed a trough "
                               f"half-width > 2*column_width = {2 * self.column_width:g} m")
-        if self.floor_length <= self.column_width:
-            raise ConfigError(f"parameter 'floor_length' = {self.floor_length} is invalid: allowed > column_width")
+        if self.floor_length is not None:
+            if not (isinstance(self.floor_length, (int, float)) and math.isfinite(self.floor_length)
+                    and self.floor_length > self.column_width):
+                raise ConfigError(f"parameter 'floor_length' = {self.floor_length!r} is invalid: allowed a finite "
+                                  f"number > column_width = {self.column_width:g} m")
+            if self.bed == "flat" and self.floor_length < self.expected_reach:
+                warnings.warn(f"floor_length = {self.floor_length:g} m is shorter than where this column's runout may "
+                              f"reach, {self.expected_reach:.3g} m ({FLOOR_RUNOUT_FACTOR:g} times the quasi-2D fit's "
+                              "runout): grains that run past the floor's end leave the domain box and end the run "
+                              "(leave floor_length at its default to size it)", RuntimeWarning, stacklevel=3)
         check_settle_time(self.settle_time, self.t_end)
         if self.material_preset not in MATERIAL_PRESETS:
             raise ConfigError(f"parameter 'material_preset' = {self.material_preset!r} is invalid: allowed one of "
@@ -135,6 +168,17 @@ class ColumnCollapse:
         if self.spacing is not None:
             return self.spacing
         return math.sqrt(self.column_width * self.column_height / RESOLUTIONS[self.resolution])
+
+    @property
+    def expected_reach(self) -> float:
+        """How far (m) the collapse may run: the column's width plus FLOOR_RUNOUT_FACTOR times the
+        runout of the quasi-2D fit (:func:`lube_runout`) at its aspect ratio."""
+        return self.column_width * (1.0 + FLOOR_RUNOUT_FACTOR * lube_runout(self.column_height / self.column_width))
+
+    @property
+    def floor(self) -> float:
+        """The flat floor's length (m): `floor_length`, or MIN_FLOOR_LENGTH or the expected reach if longer."""
+        return self.floor_length if self.floor_length is not None else max(MIN_FLOOR_LENGTH, self.expected_reach)
 
     @property
     def bed_semi_axes(self) -> tuple[float, float] | None:
@@ -159,7 +203,7 @@ class ColumnCollapse:
     def footprint(self) -> Footprint:
         """The column's area and the floor, left wall and gate (size guard)."""
         semi_axes = self.bed_semi_axes
-        floor = self.floor_length if semi_axes is None else 0.25 * math.pi * (semi_axes[0] + semi_axes[1])
+        floor = self.floor if semi_axes is None else 0.25 * math.pi * (semi_axes[0] + semi_axes[1])
         return Footprint(self.grid_spacing, self.column_width * self.column_height,
                          floor + 2.0 * self.column_height, self.t_end, self.material(), self.build_numerics())
 
@@ -188,9 +232,9 @@ def build_column_collapse(config: ColumnCollapse) -> tuple[Scene, Material, Nume
     margin = (layers + 2) * dx
     semi_axes = config.bed_semi_axes
     if semi_axes is None:
-        scene.add_wall("floor", [(0.0, wall_top), (0.0, 0.0), (config.floor_length, 0.0)], layers=layers,
+        scene.add_wall("floor", [(0.0, wall_top), (0.0, 0.0), (config.floor, 0.0)], layers=layers,
                        no_slip=True)
-        bed_right, bed_top = config.floor_length, 0.0
+        bed_right, bed_top = config.floor, 0.0
     else:
         _add_trough(scene, semi_axes, wall_top, layers)
         scene.granular[0] = column[_above_bed(column, config, dx)]
@@ -229,9 +273,11 @@ def _above_bed(points: np.ndarray, config: ColumnCollapse, dx: float) -> np.ndar
 
 @dataclass
 class ColumnResult:
-    """Outcome of a column collapse: normalised runout L* = (L − L0)/L0 (L: front of the deposit at
-    least DEPOSIT_THICKNESS_GRAIN_DIAMETERS grain diameters thick, measured from the bed) and height
-    H* = H_f/H0; `toe_front` is the x reached by any connected particle, the monolayer toe included."""
+    """Outcome of a column collapse: normalised runout L* = (L − L0)/L0 (L: front of the connected
+    deposit where it is at least DEPOSIT_THICKNESS_GRAIN_DIAMETERS grain diameters thick, measured from
+    the bed: :func:`terrasph.analysis.deposit_front`) with its resolution error `runout_error` = Δx/L0
+    (the front is known to one bin of the surface profile, Δx wide), and height H* = H_f/H0;
+    `toe_front` is the x reached by any connected particle, the monolayer toe included."""
 
     runout_normalised: float
     final_height_normalised: float
@@ -241,12 +287,14 @@ class ColumnResult:
     spacing: float
     run: RunResult
     toe_front: float = float("nan")
+    runout_error: float = float("nan")
     final_position: np.ndarray | None = None
     plot: str | None = None
 
     def summary(self) -> dict[str, Any]:
         """Flat dict for tables and HDF5 attributes."""
-        return {"runout_normalised": self.runout_normalised, "final_height_normalised": self.final_height_normalised,
+        return {"runout_normalised": self.runout_normalised, "runout_error": self.runout_error,
+                "final_height_normalised": self.final_height_normalised,
                 "initial_length": self.initial_length, "initial_height": self.initial_height,
                 "toe_front": self.toe_front,
                 "granular_particles": self.granular_particles, "spacing": self.spacing,
@@ -282,7 +330,7 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
     toe = analysis.front_position(final, dx)
     result = ColumnResult(analysis.normalised_runout(front, 0.0, length0),
                           analysis.final_height(final, dx) / height0, length0, height0, len(final), dx, run,
-                          toe_front=toe, final_position=final)
+                          toe_front=toe, runout_error=dx / length0, final_position=final)
     if output is not None:
         write_results(output, result.summary())
         if plot:
@@ -291,7 +339,7 @@ def run_column_collapse(config: ColumnCollapse = ColumnCollapse(), *, output: st
             png = Path(output).with_suffix(".png")
             centres0, heights0 = analysis.surface_profile(initial, dx)
             centres, heights = analysis.surface_profile(final, dx)
-            label = (f"t = {run.time:.2f} s, L* = {result.runout_normalised:.2f}, "
+            label = (f"t = {run.time:.2f} s, L* = {result.runout_normalised:.2f} ± {result.runout_error:.2f}, "
                      f"H* = {result.final_height_normalised:.2f}")
             bed = None
             if config.bed_semi_axes is not None:

@@ -25,7 +25,7 @@ from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
 from terrasph.motion import hold_then_rotate
 from terrasph.options import option, shared
-from terrasph.scene import Scene
+from terrasph.scene import Scene, flung_height
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
 
@@ -204,12 +204,14 @@ def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
     numerics = config.build_numerics()
     layers = wall_layers_needed(numerics.h_factor)
     scene = Scene(spacing=dx)
-    freeboard = max(config.hip_height, 0.0) + config.leg_length  # sand heaped by the leg stays in
-    surface, right = scene.add_bed_in_container(config.bed_width, config.bed_depth, freeboard, layers=layers)
     try:
         shape = config.shape()
     except ValueError as error:
         raise ConfigError(f"leg geometry: {error}") from None
+    # sand heaped by the leg stays in, and so do grains it flings (its farthest point turning at ω)
+    tip_speed = config.omega * float(np.hypot(*shape.position.T).max())
+    freeboard = max(max(config.hip_height, 0.0) + config.leg_length, flung_height(tip_speed, scene.gravity))
+    surface, right = scene.add_bed_in_container(config.bed_width, config.bed_depth, freeboard, layers=layers)
     hip = (0.5 * right, surface + config.hip_height)
     sweep = np.linspace(config.start_angle, config.end_angle, 91)
     lowest = min(shape.lowest_point(angle, hip) for angle in sweep)

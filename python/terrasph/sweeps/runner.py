@@ -11,9 +11,10 @@ Layout of a sweep directory::
                                with the session (one invocation) that caused it
 
 A case counts as finished only if ``runs/<case_id>.h5`` opens as HDF5 and its ``/run`` status is
-"completed" or "at_rest"; anything else (no file, a partial or corrupted file, a failed run) is
-run again by the next invocation. A worker runs in ``runs/<case_id>.partial/`` and moves the run
-file and the files beside it (figure, XDMF sidecars) into ``runs/``, the run file last.
+finished (terrasph.run_loop.FINISHED_STATUSES: completed, at_rest, end_of_bed); anything else (no
+file, a partial or corrupted file, a failed run) is run again by the next invocation. A worker runs
+in ``runs/<case_id>.partial/`` and moves the run file and the files beside it (figure, XDMF
+sidecars) into ``runs/``, the run file last.
 """
 
 from __future__ import annotations
@@ -29,11 +30,10 @@ import uuid
 from pathlib import Path
 from typing import Any
 
+from terrasph.run_loop import FINISHED_STATUSES
 from terrasph.sweeps.spec import Case, SweepSpec
 
-__all__ = ["is_finished", "run_one", "run_sweep"]
-
-FINISHED_STATUSES = ("completed", "at_rest")
+__all__ = ["check_shared_output", "is_finished", "probe_output", "run_one", "run_sweep"]
 
 
 def _write_json_atomically(path: Path, data: Any) -> None:
@@ -104,6 +104,51 @@ def run_one(scene: str, case: Case, out_dir: str, omp_threads: int, session: str
     return record
 
 
+def probe_output(out_dir: str, token: str) -> dict[str, str]:
+    """Run on a worker: writes ``<out_dir>/.probe-<token>`` holding `token`, reads it back and says
+    where it ran; an OSError is returned as its message (the file then is not there)."""
+    where = f"{socket.gethostname()}:{os.getpid()}"
+    path = Path(out_dir) / f".probe-{token}"
+    try:
+        path.write_text(token)
+        if path.read_text() != token:
+            return {"worker": where, "error": f"read back other contents from {path}"}
+    except OSError as error:
+        return {"worker": where, "error": f"{type(error).__name__}: {error}"}
+    return {"worker": where, "error": ""}
+
+
+def check_shared_output(client: Any, out_dir: Path, scheduler: str) -> None:
+    """Before any case: a probe task on every worker of the cluster at `scheduler` writes a file under
+    `out_dir` (:func:`probe_output`) and this client reads it back. ConfigError in one line naming
+    the first worker that cannot write there, or whose file this client cannot see (its OUT is on
+    another file system): the runs would land on the workers' disks and the manifest point at nothing."""
+    from terrasph.config import ConfigError
+
+    workers = sorted(client.scheduler_info()["workers"])
+    if not workers:
+        raise ConfigError(f"--scheduler {scheduler}: the cluster has no workers")
+    tokens = {address: uuid.uuid4().hex for address in workers}
+    futures = {address: client.submit(probe_output, str(out_dir), token, workers=[address],
+                                      allow_other_workers=False, pure=False, key=f"probe-{token}")
+               for address, token in tokens.items()}
+    try:
+        for address, future in futures.items():
+            answer = future.result()
+            seen = out_dir / f".probe-{tokens[address]}"
+            if answer["error"]:
+                raise ConfigError(f"--scheduler {scheduler}: worker {address} ({answer['worker']}) cannot write the "
+                                  f"sweep directory {out_dir}: {answer['error']}; give a directory on a file "
+                                  "system every worker and this client share")
+            if not (seen.is_file() and seen.read_text() == tokens[address]):
+                raise ConfigError(f"--scheduler {scheduler}: worker {address} ({answer['worker']}) wrote {seen} "
+                                  "but this client does not see it: the sweep directory must be on a file system "
+                                  "every worker and this client share")
+    finally:
+        for token in tokens.values():
+            (out_dir / f".probe-{token}").unlink(missing_ok=True)
+
+
 def _publish(staging: Path, final: Path) -> None:
     """Moves a finished case's files from its staging directory beside `final` under the names the
     run gave them (its figure, its XDMF sidecars, which name the run file relative to themselves),
@@ -140,7 +185,9 @@ def run_sweep(spec: SweepSpec, out_dir: str | os.PathLike[str], *, workers: int 
               scheduler: str | None = None, progress: bool = True) -> dict[str, Any]:
     """Runs the cases of `spec` not yet finished in `out_dir` on Dask — a LocalCluster of `workers`
     process workers (one task each at a time) unless `scheduler` names an existing cluster — with
-    `threads_per_worker` OpenMP threads per run. Writes and returns the manifest."""
+    `threads_per_worker` OpenMP threads per run. Writes and returns the manifest. On an existing
+    cluster every worker must write `out_dir` where this client reads it (a shared file system,
+    the same absolute path): :func:`check_shared_output` refuses the sweep before any case otherwise."""
     from dask.distributed import Client, LocalCluster, as_completed
 
     if progress:
@@ -151,7 +198,7 @@ def run_sweep(spec: SweepSpec, out_dir: str | os.PathLike[str], *, workers: int 
     for name, value in (("workers", workers), ("threads_per_worker", threads_per_worker)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             raise ValueError(f"parameter '{name}' = {value!r} is invalid: allowed an integer >= 1")
-    out = Path(out_dir)
+    out = Path(out_dir).resolve()  # the workers may start elsewhere: they get the absolute path
     (out / "runs").mkdir(parents=True, exist_ok=True)
     pending, records = _pending(spec, out)
     session = uuid.uuid4().hex[:8]
@@ -172,6 +219,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | os.PathLike[str], *, workers: int 
                                                   dashboard_address=":0", silence_logs=logging.ERROR)
     try:
         with Client(scheduler or cluster) as client:
+            if scheduler:
+                check_shared_output(client, out, scheduler)
             futures = []
             for case in pending:
                 futures.append(client.submit(run_one, spec.scene, case, str(out), threads_per_worker, session,
