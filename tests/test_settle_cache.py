@@ -21,7 +21,14 @@ from robot_helpers import assert_same_series
 from terrasph.cli import main
 from terrasph.io import read_run
 from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
-from terrasph.settle_cache import CACHE_ENV, SettleCache, cache_key, key_text
+from terrasph.robots.rover import Rover, run_rover
+from terrasph.settle_cache import (
+    CACHE_ENV,
+    SettleCache,
+    cache_key,
+    key_text,
+    model_digest,
+)
 from terrasph.simulation import versions
 
 #: a coarse, short leg-wheel on the SPH bed (~1 s a run): 0.1 s pause, 0.1 s driven
@@ -77,8 +84,9 @@ def test_a_run_with_another_omega_starts_from_the_same_pause_and_equals_its_own_
 
 
 def _key(config: LegWheel) -> str:
-    return cache_key(key_text("leg-wheel", config, build_leg_wheel(config).describe(),
-                              {**versions(), "mujoco": mujoco.__version__}))
+    built = build_leg_wheel(config)
+    return cache_key(key_text("leg-wheel", config, built.describe(), {**versions(), "mujoco": mujoco.__version__},
+                              model_digest(built.robot.model)))
 
 
 @pytest.mark.parametrize("change", [{"load": 2.5}, {"spacing": 0.0045}, {"settle_time": 0.12}, {"wheel": "wheel"},
@@ -87,6 +95,20 @@ def _key(config: LegWheel) -> str:
                                     {"start_x": 0.07}, {"bed_depth": 0.05}])
 def test_the_key_changes_with_every_field_before_the_drive(change: dict) -> None:
     assert _key(dataclasses.replace(TINY, **change)) != _key(TINY)
+
+
+def test_a_cached_rover_start_equals_the_rover_that_settles_itself(tmp_path: Path) -> None:
+    """The rover (two coupled wheels, its MJCF's motors) likewise, and a rover with another ω starts
+    from the same entry."""
+    cache = SettleCache(tmp_path / "cache")
+    rover = Rover(spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.3, bed_depth=0.04, start_x=0.12,
+                  settle_time=0.08, t_end=0.14, omega=2.0)
+    run_rover(rover, tmp_path / "itself.h5", plot=False, cache=False)
+    run_rover(dataclasses.replace(rover, omega=1.0), tmp_path / "other.h5", plot=False, cache=cache)
+    cached = run_rover(rover, tmp_path / "cached.h5", plot=False, cache=cache)
+    assert _settled_state(tmp_path / "cached.h5")["settled_state_event"] == "from_cache"
+    _same_run_files(tmp_path / "itself.h5", tmp_path / "cached.h5")
+    assert cached.values["distance"] != 0
 
 
 def test_the_key_does_not_change_with_the_drive() -> None:

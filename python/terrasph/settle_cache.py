@@ -4,8 +4,9 @@ that would settle the same bed under the same robot at rest.
 What happens before the drive depends on the bed, the robot at rest on it, the numerics and the code,
 not on the drive that follows. A configuration class declares its drive-only fields once, in its
 ``DRIVE_FIELDS`` (the leg-wheel's ω, ω(t) schedule and end time); every other field, the resolved
-material, numerics, bodies and walls (the stepper's ``describe()``), the versions and the identity of
-the code (a SHA-256 of the package's Python sources and of its compiled core) make the **key**, a
+material, numerics, bodies and walls (the stepper's ``describe()``), the versions and the compiled robot
+model (its MJB bytes) and the identity of the code (a SHA-256 of the package's Python sources and of
+its compiled core) make the **key**, a
 SHA-256 of their canonical JSON. A field added later is part of the key unless it is declared a drive
 field, so a new setting can make the cache miss, never give a wrong start.
 
@@ -46,7 +47,7 @@ from dataclasses import dataclass
 from typing import Any
 
 __all__ = ["CACHE_ENV", "SettleCache", "SettledStart", "cache_key", "code_identity", "copy_start", "default_cache",
-           "key_text", "pre_drive_fields", "record_start", "run_after_pause"]
+           "key_text", "model_digest", "pre_drive_fields", "record_start", "run_after_pause"]
 
 LOG = logging.getLogger(__name__)
 
@@ -81,12 +82,25 @@ def code_identity() -> str:
     return digest.hexdigest()
 
 
-def key_text(scene: str, config: Any, description: Mapping[str, Any], versions: Mapping[str, str]) -> str:
+def model_digest(model: Any) -> str:
+    """SHA-256 of a compiled MuJoCo model (its MJB bytes): the robot as the run has it, whatever file
+    or text it came from."""
+    import mujoco
+    import numpy as np
+
+    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return hashlib.sha256(buffer.tobytes()).hexdigest()
+
+
+def key_text(scene: str, config: Any, description: Mapping[str, Any], versions: Mapping[str, str],
+             robot: str) -> str:
     """The canonical JSON of everything that determines the state at the end of `scene`'s pause:
     `config`'s pre-drive fields, the stepper's `description` (material, numerics, bodies, walls),
-    the `versions` and the code's identity."""
+    the `versions`, the `robot` (:func:`model_digest`: a model file edited under the same name
+    changes it) and the code's identity."""
     content = {"scene": scene, "config_type": type(config).__qualname__, "config": pre_drive_fields(config),
-               "description": description, "versions": dict(versions), "code": code_identity()}
+               "description": description, "versions": dict(versions), "robot": robot, "code": code_identity()}
     return json.dumps(content, sort_keys=True, default=_plain)
 
 
@@ -254,7 +268,8 @@ def run_after_pause(cache: SettleCache | bool, scene: str, config: Any, stepper:
     store = default_cache() if cache is True else cache
     if not isinstance(store, SettleCache):
         raise TypeError(f"parameter 'cache' = {cache!r}: allowed True (the default cache) or a SettleCache")
-    text = key_text(scene, config, stepper.describe(), {**versions(), "mujoco": mujoco.__version__})
+    text = key_text(scene, config, stepper.describe(), {**versions(), "mujoco": mujoco.__version__},
+                    model_digest(stepper.robot.model))
     key = cache_key(text)
     with contextlib.ExitStack() as stack:
         if output is None:
