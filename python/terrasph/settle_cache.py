@@ -246,10 +246,12 @@ def copy_start(source: str | os.PathLike[str], target: str | os.PathLike[str]) -
                           "remove it (terrasph cache clear)")
     for origin, destination in ((checkpoint_path(source), checkpoint_path(target)), (source, target)):
         destination = pathlib.Path(destination)
-        handle, temporary = tempfile.mkstemp(dir=destination.parent, prefix=f".{destination.name}.")
-        os.close(handle)
-        shutil.copyfile(origin, temporary)
-        os.replace(temporary, destination)
+        temporary = destination.with_name(f".{destination.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp")
+        try:
+            shutil.copyfile(origin, temporary)  # created as any file the user writes (umask), not 0600
+            os.replace(temporary, destination)
+        finally:
+            temporary.unlink(missing_ok=True)
 
 
 def run_after_pause(cache: SettleCache | bool, scene: str, config: Any, stepper: Any, build: Callable[[], Any],
