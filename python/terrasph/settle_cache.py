@@ -136,6 +136,7 @@ class SettleCache:
         self.root = pathlib.Path(root)
 
     def entry(self, key: str) -> pathlib.Path:
+        """The directory of the entry of `key` (whether or not it exists)."""
         return self.root / key
 
     def start(self, key: str, text: str, output: str | os.PathLike[str], settle: Callable[[], None]) -> SettledStart:
@@ -190,6 +191,8 @@ class SettleCache:
         """Every complete entry: key, path, size in bytes, creation time, scene and the pause's length."""
         rows = []
         for entry in sorted(self.root.glob("*/" + ENTRY_FILE)) if self.root.is_dir() else []:
+            if entry.parent.name.startswith("."):  # a private directory being published
+                continue
             record = json.loads(entry.read_text())
             content = record.get("content", {})
             config = content.get("config", {})
