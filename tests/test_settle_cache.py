@@ -163,6 +163,8 @@ def test_cache_list_and_clear(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, c
                  "--settle-time", "0.1", "--t-end", "0.15", "--fidelity", "fast", "--no-progress", "--threads", "1",
                  "--out", str(tmp_path / "run.h5")]) == 0
     capsys.readouterr()
+    assert main(["info", str(tmp_path / "run.h5")]) == 0
+    assert "settled its pause and cached it" in capsys.readouterr().out
     assert main(["cache", "list", "--json"]) == 0
     listed = json.loads(capsys.readouterr().out)
     assert [entry["key"] for entry in listed["entries"]] == [_settled_state(tmp_path / "run.h5")["settled_state_key"]]

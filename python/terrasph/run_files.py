@@ -75,6 +75,8 @@ def describe_run(path: str | os.PathLike[str]) -> dict[str, Any]:
     for key in ("message", "checkpoint"):
         if key in status:
             info[key] = str(status[key])
+    if "settled_state_key" in run.attrs:  # started from a cached pause (terrasph.settle_cache)
+        info["settled_state"] = {key: str(run.attrs[f"settled_state_{key}"]) for key in ("key", "path", "event")}
     return info
 
 
@@ -99,6 +101,10 @@ def _cmd_info(args: argparse.Namespace) -> int:
         print(f"  message: {info['message']}")
     if info["bodies"]:
         print(f"  bodies: {', '.join(info['bodies'])} (series in /series/bodies/<name>)")
+    if "settled_state" in info:
+        settled = info["settled_state"]
+        how = "settled its pause and cached it" if settled["event"] == "settled" else "started from the cached pause"
+        print(f"  {how}: {settled['key'][:16]} in {settled['path']}")
     for key, value in info["results"].items():
         print(f"  {key} = {value}")
     if info["status"] not in ("completed", "at_rest"):
