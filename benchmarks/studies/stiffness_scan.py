@@ -110,7 +110,8 @@ def bed(tier: str, factor: float, c0_at_wave: bool) -> dict[str, Any]:
     """The geostatic bed of tests/test_geostatic.py (its C at the tier's: reference 0.25, else 0.5)."""
     scene = Scene(spacing=BED_DX)
     scene.add_block(0.0, 0.0, BED_WIDTH, BED_HEIGHT)
-    scene.add_wall("box", [(0.0, 0.08), (0.0, 0.0), (BED_WIDTH, 0.0), (BED_WIDTH, 0.08)], layers=wall_layers_needed(1.3))
+    scene.add_wall("box", [(0.0, 0.08), (0.0, 0.0), (BED_WIDTH, 0.0), (BED_WIDTH, 0.08)],
+                   layers=wall_layers_needed(1.3))
     material = scaled(Material(), factor)
     numerics = Numerics(spacing=BED_DX, cfl=0.25 if tier == "reference" else 0.5,
                         sound_speed=wave_speed(material) if c0_at_wave else 0.0)
@@ -234,7 +235,8 @@ def main() -> None:
                 if reference and run["case"] == case:
                     run["relative_to_reference"] = relative(run["values"], reference["values"])
                     run["steps_over_reference"] = run["steps"] / reference["steps"]
-            data.update(machine=machine(), date=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+            data.update(machine=machine(), date=now,
                         command="OMP_NUM_THREADS=1 python benchmarks/studies/stiffness_scan.py "
                                 f"--factors {' '.join(f'{f:g}' for f in args.factors)} --cases {' '.join(args.cases)}"
                         + (" --c0-at-wave" if args.c0_at_wave else ""))

@@ -16,9 +16,9 @@ of every longer run; terrasph.run_loop), with ``entry.json`` (the key's text, th
 run whose pause is cached copies both to its output and continues them, as ``resume=True`` does: the
 run loop's bitwise continuation, so its frames, series and results equal, bit for bit, those of the
 run that settled itself. A run whose pause is not cached runs it into its own output (an interrupted
-pause is resumed as any run), copies it into a new entry, and continues the same way. The run file says which entry it started from (root attributes
-``settled_state_key``, ``settled_state_path`` and ``settled_state_event``: ``settled`` if this run
-made the entry, ``from_cache`` if it found it).
+pause is resumed as any run), copies it into a new entry, and continues the same way. The run file
+says which entry it started from (root attributes ``settled_state_key``, ``settled_state_path`` and
+``settled_state_event``: ``settled`` if this run made the entry, ``from_cache`` if it found it).
 
 Where: ``$TERRASPH_CACHE_DIR`` if set, else the platform's user cache directory
 (``platformdirs.user_cache_dir("terrasph")``), under ``settled/``. ``terrasph cache list`` shows the
@@ -263,8 +263,9 @@ def run_after_pause(cache: SettleCache | bool, scene: str, config: Any, stepper:
     """Runs a robot scene to `t_end` from the cached state at the end of its pause (`settle_time`),
     settling it into `output` first and caching it if it is not cached: ``run(stepper, t_end, output,
     resume)`` is the scene's run (returning its series), `stepper` the scene built (it runs the pause
-    on a miss), `build` builds another (the run continues on a fresh one from the pause's checkpoint). `cache`: a SettleCache, True for
-    :func:`default_cache`. `output` None: the run goes into a temporary file, removed after.
+    on a miss), `build` builds another (the run continues on a fresh one from the pause's
+    checkpoint). `cache`: a SettleCache, True for :func:`default_cache`. `output` None: the run goes
+    into a temporary file, removed after.
     Returns the run's series, the stepper that ran to `t_end` and the start."""
     import mujoco
 

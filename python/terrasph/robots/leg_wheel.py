@@ -295,8 +295,8 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                            resume=resumed, config=run_config)
 
     if cache is not False and not resume and config.terrain == "sph" and 0 < config.settle_time < t_end:
-        series, coupled, _ = run_after_pause(cache, "leg-wheel", config, coupled, lambda: build_leg_wheel(config), run, output,
-                                    run_config, config.settle_time, t_end)
+        series, coupled, _ = run_after_pause(cache, "leg-wheel", config, coupled, lambda: build_leg_wheel(config),
+                                             run, output, run_config, config.settle_time, t_end)
     else:
         series = run(coupled, t_end, output, resume)
     wheel = series["robot/wheel"]
