@@ -65,6 +65,21 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(skip_slow)
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _a_settle_cache_of_the_session(tmp_path_factory: pytest.TempPathFactory):
+    """The tests' robot runs keep their settled pauses (terrasph.settle_cache) in a directory of the
+    session, never in the user's cache; the variable reaches the CLI's subprocesses too."""
+    from terrasph.settle_cache import CACHE_ENV
+
+    before = os.environ.get(CACHE_ENV)
+    os.environ[CACHE_ENV] = str(tmp_path_factory.mktemp("settle_cache"))
+    yield
+    if before is None:
+        os.environ.pop(CACHE_ENV, None)
+    else:
+        os.environ[CACHE_ENV] = before
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     """A seeded generator, so every random test is reproducible."""

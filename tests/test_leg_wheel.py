@@ -91,13 +91,15 @@ def test_an_interrupted_leg_wheel_run_resumes_bitwise(tmp_path, monkeypatch, cap
     motor is turning) checkpoints the SPH State and MuJoCo's qpos/qvel/act/ctrl/time; ``terrasph resume``
     (through the scene registry) finishes it into the same file. Every series (robot, actuators,
     diagnostics but wall time) and every frame equals that of a run never stopped, bit for bit,
-    and the motor work summed across the stop is the same."""
+    and the motor work summed across the stop is the same. The stopped run settles its pause itself
+    (``cache=False``: its steps are counted from the start); the whole one starts from the cached
+    pause (terrasph.settle_cache), which it equals bit for bit."""
     config = LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
                       bed_depth=0.04, start_x=0.08, settle_time=0.03, t_end=0.07, load=2.0,
                       series_interval=0.005, frame_interval=0.02)
     whole = run_leg_wheel(config, tmp_path / "whole.h5")
     stopped = tmp_path / "stopped.h5"
-    run_interrupted(monkeypatch, lambda: run_leg_wheel(config, stopped), int(0.7 * whole.summary()["steps"]))
+    run_interrupted(monkeypatch, lambda: run_leg_wheel(config, stopped, cache=False), int(0.7 * whole.summary()["steps"]))
     assert checkpoint_path(stopped).is_file()
     assert read_run(stopped).group_attrs["/run"]["status"] == "interrupted"
     assert 0.03 < read_run(stopped).series["diagnostics"]["time"][-1] < 0.07

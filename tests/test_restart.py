@@ -209,7 +209,8 @@ def test_resume_of_a_file_without_checkpoint_is_a_one_line_error(tmp_path) -> No
     subprocess.run(["terrasph", "run", "column-collapse", "--resolution", "coarse", "--t-end", "0.01",
                     "--no-progress", "--threads", "1", "--out", str(out)], check=True, stdout=subprocess.DEVNULL)
     checkpoint_path(out).unlink()  # a finished run keeps one (tests/test_output_contract.py): gone
-    result = subprocess.run(["terrasph", "resume", str(out)], capture_output=True, text=True)
+    # continued past its end (resuming a finished run to its own end is refused before the checkpoint is looked for)
+    result = subprocess.run(["terrasph", "resume", str(out), "--until", "0.02"], capture_output=True, text=True)
     assert result.returncode == 2
     assert "checkpoint" in result.stderr and "Traceback" not in result.stderr
 

@@ -8,15 +8,19 @@ DIR_A and DIR_B are folders that each hold an importable ``terrasph`` package (p
 PYTHONPATH; an empty string means the installed one). The command after ``--`` runs on both sides,
 each with its own extra arguments (e.g. ``--b-args "--fidelity reference"``), A B B A within each
 pair of rounds, each in its own process writing a scratch file. Prints every run's wall seconds
-and summary figures, the median wall time of each side and the ratio A/B. Absolute times move with
-the machine's load: compare only the ratio, measured side by side.
+and summary figures, the median wall time of each side and the ratio A/B; ``--json PATH`` writes
+them too, with the machine, the date, the commit and the OpenMP environment both sides ran with
+(set ``OMP_WAIT_POLICY=passive`` for both: a side whose threads spin idles the other's). Absolute
+times move with the machine's load: compare only the ratio, measured side by side.
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
+import platform
 import shlex
 import statistics
 import subprocess
@@ -55,11 +59,13 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--keys", nargs="*", default=["travel", "mean_slip", "mean_sinkage", "peak_lift", "peak_thrust",
                                                       "runout", "L_star", "H_star"])
+    parser.add_argument("--json", type=Path, help="also write the runs and the ratio to this file")
     parser.add_argument("command", nargs=argparse.REMAINDER)
     args = parser.parse_args()
     command = args.command[1:] if args.command[:1] == ["--"] else args.command
     sides = {"A": (args.a_path, shlex.split(args.a_args)), "B": (args.b_path, shlex.split(args.b_args))}
     walls: dict[str, list[float]] = {"A": [], "B": []}
+    runs = []
     with tempfile.TemporaryDirectory() as scratch:
         for index in range(args.rounds):
             order = ("A", "B") if index % 2 == 0 else ("B", "A")
@@ -67,10 +73,20 @@ def main() -> None:
                 path, extra = sides[side]
                 wall, summary = run_side(path, command, extra, Path(scratch) / f"{side}{index}.h5")
                 walls[side].append(wall)
+                runs.append({"round": index + 1, "side": side, "wall": wall, "summary": summary})
                 figures = {key: summary[key] for key in args.keys if key in summary}
                 print(f"round {index + 1} {side}: {wall:.1f} s  {json.dumps(figures)}", flush=True)
     a, b = statistics.median(walls["A"]), statistics.median(walls["B"])
     print(f"median wall A {a:.1f} s, B {b:.1f} s: A/B = {a / b:.2f}")
+    if args.json:
+        args.json.write_text(json.dumps({
+            "command": command, "a_path": args.a_path, "b_path": args.b_path, "a_args": args.a_args,
+            "b_args": args.b_args, "runs": runs, "median_wall_a": a, "median_wall_b": b, "ratio_a_over_b": a / b,
+            "environment": {k: os.environ.get(k) for k in ("OMP_WAIT_POLICY", "OMP_NUM_THREADS", "OMP_PROC_BIND")},
+            "machine": {"host": platform.node(), "cpus": os.cpu_count(), "load_average": os.getloadavg()},
+            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "commit": subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                                     cwd=Path(__file__).parent, check=False).stdout.strip()}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

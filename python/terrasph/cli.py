@@ -1,4 +1,4 @@
-"""Command line: ``terrasph run SCENE``, ``info``, ``plot``, ``animate``, ``train``, ``predict``, ``make-synthetic-dataset``, ``dataset``, ``sweep``.
+"""Command line: ``terrasph run SCENE``, ``info``, ``plot``, ``animate``, ``train``, ``predict``, ``make-synthetic-dataset``, ``dataset``, ``sweep``, ``cache``.
 
 Every expected error — bad configuration (:class:`terrasph.config.ConfigError`), a malformed file
 or model file (``ValueError`` and its subclasses ``ModelFileError``/``LstmFormatError``), a missing
@@ -42,7 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"terrasph {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    from terrasph import animate, rft_cli, run_files, scenes_cli
+    from terrasph import animate, rft_cli, run_files, scenes_cli, settle_cache_cli
     from terrasph.surrogate import cli as surrogate_cli
     from terrasph.sweeps import cli as sweep_cli
 
@@ -52,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     surrogate_cli.register(sub)
     sweep_cli.register(sub)
     rft_cli.register(sub)
+    settle_cache_cli.register(sub)
     _remember_leaf_parsers(parser)
     return parser
 

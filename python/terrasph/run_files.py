@@ -80,6 +80,8 @@ def describe_run(path: str | os.PathLike[str]) -> dict[str, Any]:
             info[key] = str(status[key])
     if "first_leak_time" in status:
         info["first_leak_time"] = float(status["first_leak_time"])
+    if "settled_state_key" in run.attrs:  # started from a cached pause (terrasph.settle_cache)
+        info["settled_state"] = {key: str(run.attrs[f"settled_state_{key}"]) for key in ("key", "path", "event")}
     return info
 
 
@@ -109,6 +111,10 @@ def _cmd_info(args: argparse.Namespace) -> int:
               f"(leaked_particles in /run)")
     if info["bodies"]:
         print(f"  bodies: {', '.join(info['bodies'])} (series in /series/bodies/<name>)")
+    if "settled_state" in info:
+        settled = info["settled_state"]
+        how = "settled its pause and cached it" if settled["event"] == "settled" else "started from the cached pause"
+        print(f"  {how}: {settled['key'][:16]} in {settled['path']}")
     for key, value in info["results"].items():
         print(f"  {key} = {value}")
     if info["status"] not in FINISHED_STATUSES:

@@ -476,16 +476,22 @@ class RunLoop:
                     if sampled:
                         record_sample()
                 last_checkpoint = wallclock.perf_counter()
+                last_step = 0.0  # the simulated time of the last step taken (s)
                 while stepper.time < t_end * (1 - 1e-14):
                     target = min(next_frame, next_sample, t_end)
                     # the stretch that reaches the end: a frame or sample time summed to within rounding
-                    # of t_end ends the run as t_end itself does (at_end below)
-                    if target >= t_end * (1 - 1e-14) and not final_stretch_saved:
+                    # of t_end ends the run as t_end itself does (at_end below); or a step that may carry
+                    # past t_end before the target does (samples closer than a step: twice the last
+                    # step, the step bound's growth between steps being far less)
+                    reaches_end = target >= t_end * (1 - 1e-14) or stepper.time + 2.0 * last_step >= t_end
+                    if reaches_end and not final_stretch_saved:
                         save_checkpoint()  # the last state on the path of a longer run (module docstring)
                         final_stretch_saved = True
                     load_watch.follow()
                     started, steps_before = wallclock.perf_counter(), stepper.step_count
+                    time_before = stepper.time
                     stepper.advance(target, chunk_steps)
+                    last_step = (stepper.time - time_before) / max(1, stepper.step_count - steps_before)
                     per_step = (wallclock.perf_counter() - started) / max(1, stepper.step_count - steps_before)
                     chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
                     # the bar shows simulated time, never past its total (the last step may end past t_end)

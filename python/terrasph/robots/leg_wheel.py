@@ -44,6 +44,7 @@ from terrasph.robots.run import BedEnds, RobotRun, run_coupled
 from terrasph.scene import GRAVITY, Scene, flung_height
 from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.schedules import check_knots, evaluate
+from terrasph.settle_cache import SettleCache, run_after_pause
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
 
@@ -60,6 +61,9 @@ class WheelScene(BeadBed):
 
     #: fields saved under another name by earlier versions (run files, sweep SPECs): old → new
     RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
+    #: the fields that act only after the pause: runs differing only in them share the state at its
+    #: end (terrasph.settle_cache); every other field is part of that state's key
+    DRIVE_FIELDS: ClassVar[tuple[str, ...]] = ("omega", "t_end")
     SCENE: ClassVar[str] = "leg-wheel"  #: the registered scene, whose fidelity tiers apply
 
     wheel: str = option("c-leg", choices=WHEELS, help="morphology (Fig. 4.2) or plain wheel")
@@ -93,6 +97,7 @@ class LegWheel(WheelScene):
     #: the settings of the SPH bed only, refused on the RFT terrain unless at their defaults
     SPH_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("mu1_deg", "mu2_deg", "water_content", "bed_depth", "fidelity",
                                                   "numerics")
+    DRIVE_FIELDS: ClassVar[tuple[str, ...]] = (*WheelScene.DRIVE_FIELDS, "omega_schedule")
 
     #: if given, the commanded spin after the pause instead of `omega`: knots (t − settle_time, ω) of a
     #: piecewise-linear schedule (terrasph.schedules; a repeated time is a step), ω ≥ 0
@@ -255,13 +260,19 @@ def wheel_bed_ends(config: WheelScene, coupled: CoupledSimulation | RFTCoupling,
 
 
 def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
-                  plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
+                  plot: bool = True, resume: bool = False, until: float | None = None,
+                  cache: SettleCache | bool = True) -> RobotRun:
     """Runs the scene; returns a summary (mean forward speed, slip and sinkage after the pause, final
     and maximum sinkage, motor work, cost of transport, leaks; ``end_of_bed``, the reason, when the
     wheel reached the end of its bed and the run ended there: :func:`wheel_bed_ends`) and the series,
     and with `plot` and an `output` draws the PNG beside it. ``resume=True`` continues the run in
     `output` from its checkpoint, ``until`` replaces the end time
-    (:func:`terrasph.robots.run.run_coupled`)."""
+    (:func:`terrasph.robots.run.run_coupled`).
+
+    On the SPH bed a run starts from the cached state at the end of its pause when a run with the same
+    bed, robot, numerics and code made it (terrasph.settle_cache; bit for bit the run that settles
+    itself), and caches it otherwise: `cache` is the cache (True: the default one,
+    :func:`terrasph.settle_cache.default_cache`; False: settle without it)."""
     coupled = build_leg_wheel(config)
     bed = wheel_bed_ends(config, coupled, resume)
     # positive motor work since the pause (J) and the axle's x when the spin began (NaN before)
@@ -277,10 +288,21 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
             # motor cannot recover energy)
             work["motor"] += max(float(np.dot(data.actuator_force, data.actuator_velocity)), 0.0) * run.control_span()
 
-    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
-                         frame_interval=config.frame_interval, series_interval=config.series_interval,
-                         control=motor, progress=progress, memory=work, resume=resume, end_check=bed,
-                         config={"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config), **coupled.describe()})
+    run_config = {"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config), **coupled.describe()}
+    t_end = config.t_end if until is None else until
+
+    def run(stepper: CoupledSimulation | RFTCoupling, end: float, out: str | os.PathLike[str] | None,
+            resumed: bool) -> dict[str, dict[str, np.ndarray]]:
+        bed.coupled = stepper  # the end check follows the stepper that runs (a cached pause continues on another)
+        return run_coupled(stepper, end, output=out, frame_interval=config.frame_interval,
+                           series_interval=config.series_interval, control=motor, progress=progress, memory=work,
+                           resume=resumed, end_check=bed, config=run_config)
+
+    if cache is not False and not resume and config.terrain == "sph" and 0 < config.settle_time < t_end:
+        series, coupled, _ = run_after_pause(cache, "leg-wheel", config, coupled, lambda: build_leg_wheel(config),
+                                             run, output, run_config, config.settle_time, t_end)
+    else:
+        series = run(coupled, t_end, output, resume)
     wheel = series["robot/wheel"]
     # the driven phase: after the pause, once the servo has brought ω to half the command
     driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.commanded_omega(wheel["time"]))

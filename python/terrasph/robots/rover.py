@@ -31,6 +31,7 @@ from terrasph.robots.metrics import slip
 from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
 from terrasph.robots.plots import plot_robot
 from terrasph.robots.run import RobotRun, run_coupled
+from terrasph.settle_cache import SettleCache, run_after_pause
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
 
@@ -92,21 +93,33 @@ def build_rover(config: Rover) -> CoupledSimulation:
 
 
 def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
-              plot: bool = True, resume: bool = False, until: float | None = None) -> RobotRun:
+              plot: bool = True, resume: bool = False, until: float | None = None,
+              cache: SettleCache | bool = True) -> RobotRun:
     """Runs the scene; returns a summary (distance, mean speed and slip of each wheel after the
     pause, final sinkage of each wheel, pitch, leaks; ``end_of_bed`` as in :func:`run_leg_wheel`) and
-    the series, and with `plot` and an
-    `output` draws the PNG beside it. ``resume`` and ``until`` as in :func:`run_leg_wheel`."""
+    the series, and with `plot` and an `output` draws the PNG beside it. ``resume``, ``until`` and
+    ``cache`` (the settled pause, terrasph.settle_cache) as in :func:`run_leg_wheel`."""
     coupled = build_rover(config)
     bed = wheel_bed_ends(config, coupled, resume)
 
     def motors(run: CoupledSimulation) -> None:
         run.robot.data.ctrl[:] = config.omega if run.time >= config.settle_time else 0.0
 
-    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
-                         frame_interval=config.frame_interval, series_interval=config.series_interval,
-                         control=motors, progress=progress, resume=resume, end_check=bed,
-                         config={"scene": "rover", "rover": dataclasses.asdict(config), **coupled.sim.describe()})
+    run_config = {"scene": "rover", "rover": dataclasses.asdict(config), **coupled.sim.describe()}
+    t_end = config.t_end if until is None else until
+
+    def run(stepper: CoupledSimulation, end: float, out: str | os.PathLike[str] | None,
+            resumed: bool) -> dict[str, dict[str, np.ndarray]]:
+        bed.coupled = stepper  # the end check follows the stepper that runs (a cached pause continues on another)
+        return run_coupled(stepper, end, output=out, frame_interval=config.frame_interval,
+                           series_interval=config.series_interval, control=motors, progress=progress,
+                           resume=resumed, end_check=bed, config=run_config)
+
+    if cache is not False and not resume and 0 < config.settle_time < t_end:
+        series, coupled, _ = run_after_pause(cache, "rover", config, coupled, lambda: build_rover(config), run, output,
+                                             run_config, config.settle_time, t_end)
+    else:
+        series = run(coupled, t_end, output, resume)
     summary: dict[str, Any] = {"wheel": config.wheel, "steps": coupled.sim.step_count,
                                "leaked_particles": coupled.sim.leaked_particles,
                                "distance": float(coupled.robot.data.qpos[0] - config.start_x),

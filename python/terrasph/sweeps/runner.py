@@ -6,9 +6,12 @@ Layout of a sweep directory::
     runs/<case_id>.json        its record: varied values, configuration, status, error, wall time,
                                versions, worker
     manifest.json              the SPEC and every case's record (rewritten after each case)
-    events.jsonl               one line per event: submitted (client), started, then finished or
-                               failed (worker, after the run file and its record are in place),
-                               with the session (one invocation) that caused it
+    events.jsonl               one line per event: submitted (client), started, then, for a robot
+                               run that starts after its pause, settled (it settled the pause and
+                               cached it) or started_from_cache (it found it), with the cache key
+                               (terrasph.settle_cache), then finished or failed (worker, after the
+                               run file and its record are in place), with the session (one
+                               invocation) that caused it
 
 A case counts as finished only if ``runs/<case_id>.h5`` opens as HDF5 and its ``/run`` status is
 finished (terrasph.run_loop.FINISHED_STATUSES: completed, at_rest, end_of_bed); anything else (no
@@ -42,10 +45,10 @@ def _write_json_atomically(path: Path, data: Any) -> None:
     os.replace(temporary, path)
 
 
-def log_event(out_dir: Path, session: str, event: str, case_id: str) -> None:
+def log_event(out_dir: Path, session: str, event: str, case_id: str, **details: Any) -> None:
     """Appends one line to ``events.jsonl`` (one write on an O_APPEND file: lines of concurrent
-    workers do not interleave)."""
-    line = json.dumps({"session": session, "event": event, "case": case_id, "time": time.time()}) + "\n"
+    workers do not interleave), with any `details` (plain data) beside the event."""
+    line = json.dumps({"session": session, "event": event, "case": case_id, "time": time.time(), **details}) + "\n"
     descriptor = os.open(out_dir / "events.jsonl", os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
     try:
         os.write(descriptor, line.encode())
@@ -92,6 +95,7 @@ def run_one(scene: str, case: Case, out_dir: str, omp_threads: int, session: str
         summary = run_case(scene, case.config, partial)
         if not is_finished(partial):
             raise RuntimeError(f"the run of {scene} ended without a finished /run status in its file")
+        _log_settled_start(Path(out_dir), session, case.case_id, partial)
         _publish(staging, final)
         record.update(status="completed", summary=summary)
     except Exception as error:
@@ -147,6 +151,17 @@ def check_shared_output(client: Any, out_dir: Path, scheduler: str) -> None:
     finally:
         for token in tokens.values():
             (out_dir / f".probe-{token}").unlink(missing_ok=True)
+
+
+def _log_settled_start(out_dir: Path, session: str, case_id: str, path: Path) -> None:
+    """The event of a run that started after a cached pause (terrasph.settle_cache): ``settled`` (it
+    settled and cached it) or ``started_from_cache``, with the cache key; nothing for other runs."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        event, key = f.attrs.get("settled_state_event"), f.attrs.get("settled_state_key")
+    if event is not None:
+        log_event(out_dir, session, "settled" if event == "settled" else "started_from_cache", case_id, key=str(key))
 
 
 def _publish(staging: Path, final: Path) -> None:
