@@ -128,3 +128,16 @@ def test_the_package_has_no_import_circle() -> None:
     assert "terrasph.robots.coupling" in graph and "terrasph.terrain.interface" in graph
     cycle = find_cycle(graph)
     assert cycle is None, "import circle: " + " -> ".join(cycle or [])
+
+
+def test_the_architecture_map_names_every_module_and_core_file() -> None:
+    """docs/architecture.md is the map of the code: every Python module of the package and every
+    C++ source of the core, plugin and bindings is named in it (a module added without its place on
+    the map fails here)."""
+    root = pathlib.Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "architecture.md").read_text()
+    package = root / "python" / "terrasph"
+    modules = [p for p in package.rglob("*.py") if p.name != "__init__.py"]
+    sources = [p for d in ("cpp/src", "cpp/plugin", "cpp/include/terrasph") for p in (root / d).glob("*.[ch]pp")]
+    missing = [str(p.relative_to(root)) for p in [*modules, *sources] if p.name not in text and p.stem not in text]
+    assert not missing, f"not on docs/architecture.md's map: {missing}"
