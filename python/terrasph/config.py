@@ -11,6 +11,7 @@ parameter raises :class:`ConfigError` naming it and its allowed range, before an
 from __future__ import annotations
 
 import dataclasses
+import math
 import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -232,7 +233,7 @@ def check_settle_time(settle_time: Any, t_end: Any, name: str = "settle_time") -
     scene's own end, after the pause by construction. ConfigError naming the parameter otherwise,
     before any work; the same in every scene."""
     if isinstance(settle_time, bool) or not isinstance(settle_time, numbers.Real) or not (
-            np.isfinite(settle_time) and settle_time >= 0):
+            math.isfinite(float(settle_time)) and float(settle_time) >= 0):
         raise ConfigError(f"parameter '{name}' = {settle_time!r} is invalid: allowed a finite number >= 0 s")
     if t_end is not None and not settle_time < t_end:
         raise ConfigError(f"parameter '{name}' = {settle_time!r} is invalid: allowed in [0, t_end = {t_end!r}) s "

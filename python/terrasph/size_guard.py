@@ -110,8 +110,8 @@ def _address_space_left() -> float | None:
         import resource
     except ImportError:  # not a POSIX system
         return None
-    limits = [resource.getrlimit(kind)[0] for kind in (resource.RLIMIT_AS, resource.RLIMIT_DATA)]
-    limits = [float(limit) for limit in limits if limit != resource.RLIM_INFINITY]
+    soft = [resource.getrlimit(kind)[0] for kind in (resource.RLIMIT_AS, resource.RLIMIT_DATA)]
+    limits = [float(limit) for limit in soft if limit != resource.RLIM_INFINITY]
     if not limits:
         return None
     mapped = 0.0

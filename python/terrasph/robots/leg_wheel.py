@@ -255,8 +255,8 @@ def build_leg_wheel(config: LegWheel) -> CoupledSimulation | RFTCoupling:
 def wheel_bed_ends(config: WheelScene, coupled: CoupledSimulation | RFTCoupling, resume: bool) -> BedEnds:
     """Where a wheel scene's run ends (:class:`terrasph.robots.run.BedEnds`): the container's inner
     walls on the SPH, the same bed (0 to bed_width) on the RFT terrain, so both cover the same ground."""
-    ends = coupled.sim.scene.bed_ends if isinstance(coupled, CoupledSimulation) else (0.0, config.bed_width)
-    return BedEnds(coupled, ends, resume=resume)
+    ends = coupled.sim.scene.bed_ends if isinstance(coupled, CoupledSimulation) else None
+    return BedEnds(coupled, (0.0, config.bed_width) if ends is None else ends, resume=resume)
 
 
 def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
