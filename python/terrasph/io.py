@@ -12,8 +12,9 @@ The layout is documented in ``docs/hdf5_schema.md``. In short::
 Units are SI; 2D scenes are plane strain in the x–z plane with z up. Forces are in newtons for
 the body's real out-of-plane width, masses and energies per the run's width as documented.
 
-Every frame and series row is followed by ``h5py.File.flush``, so a run whose process dies
-between two frames leaves a readable file holding every frame written so far.
+Every call that writes frames or series rows ends with ``h5py.File.flush``, so a run whose process
+dies between two calls leaves a readable file holding every frame written so far (the run loop,
+terrasph.run_loop, writes its frames and rows in batches: :data:`terrasph.run_loop.SERIES_WRITE_SECONDS`).
 """
 
 from __future__ import annotations
@@ -216,33 +217,48 @@ class RunWriter:
         file.flush()
 
     def write_frame(self, time: float, step: int, fields: Mapping[str, np.ndarray]) -> None:
-        """Append one frame of per-particle fields, then flush.
+        """Append one frame of per-particle fields, then flush (:meth:`write_frames` of one frame).
 
         The first frame fixes the field names, per-frame shapes and dtypes; every later frame must
         match them (``ValueError`` naming the field otherwise). ``time`` is in s, ``step`` the
         integrator step count.
         """
+        self.write_frames([(time, step, fields)])
+
+    def write_frames(self, frames: Sequence[tuple[float, int, Mapping[str, np.ndarray]]]) -> None:
+        """Append `frames`, each (time s, step count, {field: per-particle array}), with one resize
+        and one write per dataset and one flush for all of them (each frame still its own chunk).
+
+        Every frame is checked against the first frame's fields (:meth:`write_frame`) before any of
+        `frames` is written, so a bad frame leaves the file as it was.
+        """
         file = self._open_file()
-        if not np.isfinite(time):
-            raise ValueError(f"time must be finite, got {time!r}")
-        arrays = {name: np.asarray(value) for name, value in fields.items()}
-        if not arrays:
-            raise ValueError("fields must hold at least one array")
-        if self._frame_shapes is None:
-            self._frame_shapes = self._create_frame_datasets(file["frames"], arrays)
-        self._check_frame(arrays)
+        if not frames:
+            return
+        batch = []
+        for time, _, fields in frames:
+            if not np.isfinite(time):
+                raise ValueError(f"time must be finite, got {time!r}")
+            arrays = {name: np.asarray(value) for name, value in fields.items()}
+            if not arrays:
+                raise ValueError("fields must hold at least one array")
+            if self._frame_shapes is None:
+                self._frame_shapes = self._create_frame_datasets(file["frames"], arrays)
+            self._check_frame(arrays)
+            batch.append(arrays)
+        assert self._frame_shapes is not None  # set by the first frame, of this batch or an earlier one
         if self._frame_datasets is None:  # h5py looks a dataset up by name anew on every access
             group = file["frames"]
             self._frame_datasets = {name: group[name] for name in (*self._frame_shapes, "step", "time")}
         datasets = self._frame_datasets
-        index = datasets["time"].shape[0]
-        for name, data in arrays.items():
+        index, count = datasets["time"].shape[0], len(frames)
+        columns: dict[str, np.ndarray] = {name: np.stack([arrays[name] for arrays in batch]) for name in batch[0]}
+        columns["step"] = np.array([int(step) for _, step, _ in frames], dtype=np.int64)
+        columns["time"] = np.array([float(time) for time, _, _ in frames])
+        for name, data in columns.items():  # time last: a reader counts the frames whose time is written
             dataset = datasets[name]
-            dataset.resize(index + 1, axis=0)
-            dataset[index] = data
-        for name, value in (("step", int(step)), ("time", float(time))):
-            datasets[name].resize(index + 1, axis=0)
-            datasets[name][index] = value
+            dataset.resize(index + count, axis=0)
+            dataset[index:] = data
         file.flush()
 
     def _create_frame_datasets(
