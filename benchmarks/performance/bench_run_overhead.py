@@ -9,6 +9,9 @@ Each run is its own process (the command after ``--``, default the leg-wheel on 
 
 * ``stepping``: the wall inside the stepper's ``advance`` calls (the physics, the coupling and the
   controller), summed over the run;
+* the parts of the loop that are output: ``samples`` (the recorders' rows of the series),
+  ``frames_write`` and ``series_write`` (their writes into the file), ``checkpoint`` and
+  ``sidecars`` (the XDMF files, :func:`terrasph.io.write_xdmf`);
 * ``loop``: the run loop (:meth:`terrasph.run_loop.RunLoop.run`), from its first frame to its file
   closed and its XDMF sidecars written: the stepping plus the frames, the series' samples and their
   writes, the checkpoint and the sidecars;
@@ -42,30 +45,41 @@ DEFAULT_COMMAND = ["run", "leg-wheel", "--terrain", "rft", "--t-end", "22"]
 #: the child: wraps the run loop and its stepper's advance with wall clocks, runs the CLI, writes the times
 _CHILD = r"""
 import json, sys, time
+import terrasph.io as io
 import terrasph.run_loop as run_loop
 from terrasph.cli import main
 
-times = {"stepping": 0.0, "loop": 0.0, "loop_start": None}
+times = {"stepping": 0.0, "loop": 0.0, "loop_start": None, "frames_write": 0.0, "series_write": 0.0,
+         "samples": 0.0, "checkpoint": 0.0, "sidecars": 0.0}
+
+
+def timed(function, key):
+    def call(*args, **kwargs):
+        started = time.perf_counter()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            times[key] += time.perf_counter() - started
+    return call
+
+
+class Timed:
+    def __init__(self, inner, **keys):
+        self._inner = inner
+        for name, key in keys.items():
+            setattr(self, name, timed(getattr(inner, name), key))
+
+    def __getattr__(self, name):
+        return getattr(self._inner, name)
+
+
 original_run = run_loop.RunLoop.run
 
 
-class TimedStepper:
-    def __init__(self, stepper):
-        self._stepper = stepper
-
-    def __getattr__(self, name):
-        return getattr(self._stepper, name)
-
-    def advance(self, t_end, max_steps):
-        started = time.perf_counter()
-        try:
-            return self._stepper.advance(t_end, max_steps)
-        finally:
-            times["stepping"] += time.perf_counter() - started
-
-
 def timed_run(self, *args, **kwargs):
-    self.stepper = TimedStepper(self.stepper)
+    stepper, recorders = self.stepper, self.recorders
+    self.stepper = Timed(stepper, advance="stepping", checkpoint="checkpoint")
+    self.recorders = [Timed(recorder, rows="samples") for recorder in recorders]
     started = time.perf_counter()
     if times["loop_start"] is None:
         times["loop_start"] = started
@@ -73,16 +87,25 @@ def timed_run(self, *args, **kwargs):
         return original_run(self, *args, **kwargs)
     finally:
         times["loop"] += time.perf_counter() - started
-        self.stepper = self.stepper._stepper
+        self.stepper, self.recorders = stepper, recorders
 
 
 run_loop.RunLoop.run = timed_run
+# the frames' writes: write_frames where the package has it (write_frame calls it), else write_frame
+frames_method = "write_frames" if hasattr(io.RunWriter, "write_frames") else "write_frame"
+setattr(io.RunWriter, frames_method, timed(getattr(io.RunWriter, frames_method), "frames_write"))
+io.RunWriter.append_series_rows = timed(io.RunWriter.append_series_rows, "series_write")
+io.write_xdmf = timed(io.write_xdmf, "sidecars")
 status = main(sys.argv[2:])
 times["total"] = time.perf_counter() - times.pop("loop_start")
-Path = __import__("pathlib").Path
-Path(sys.argv[1]).write_text(json.dumps(times))
+with open(sys.argv[1], "w") as out:
+    json.dump(times, out)
 sys.exit(status)
 """
+
+#: the parts of a run each run reports, in seconds
+PARTS = ("stepping", "samples", "frames_write", "series_write", "checkpoint", "sidecars", "loop", "total", "imports",
+         "command")
 
 
 def run_side(path: str, command: list[str], out: Path) -> dict[str, float]:
@@ -100,8 +123,7 @@ def run_side(path: str, command: list[str], out: Path) -> dict[str, float]:
     if done.returncode != 0:
         raise SystemExit(f"run failed ({done.returncode}): {' '.join(argv[3:])}\n{done.stderr[-2000:]}")
     times = json.loads(times_file.read_text())
-    return {"stepping": times["stepping"], "loop": times["loop"], "total": times["total"],
-            "imports": command_wall - times["total"], "command": command_wall,
+    return {**times, "imports": command_wall - times["total"], "command": command_wall,
             "loop_over_stepping": times["loop"] / times["stepping"],
             "total_over_stepping": times["total"] / times["stepping"]}
 
@@ -139,8 +161,7 @@ def main() -> None:
                       f"loop/stepping {times['loop_over_stepping']:.2f}, "
                       f"total/stepping {times['total_over_stepping']:.2f}", flush=True)
     medians = {side: {key: statistics.median(run[key] for run in runs if run["side"] == side)
-                      for key in ("stepping", "loop", "total", "imports", "command", "loop_over_stepping",
-                                  "total_over_stepping")} for side in sides}
+                      for key in (*PARTS, "loop_over_stepping", "total_over_stepping")} for side in sides}
     for side, values in medians.items():
         print(f"median {side}: " + ", ".join(f"{key} {value:.3f}" for key, value in values.items()))
     if "B" in medians:
