@@ -1,8 +1,9 @@
 """What a ``terrasph run`` costs besides its steps: stepping against the run's total wall, for one or
 two terrasph packages (A/B, interleaved), in one run on one machine.
 
-    python benchmarks/performance/bench_run_overhead.py [--a-path DIR_A] [--b-path DIR_B] [--rounds 6] \\
-        [--json benchmarks/results/run_overhead.json] [-- run leg-wheel --terrain rft --t-end 22]
+    python benchmarks/performance/bench_run_overhead.py [--a-path DIR_A --a-label NAME] [--b-path DIR_B \\
+        --b-label NAME] [--rounds 6] [--json benchmarks/results/run_overhead.json] \\
+        [-- run leg-wheel --terrain rft --t-end 22]
 
 Each run is its own process (the command after ``--``, default the leg-wheel on RFT of issue 46, with
 ``--out`` a scratch file and ``--no-progress``) that times, inside the package it imports:
@@ -142,6 +143,8 @@ def main() -> None:
     parser.add_argument("--a-path", default=None, help="folder holding the terrasph package of side A "
                         "(default: PYTHONPATH's)")
     parser.add_argument("--b-path", default=None, help="folder holding side B's (default: no side B)")
+    parser.add_argument("--a-label", default="A", help="what side A is, for the result file (not its path)")
+    parser.add_argument("--b-label", default="B", help="what side B is")
     parser.add_argument("--rounds", type=int, default=6)
     parser.add_argument("--json", type=Path, help="also write the runs and their medians to this file")
     parser.add_argument("command", nargs=argparse.REMAINDER)
@@ -169,13 +172,15 @@ def main() -> None:
               f"loop {medians['A']['loop'] / medians['B']['loop']:.2f}")
     if args.json:
         args.json.write_text(json.dumps({
-            "command": ["terrasph", *command], "sides": sides, "runs": runs, "medians": medians,
+            "command": ["terrasph", *command], "sides": {"A": args.a_label, **({"B": args.b_label} if "B" in sides else {})},
+            "runs": runs, "medians": medians,
             "provenance": {
                 "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
                 "commit": commit(), "cpu": platform.processor() or platform.machine(), "host": platform.node(),
                 "cpus": os.cpu_count(), "load_average": os.getloadavg(),
                 "threads": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OMP_WAIT_POLICY")},
-                "benchmark": "benchmarks/performance/bench_run_overhead.py " + " ".join(sys.argv[1:])}},
+                "benchmark": "benchmarks/performance/bench_run_overhead.py --a-path A --b-path B --rounds "
+                             f"{args.rounds} --json {args.json.name}"}},
             indent=1) + "\n")
 
 
