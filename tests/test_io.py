@@ -204,6 +204,41 @@ def test_xdmf_parses_and_references_existing_datasets(tmp_path: pathlib.Path) ->
             assert tuple(map(int, item.get("Dimensions").split())) == file[dataset].shape
 
 
+def test_frames_in_one_batch_are_the_frames_one_by_one(tmp_path: pathlib.Path) -> None:
+    """write_frames writes what as many write_frame calls write (after earlier frames, each frame its
+    own chunk); a batch with one bad frame is refused naming the field and writes none of its frames."""
+    frames = [(0.05 * k, 100 * k, frame_fields(k)) for k in range(6)]
+    with io.RunWriter(tmp_path / "one.h5", CONFIG) as one, io.RunWriter(tmp_path / "batch.h5", CONFIG) as batch:
+        for frame in frames:
+            one.write_frame(*frame)
+        batch.write_frame(*frames[0])
+        batch.write_frames(frames[1:])
+        bad = [frames[0], (0.5, 500, {**frame_fields(1), "pressure": np.zeros(N + 1)})]
+        with pytest.raises(ValueError, match="'pressure'"):
+            batch.write_frames(bad)
+    with h5py.File(tmp_path / "one.h5") as a, h5py.File(tmp_path / "batch.h5") as b:
+        assert sorted(a["frames"]) == sorted(b["frames"])
+        for name in a["frames"]:
+            np.testing.assert_array_equal(a[f"frames/{name}"][()], b[f"frames/{name}"][()])
+            assert a[f"frames/{name}"].chunks == b[f"frames/{name}"].chunks
+        assert b["frames/time"].shape == (6,)
+
+
+def test_every_frame_of_the_xdmf_selects_its_own_frame(tmp_path: pathlib.Path) -> None:
+    """Each frame's grid of the sidecar carries that frame's time and slabs starting at its index."""
+    path = tmp_path / "run.h5"
+    write_run(path)
+    root = ET.parse(io.write_xdmf(path)).getroot()
+    with h5py.File(path, "r") as file:
+        times = file["frames/time"][()]
+    frames = root.findall("./Domain/Grid/Grid")
+    assert len(frames) == len(times) > 2
+    for k, (frame, time) in enumerate(zip(frames, times)):
+        assert frame.get("Name") == f"frame_{k}" and float(frame.find("Time").get("Value")) == time
+        starts = [int(item.text.split()[0]) for item in frame.iter("DataItem") if item.get("Format") == "XML"]
+        assert starts and all(start == k for start in starts)
+
+
 def test_xdmf_slab_selects_the_right_values(tmp_path: pathlib.Path) -> None:
     # Apply the hyperslab of frame 2's velocity_z by hand: it must equal velocity[2, :, 1].
     path = tmp_path / "run.h5"

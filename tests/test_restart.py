@@ -129,7 +129,9 @@ def test_sigint_then_resume_equals_the_uninterrupted_run(tmp_path) -> None:
     process = subprocess.Popen([*command, "--out", str(stopped)], stdout=subprocess.DEVNULL,
                                stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
-    while _frames(stopped) < 3 and process.poll() is None and time.monotonic() < deadline:
+    # the run loop writes the first frame at once, later ones in batches a second of wall time apart
+    # (terrasph.run_loop.SERIES_WRITE_SECONDS), longer than this run: its first frame says it is under way
+    while _frames(stopped) < 1 and process.poll() is None and time.monotonic() < deadline:
         time.sleep(0.05)
     assert process.poll() is None, "the run ended before it could be interrupted"
     process.send_signal(signal.SIGINT)
@@ -138,7 +140,7 @@ def test_sigint_then_resume_equals_the_uninterrupted_run(tmp_path) -> None:
     with h5py.File(stopped, "r") as file:
         assert file["run"].attrs["status"] == "interrupted"
         interrupted_at = float(file["run"].attrs["time"])
-    assert 0.04 <= interrupted_at < 0.15
+    assert 0 < interrupted_at < 0.15  # stopped between its first and its last frame
 
     subprocess.run(["terrasph", "resume", str(stopped), "--threads", "1", "--no-progress"], check=True,
                    stdout=subprocess.DEVNULL)

@@ -12,8 +12,9 @@ The layout is documented in ``docs/hdf5_schema.md``. In short::
 Units are SI; 2D scenes are plane strain in the x–z plane with z up. Forces are in newtons for
 the body's real out-of-plane width, masses and energies per the run's width as documented.
 
-Every frame and series row is followed by ``h5py.File.flush``, so a run whose process dies
-between two frames leaves a readable file holding every frame written so far.
+Every call that writes frames or series rows ends with ``h5py.File.flush``, so a run whose process
+dies between two calls leaves a readable file holding every frame written so far (the run loop,
+terrasph.run_loop, writes its frames and rows in batches: :data:`terrasph.run_loop.SERIES_WRITE_SECONDS`).
 """
 
 from __future__ import annotations
@@ -216,33 +217,48 @@ class RunWriter:
         file.flush()
 
     def write_frame(self, time: float, step: int, fields: Mapping[str, np.ndarray]) -> None:
-        """Append one frame of per-particle fields, then flush.
+        """Append one frame of per-particle fields, then flush (:meth:`write_frames` of one frame).
 
         The first frame fixes the field names, per-frame shapes and dtypes; every later frame must
         match them (``ValueError`` naming the field otherwise). ``time`` is in s, ``step`` the
         integrator step count.
         """
+        self.write_frames([(time, step, fields)])
+
+    def write_frames(self, frames: Sequence[tuple[float, int, Mapping[str, np.ndarray]]]) -> None:
+        """Append `frames`, each (time s, step count, {field: per-particle array}), with one resize
+        and one write per dataset and one flush for all of them (each frame still its own chunk).
+
+        Every frame is checked against the first frame's fields (:meth:`write_frame`) before any of
+        `frames` is written, so a bad frame leaves the file as it was.
+        """
         file = self._open_file()
-        if not np.isfinite(time):
-            raise ValueError(f"time must be finite, got {time!r}")
-        arrays = {name: np.asarray(value) for name, value in fields.items()}
-        if not arrays:
-            raise ValueError("fields must hold at least one array")
-        if self._frame_shapes is None:
-            self._frame_shapes = self._create_frame_datasets(file["frames"], arrays)
-        self._check_frame(arrays)
+        if not frames:
+            return
+        batch = []
+        for time, _, fields in frames:
+            if not np.isfinite(time):
+                raise ValueError(f"time must be finite, got {time!r}")
+            arrays = {name: np.asarray(value) for name, value in fields.items()}
+            if not arrays:
+                raise ValueError("fields must hold at least one array")
+            if self._frame_shapes is None:
+                self._frame_shapes = self._create_frame_datasets(file["frames"], arrays)
+            self._check_frame(arrays)
+            batch.append(arrays)
+        assert self._frame_shapes is not None  # set by the first frame, of this batch or an earlier one
         if self._frame_datasets is None:  # h5py looks a dataset up by name anew on every access
             group = file["frames"]
             self._frame_datasets = {name: group[name] for name in (*self._frame_shapes, "step", "time")}
         datasets = self._frame_datasets
-        index = datasets["time"].shape[0]
-        for name, data in arrays.items():
+        index, count = datasets["time"].shape[0], len(frames)
+        columns: dict[str, np.ndarray] = {name: np.stack([arrays[name] for arrays in batch]) for name in batch[0]}
+        columns["step"] = np.array([int(step) for _, step, _ in frames], dtype=np.int64)
+        columns["time"] = np.array([float(time) for time, _, _ in frames])
+        for name, data in columns.items():  # time last: a reader counts the frames whose time is written
             dataset = datasets[name]
-            dataset.resize(index + 1, axis=0)
-            dataset[index] = data
-        for name, value in (("step", int(step)), ("time", float(time))):
-            datasets[name].resize(index + 1, axis=0)
-            datasets[name][index] = value
+            dataset.resize(index + count, axis=0)
+            dataset[index:] = data
         file.flush()
 
     def _create_frame_datasets(
@@ -548,7 +564,8 @@ def _number_type(dtype: np.dtype) -> tuple[str, str]:
 
 
 def _hyperslab(
-    parent: ET.Element, h5_ref: str, dataset: h5py.Dataset | _Layout, start: tuple[int, ...], count: tuple[int, ...]
+    parent: ET.Element, h5_ref: str, dataset: h5py.Dataset | _Layout, start: tuple[int | str, ...],
+    count: tuple[int, ...]
 ) -> None:
     """Append a HyperSlab DataItem selecting ``count`` entries from ``start`` of an HDF5 dataset."""
     number_type, precision = _number_type(dataset.dtype)
@@ -607,29 +624,29 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
         walls = _layout(static["walls/position"]) if static is not None and "walls/position" in static else None
         body_index = _layout(static["bodies/index"]) if static is not None and "bodies/index" in static else None
         times = frames["time"][:n_frames]
-        for k in range(n_frames):
-            step = ET.SubElement(collection, "Grid", Name=f"frame_{k}", GridType="Collection",
-                                 CollectionType="Spatial")
-            ET.SubElement(step, "Time", Value=repr(float(times[k])))
-            for name, geometry_data, fields in sets:
-                count = geometry_data.shape[1]
-                grid = _polyvertex_grid(step, name, count)
-                dim = geometry_data.shape[2]
-                _hyperslab(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[dim]), h5_ref, geometry_data,
-                           (k, 0, 0), (1, count, dim))
-                for label, dataset in fields:
-                    trailing = dataset.shape[2:]
-                    for suffix, index in _component_suffixes(trailing, dim) if trailing else [("", ())]:
-                        attribute = ET.SubElement(grid, "Attribute", Name=label + suffix, AttributeType="Scalar",
-                                                  Center="Node")
-                        _hyperslab(attribute, h5_ref, dataset, (k, 0, *index), (1, count, *(1 for _ in index)))
-                if name == "bodies" and body_index is not None:
-                    _whole(ET.SubElement(grid, "Attribute", Name="body_index", AttributeType="Scalar",
-                                         Center="Node"), h5_ref, body_index)
-            if walls is not None and walls.shape[0] > 0:
-                grid = _polyvertex_grid(step, "walls", walls.shape[0])
-                _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[walls.shape[1]]), h5_ref, walls)
-    _write_xml(root, out)
+        # one frame's XML with stand-ins for its index and time, repeated for every frame (_write_frames_xml)
+        step = ET.SubElement(collection, "Grid", Name=f"frame_{_FRAME_INDEX}", GridType="Collection",
+                             CollectionType="Spatial")
+        ET.SubElement(step, "Time", Value=_FRAME_TIME)
+        for name, geometry_data, fields in sets:
+            count = geometry_data.shape[1]
+            grid = _polyvertex_grid(step, name, count)
+            dim = geometry_data.shape[2]
+            _hyperslab(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[dim]), h5_ref, geometry_data,
+                       (_FRAME_INDEX, 0, 0), (1, count, dim))
+            for label, dataset in fields:
+                trailing = dataset.shape[2:]
+                for suffix, index in _component_suffixes(trailing, dim) if trailing else [("", ())]:
+                    attribute = ET.SubElement(grid, "Attribute", Name=label + suffix, AttributeType="Scalar",
+                                              Center="Node")
+                    _hyperslab(attribute, h5_ref, dataset, (_FRAME_INDEX, 0, *index), (1, count, *(1 for _ in index)))
+            if name == "bodies" and body_index is not None:
+                _whole(ET.SubElement(grid, "Attribute", Name="body_index", AttributeType="Scalar",
+                                     Center="Node"), h5_ref, body_index)
+        if walls is not None and walls.shape[0] > 0:
+            grid = _polyvertex_grid(step, "walls", walls.shape[0])
+            _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[walls.shape[1]]), h5_ref, walls)
+    _write_frames_xml(root, collection, step, times, out)
     write_xdmf_sets(h5_path, out)
     return out
 
@@ -645,6 +662,33 @@ class _Layout(NamedTuple):
 
 def _layout(dataset: h5py.Dataset) -> _Layout:
     return _Layout(dataset.name, dataset.shape, dataset.dtype)
+
+
+#: stand-ins for a frame's index and time in the XML of one frame, repeated for every frame
+#: (:func:`_write_frames_xml`); NUL, in no file path and no other text of a sidecar, sets them apart
+_FRAME_INDEX, _FRAME_TIME = "\x00k\x00", "\x00t\x00"
+
+
+def _write_frames_xml(root: ET.Element, collection: ET.Element, template: ET.Element, times: np.ndarray,
+                      path: pathlib.Path) -> None:
+    """Writes `root` to `path` with `template`, the one child of `collection`, written with the
+    stand-ins _FRAME_INDEX and _FRAME_TIME, repeated for every frame of `times` with its index and
+    time put in: the text :func:`_write_xml` writes of a tree with one element per frame (byte for
+    byte), in a fraction of its time (ElementTree builds, indents and serialises one frame only)."""
+    if len(times) == 0:
+        collection.remove(template)
+        _write_xml(root, path)
+        return
+    ET.indent(root)
+    text = ET.tostring(root, encoding="unicode")
+    last = ET.tostring(template, encoding="unicode")  # with its tail, the indent of the collection's end
+    head, found, end = text.partition(last)
+    assert found, "the frame's template is not in its document"
+    element = last[:len(last) - len(template.tail or "")]
+    between = collection.text or ""  # what ET.indent puts before each child
+    frames = between.join(element.replace(_FRAME_INDEX, str(k)).replace(_FRAME_TIME, repr(float(time)))
+                          for k, time in enumerate(times))
+    path.write_text('<?xml version="1.0" ?>\n' + head + frames + (template.tail or "") + end + "\n")
 
 
 def _write_xml(root: ET.Element, path: pathlib.Path) -> None:
@@ -680,6 +724,7 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
     source_ref = os.path.relpath(h5_path.resolve(), side.resolve().parent)  # VDS: relative to the side file
     written = []
     with h5py.File(h5_path, "r") as file, h5py.File(side, "w") as views:
+        virtual_slice = _VirtualSlices(views, source_ref)
         frames, static = file["frames"], file.get("static", {})
         n_frames = min(dataset.shape[0] for dataset in frames.values())
         times = frames["time"][:n_frames]
@@ -695,23 +740,30 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
                         if path in static and static[path].shape[:1] == (count,)}
             root, collection = _xdmf_root(name, temporal=True)
             connectivity = _connectivity(views, name, count)
-            for k in range(n_frames):
-                grid = ET.SubElement(collection, "Grid", Name=f"frame_{k}", GridType="Uniform")
-                ET.SubElement(grid, "Time", Value=repr(float(times[k])))
-                _polyvertex(grid, count, side_ref, connectivity)
-                position = _virtual_slice(views, f"{name}/frame_{k}/position", source_ref, positions, (k,))
-                dim = positions.shape[2]
-                _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[dim]), side_ref, position)
-                for label, dataset in [("position", positions), *fields]:
-                    trailing = dataset.shape[2:]
-                    for suffix, index in _component_suffixes(trailing, dim) if trailing else [("", ())]:
-                        view = _virtual_slice(views, f"{name}/frame_{k}/{label}{suffix}", source_ref, dataset,
-                                              (k, slice(None), *index))
-                        _node_attribute(grid, label + suffix, side_ref, view)
-                for label, dataset in constant.items():
-                    _node_attribute(grid, label, run_ref, dataset)
+            dim = positions.shape[2]
+            components = [(label + suffix, dataset, index) for label, dataset in [("position", positions), *fields]
+                          for suffix, index in (_component_suffixes(dataset.shape[2:], dim) if len(dataset.shape) > 2
+                                                else [("", ())])]
+            views_of_frame: dict[str, _Layout] = {}  # each view's layout, the frame's index a stand-in
+            for k in range(n_frames):  # the geometry, a frame's positions whole, then each component
+                slices: list[tuple[str, _Layout, tuple[int | slice, ...]]] = [("position", positions, (k,))]
+                slices += [(label, dataset, (k, slice(None), *component)) for label, dataset, component in components]
+                for label, dataset, index in slices:
+                    view = virtual_slice(f"{name}/frame_{k}/{label}", dataset, index)
+                    views_of_frame[label] = view._replace(name=f"/{name}/frame_{_FRAME_INDEX}/{label}")
+            # one frame's XML with stand-ins for its index and time, repeated for every frame (_write_frames_xml)
+            grid = ET.SubElement(collection, "Grid", Name=f"frame_{_FRAME_INDEX}", GridType="Uniform")
+            ET.SubElement(grid, "Time", Value=_FRAME_TIME)
+            _polyvertex(grid, count, side_ref, connectivity)
+            if n_frames:
+                _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[dim]), side_ref,
+                       views_of_frame["position"])
+                for label, _, _ in components:
+                    _node_attribute(grid, label, side_ref, views_of_frame[label])
+            for label, dataset in constant.items():
+                _node_attribute(grid, label, run_ref, dataset)
+            _write_frames_xml(root, collection, grid, times, base.with_suffix(f".{name}.xdmf"))
             written.append(base.with_suffix(f".{name}.xdmf"))
-            _write_xml(root, written[-1])
         walls = static.get("walls/position")
         if walls is not None and walls.shape[0] > 0:
             root, grid = _xdmf_root("walls", temporal=False)
@@ -751,27 +803,40 @@ def _node_attribute(grid: ET.Element, name: str, h5_ref: str, dataset: h5py.Data
     _whole(attribute, h5_ref, dataset)
 
 
-def _virtual_slice(views: h5py.File, name: str, source_ref: str, dataset: _Layout,
-                   index: tuple[int | slice, ...]) -> _Layout:
-    """A virtual dataset `name` in `views` that is ``dataset[index]`` of the run file (no copy);
-    `index` holds integers and whole slices. HDF5's own calls, as h5py's VirtualLayout makes them
-    (a hyperslab of the source mapped onto the whole virtual dataset), without its selection objects:
-    a sidecar has one such dataset per frame, set and component."""
-    start = tuple(i if isinstance(i, int) else 0 for i in index) + (0,) * (len(dataset.shape) - len(index))
-    count = tuple(1 if isinstance(i, int) else n for i, n in zip(index, dataset.shape)) + dataset.shape[len(index):]
-    shape = tuple(n for axis, n in enumerate(dataset.shape) if axis >= len(index) or not isinstance(index[axis], int))
-    source = h5py.h5s.create_simple(dataset.shape)
-    source.select_hyperslab(start, count)
-    virtual = h5py.h5s.create_simple(shape)
-    virtual.select_all()
-    creation = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
-    creation.set_virtual(virtual, source_ref.encode(), dataset.name.encode(), source)
-    links = h5py.h5p.create(h5py.h5p.LINK_CREATE)
-    links.set_create_intermediate_group(True)
-    created = h5py.h5d.create(views.id, name.encode(), h5py.h5t.py_create(dataset.dtype, logical=True), virtual,
-                              dcpl=creation, lcpl=links)
-    created.close()
-    return _Layout(f"/{name}", shape, dataset.dtype)
+class _VirtualSlices:
+    """Makes the side file's virtual datasets, each a slice of a run file's dataset (no copy); HDF5's
+    own calls, as h5py's VirtualLayout makes them (a hyperslab of the source mapped onto the whole
+    virtual dataset), without its selection objects, and with the link property list, the types and
+    the virtual dataspaces made once rather than per dataset: a sidecar has one per frame, set and
+    component."""
+
+    def __init__(self, views: h5py.File, source_ref: str) -> None:
+        self.views, self.source_ref = views, source_ref.encode()
+        self.links = h5py.h5p.create(h5py.h5p.LINK_CREATE)
+        self.links.set_create_intermediate_group(True)
+        self.types: dict[np.dtype, Any] = {}
+        self.spaces: dict[tuple[int, ...], Any] = {}
+
+    def __call__(self, name: str, dataset: _Layout, index: tuple[int | slice, ...]) -> _Layout:
+        """A virtual dataset `name` that is ``dataset[index]`` of the run file; `index` holds
+        integers and whole slices."""
+        start = tuple(i if isinstance(i, int) else 0 for i in index) + (0,) * (len(dataset.shape) - len(index))
+        count = tuple(1 if isinstance(i, int) else n for i, n in zip(index, dataset.shape)) + dataset.shape[len(index):]
+        shape = tuple(n for axis, n in enumerate(dataset.shape)
+                      if axis >= len(index) or not isinstance(index[axis], int))
+        source = h5py.h5s.create_simple(dataset.shape)
+        source.select_hyperslab(start, count)
+        if shape not in self.spaces:
+            self.spaces[shape] = h5py.h5s.create_simple(shape)
+            self.spaces[shape].select_all()
+        if dataset.dtype not in self.types:
+            self.types[dataset.dtype] = h5py.h5t.py_create(dataset.dtype, logical=True)
+        virtual = self.spaces[shape]
+        creation = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+        creation.set_virtual(virtual, self.source_ref, dataset.name.encode(), source)
+        h5py.h5d.create(self.views.id, name.encode(), self.types[dataset.dtype], virtual, dcpl=creation,
+                        lcpl=self.links).close()
+        return _Layout(f"/{name}", shape, dataset.dtype)
 
 
 def _set_fields(frames: h5py.Group, geometry: h5py.Dataset, prefix: str) -> list[tuple[str, h5py.Dataset]]:

@@ -12,7 +12,8 @@ The stepper protocol (:class:`Stepper`) is what a terrain model gives the loop â
 * ``checkpoint(path, progress)`` and ``restore(path) -> progress``: the whole state, bit for bit,
   with the loop's `progress` (plain data) beside it;
 * ``frame_fields()``, ``static_arrays()``: the per-particle arrays of each frame (a terrain without
-  grains, RFT's, gives its bodies' only) and those written
+  grains, RFT's, gives its bodies' only; arrays of their own, not views of the state, since the
+  loop keeps a frame until its batch is written) and those written
   once (``/frames``, ``/static``); ``diagnostics()``: one row of ``/series/diagnostics`` (the loop
   adds ``wall_time``); ``run_attributes()``: the particle counts and leak counter for ``/run``.
 
@@ -55,11 +56,13 @@ __all__ = ["BUILD_QUIET_SECONDS", "CHUNK_SECONDS", "END_OF_BED", "FINISHED_STATU
            "check_run_options", "checkpoint_path", "claimed_output", "lock_path", "output_lock", "recorded_end",
            "simulated_time_bar"]
 
-#: Wall time (s) between writes of the series' rows into the run file (and before every checkpoint and
-#: at the end, so a checkpoint's row counts are what the file holds): a write costs a resize and a
-#: write per dataset, 2.8 ms per group on the leg-wheel, which written on every frame (20 a simulated
-#: second) cost ten times RFT's stepping. A reader of a running file sees the series up to this far
-#: behind its frames; a killed run loses only rows after its checkpoint, which a resumed run rewrites.
+#: Wall time (s) between writes of the frames and the series' rows into the run file (and before every
+#: checkpoint, on a stop and at the end, so a checkpoint's frame and row counts are what the file holds):
+#: a write costs a resize, a write per dataset and a flush, 2.8 ms per series group and 0.4 ms per frame
+#: on the leg-wheel, which written on every frame (20 a simulated second) cost several times RFT's
+#: stepping (benchmarks/performance/bench_run_overhead.py). A reader of a running file sees its first
+#: frame at once, later frames and series up to this far behind; a killed run loses only what came after its checkpoint, which a
+#: resumed run rewrites.
 SERIES_WRITE_SECONDS = 1.0
 
 #: Wall time (s) one call into the stepper may take, so Ctrl-C and the progress bar stay responsive
@@ -395,7 +398,8 @@ class RunLoop:
         # when the leak counter first rose above 0 (a frame's time), warned of once and kept in /run
         leak: dict[str, float] = {"first_leak_time": saved["first_leak_time"]} if "first_leak_time" in saved else {}
         unwritten: dict[str, list[dict[str, Any]]] = {}  # rows since the last write, written in one batch
-        last_write = wallclock.perf_counter()
+        unwritten_frames: list[tuple[float, int, dict[str, np.ndarray]]] = []  # frames since it, likewise
+        last_write = -math.inf  # the run's first frame is written at once: a reader sees the run has begun
 
         def append(group: str, row: dict[str, Any]) -> None:
             for key, value in row.items():
@@ -404,23 +408,30 @@ class RunLoop:
                 unwritten.setdefault(group, []).append(row)
                 series_rows[group] = series_rows.get(group, 0) + 1
 
-        def write_rows() -> None:
-            """The rows appended since the last call into the file (each group one resize, one flush):
-            every SERIES_WRITE_SECONDS on a frame, before every checkpoint and at the end, so
-            series_rows is what is written."""
+        def write_pending() -> None:
+            """The frames and rows recorded since the last call into the file (all frames one write,
+            each group one): every SERIES_WRITE_SECONDS on a frame, before every checkpoint, on a stop
+            and at the end, so `frames` and `series_rows` are what is written."""
             nonlocal last_write
-            if writer:
-                for group, rows in unwritten.items():
-                    writer.append_series_rows(group, rows)
+            batch, groups = list(unwritten_frames), dict(unwritten)
+            unwritten_frames.clear()  # before the writes: a batch that fails is not written again at the end
             unwritten.clear()
+            if writer:
+                writer.write_frames(batch)
+                for group, rows in groups.items():
+                    writer.append_series_rows(group, rows)
             last_write = wallclock.perf_counter()
 
-        def record_frame() -> dict[str, float]:
+        def add_frame() -> None:
+            """The stepper's frame now, written with the next batch (write_pending)."""
             nonlocal frames
+            unwritten_frames.append((stepper.time, stepper.step_count, stepper.frame_fields()))
+            frames += 1
+
+        def record_frame() -> dict[str, float]:
             row = {"time": stepper.time, **stepper.diagnostics(), "wall_time": wallclock.perf_counter() - start}
             if writer:
-                writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
-                frames += 1
+                add_frame()
             append("diagnostics", row)
             if row.get("leaked_particles", 0) > 0 and not leak:
                 leak["first_leak_time"] = stepper.time
@@ -429,7 +440,7 @@ class RunLoop:
                               "leaked_particles in the run file (a part too thin for its load, or too coarse a "
                               "spacing); the run goes on", RuntimeWarning, stacklevel=2)
             if wallclock.perf_counter() - last_write >= SERIES_WRITE_SECONDS:
-                write_rows()
+                write_pending()
             if self.on_frame:
                 self.on_frame()
             return row
@@ -440,7 +451,7 @@ class RunLoop:
                     append(group, row)
 
         def save_checkpoint() -> None:
-            write_rows()
+            write_pending()
             if writer:
                 stepper.checkpoint(checkpoint_path(self.output), {
                     "t_end": t_end, "next_frame": next_frame, "next_sample": next_sample, "frames": frames,
@@ -452,7 +463,7 @@ class RunLoop:
 
             if not writer:
                 return
-            write_rows()
+            write_pending()
             writer.set_attrs("/run", {"status": status, "t_end": t_end, "wall_time": wallclock.perf_counter() - start,
                                       "steps": stepper.step_count, "time": stepper.time,
                                       **stepper.run_attributes(), **leak, **extra})
@@ -526,8 +537,7 @@ class RunLoop:
             bar.close()
             if writer and at_step_boundary:
                 save_checkpoint()  # before the extra frame below, which a resumed run drops
-                writer.write_frame(stepper.time, stepper.step_count, stepper.frame_fields())
-                frames += 1
+                add_frame()
             # stopped inside a step, the run continues from its last checkpoint, if it has one
             resumable = writer is not None and checkpoint_path(self.output).is_file()
             record_end("interrupted", **({"checkpoint": checkpoint_path(self.output).name} if resumable else {}))
