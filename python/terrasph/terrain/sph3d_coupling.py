@@ -12,7 +12,7 @@ The coupled step is the planar coupling's (:mod:`terrasph.robots.coupling`), in 
 3. MuJoCo takes a step of dt (:func:`terrasph.robots.coupling.mujoco_step`, its velocity servos
    handled as there).
 4. Each body's frame pose (``xpos``, ``xquat``), its velocity and angular velocity at the frame
-   origin (``mj_objectVelocity``, world axes) at t_{n+1} and their change over the step / dt are
+   origin (``mj_objectVelocity`` of the body frame, mjOBJ_XBODY; mjOBJ_BODY is the centre of mass's) at t_{n+1} and their change over the step / dt are
    the driven body's kinematics at the end of the next SPH step.
 5. The SPH takes one step of dt.
 
@@ -179,7 +179,7 @@ class Coupled3D:
     def _rates(self, body: CoupledBody3D) -> tuple[np.ndarray, np.ndarray]:
         """Velocity and angular velocity (world axes) of the body's frame origin now."""
         rates = np.empty(6)
-        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, body.body_id, rates, 0)
+        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_XBODY, body.body_id, rates, 0)
         return rates[3:].copy(), rates[:3].copy()
 
     def _at_com(self, body: CoupledBody3D, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
