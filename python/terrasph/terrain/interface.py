@@ -14,14 +14,16 @@ model's ``opt.timestep``, with the terrain's loads on the coupled bodies. What t
   model moving in the x–z plane (slides along x and z, hinges about y);
 * ``"sph"``: a planar model on an SPH bed of glass beads
   (:class:`terrasph.robots.coupling.CoupledSimulation`, built by
-  :func:`terrasph.robots.mjcf_scene.sph_coupling`), the model shifted into the bed's frame.
+  :func:`terrasph.robots.mjcf_scene.sph_coupling`), the model shifted into the bed's frame;
+* ``"sph3d"``: any model on a 3D SPH bed of glass beads
+  (:class:`terrasph.terrain.sph3d_coupling.Coupled3D`), the bed laid in the model's frame.
 
 The RFT terrains are implicit in the load (docs/rft.md): the stepper takes MuJoCo's step itself,
 the load entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrain's
 measured step (``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
 :data:`~terrasph.robots.rft3d_terrain.RFT3D_TIME_STEP` 3D): the model's step is cut into equal
 substeps no longer than that, all taken in one call of the compiled stepper. The SPH coupling is
-explicit at the SPH's step bound. ``opt.timestep`` is the model's own again when
+explicit at the SPH's step bound (both SPH terrains). ``opt.timestep`` is the model's own again when
 :meth:`Terrain.step` returns. The steps use MuJoCo's semi-implicit Euler integrator (the scheme the
 implicit RFT correction is derived for), whatever the model's ``opt.integrator`` (put back after
 the call): on gymnasium's Ant (RK4 in its file), at the 3D terrain's step, Euler substeps walked a
@@ -429,12 +431,16 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
     (s): the terrain's longest step; ``element_length`` (m): the RFT elements' size; ``spacing``
     (m, planar): the bodies' particle spacing, :data:`PLANAR_SPACING`; ``integrator``: MuJoCo's
     integrator in the terrain's substeps, ``"euler"`` (default: the implicit correction's own
-    scheme; the measured choice, module docstring) or ``"model"`` (the model's ``opt.integrator``).
+    scheme; the measured choice, module docstring) or ``"model"`` (the model's ``opt.integrator``);
+    the SPH beds' options: :data:`SPH_BED` (planar), :data:`SPH3D_BED` (3D: ``spacing`` (m) of the
+    grains and the bodies' particles, ``bed_size`` (x, y; m) or ``bed_margin`` (m) beyond the
+    coupled geoms, ``bed_depth``, ``freeboard`` (m), ``fidelity``, ``numerics``).
 
     Refused before anything is changed, as :class:`terrasph.config.ConfigError` naming the item: a
     terrain, table or option not offered; gravity not along −z; a model the planar terrain cannot
     carry (naming its joint or body); no body to couple, a named body the model lacks, a coupled
-    body without mass. On success the model's floor is switched off (logged)."""
+    body without mass; on the 3D SPH a geom it does not fill (ellipsoid, mesh) or too thin for the
+    spacing. On success the model's floor is switched off (logged)."""
     if not isinstance(model, mujoco.MjModel) or not isinstance(data, mujoco.MjData):
         raise ConfigError("parameters 'model' and 'data' must be a compiled mujoco.MjModel and its mujoco.MjData")
     if terrain not in TERRAINS:
