@@ -29,6 +29,7 @@ SHAPES_XML = """
       <geom name="pill" type="capsule" size="0.05 0.08" pos="-0.1 0.05 0" euler="0 70 10"/>
       <geom name="can" type="cylinder" size="0.05 0.06" pos="0 -0.15 0.02" euler="40 0 0"/>
       <geom name="brick" type="box" size="0.08 0.06 0.05" pos="0 0.15 -0.05" euler="0 0 30"/>
+      <geom name="egg" type="ellipsoid" size="0.07 0.05 0.04" pos="0.05 0.05 0.1" euler="10 20 30"/>
     </body>
   </worldbody>
 </mujoco>
@@ -44,7 +45,8 @@ def test_each_geom_is_a_shell_where_mujoco_places_it() -> None:
     """The body's particles, at the body's pose in the bed, each lie inside one of its geoms as
     MuJoCo's own forward kinematics places them, within the wall layers' thickness of its surface
     (the geom's solid distance function: sphere, capsule, cylinder, box), and each geom holds about
-    its shell's volume / Δx³ particles (within 15 %: the lattice cuts a 5 cm solid at Δx = 1 cm)."""
+    its shell's volume / Δx³ particles (within 15 %: the lattice cuts a 5 cm solid at Δx = 1 cm; the
+    ellipsoid's inner surface taken as the ellipsoid of semi-axes less the layers)."""
     model = mujoco.MjModel.from_xml_string(SHAPES_XML)
     data = mujoco.MjData(model)
     spacing = 0.01
@@ -64,8 +66,13 @@ def test_each_geom_is_a_shell_where_mujoco_places_it() -> None:
     depth["can"] = np.minimum(size["can"][0] - np.linalg.norm(p[:, :2], axis=1), size["can"][1] - np.abs(p[:, 2]))
     p = _local(data, ids["brick"], points)
     depth["brick"] = (size["brick"][:3] - np.abs(p)).min(axis=1)
+    egg = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "egg")
+    scaled = np.linalg.norm(_local(data, egg, points) / model.geom_size[egg], axis=1)
+    # a lower bound of the depth below an ellipsoid's surface: (1 − F) × its smallest semi-axis
+    depth["egg"] = (1.0 - scaled) * model.geom_size[egg].min()
     slack = 1e-9
     inside = {name: (d >= -slack) & (d < layers + slack) for name, d in depth.items()}
+    inside["egg"] = (depth["egg"] >= -slack) & (depth["egg"] < layers + 0.5 * spacing)
     assert np.all(np.any(np.column_stack(list(inside.values())), axis=1))
     r, half = size["ball"][0], None
     volumes = {"ball": 4 / 3 * np.pi * (r**3 - max(r - layers, 0.0) ** 3)}
@@ -76,6 +83,8 @@ def test_each_geom_is_a_shell_where_mujoco_places_it() -> None:
     volumes["can"] = np.pi * r**2 * 2 * half - np.pi * max(r - layers, 0) ** 2 * max(2 * half - 2 * layers, 0)
     b = size["brick"][:3]
     volumes["brick"] = np.prod(2 * b) - np.prod(np.clip(2 * b - 2 * layers, 0, None))
+    a = model.geom_size[egg]
+    volumes["egg"] = 4 / 3 * np.pi * (np.prod(a) - np.prod(a - layers))
     for name, volume in volumes.items():
         alone = inside[name] & ~np.any(np.column_stack([v for k, v in inside.items() if k != name]), axis=1)
         assert inside[name].sum() >= alone.sum()
@@ -83,9 +92,10 @@ def test_each_geom_is_a_shell_where_mujoco_places_it() -> None:
 
 
 def test_what_the_3d_terrain_cannot_take_is_refused_before_the_model_is_touched() -> None:
-    """An ellipsoid (not filled), bad bed options and an RFT table, each named, the floor still on."""
-    xml = SHAPES_XML.replace('type="sphere" size="0.06"', 'type="ellipsoid" size="0.06 0.05 0.04"')
-    cases = [(xml, {}, "ellipsoid"), (SHAPES_XML, {"spacing": -0.01}, "spacing"),
+    """A mesh (not filled), bad bed options and an RFT table, each named, the floor still on."""
+    xml = SHAPES_XML.replace('<worldbody>', '<asset><mesh name="tetra" vertex="0 0 0 0.1 0 0 0 0.1 0 0 0 0.1"/></asset>'
+                             '<worldbody>').replace('type="sphere" size="0.06"', 'type="mesh" mesh="tetra"')
+    cases = [(xml, {}, "'ball' .* is a mesh"), (SHAPES_XML, {"spacing": -0.01}, "spacing"),
              (SHAPES_XML, {"bed_size": (1.0,)}, "bed_size"), (SHAPES_XML, {"bed_depth": float("nan")}, "bed_depth"),
              (SHAPES_XML, {"table": "sand"}, "table"), (SHAPES_XML, {"fidelity": "best"}, "best"),
              (SHAPES_XML, {"element_length": 0.01}, "element_length"),

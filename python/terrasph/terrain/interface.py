@@ -439,7 +439,7 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
     Refused before anything is changed, as :class:`terrasph.config.ConfigError` naming the item: a
     terrain, table or option not offered; gravity not along −z; a model the planar terrain cannot
     carry (naming its joint or body); no body to couple, a named body the model lacks, a coupled
-    body without mass; on the 3D SPH a geom it does not fill (ellipsoid, mesh) or too thin for the
+    body without mass; on the 3D SPH a geom it does not fill (mesh, plane, …) or too thin for the
     spacing. On success the model's floor is switched off (logged)."""
     if not isinstance(model, mujoco.MjModel) or not isinstance(data, mujoco.MjData):
         raise ConfigError("parameters 'model' and 'data' must be a compiled mujoco.MjModel and its mujoco.MjData")

@@ -1,6 +1,6 @@
 """A 3D MuJoCo model two-way coupled with a 3D SPH bed (``terrain="sph3d"`` of :func:`terrasph.terrain.attach`).
 
-Each coupled body's collision geoms (sphere, capsule, cylinder, box) are filled with particles
+Each coupled body's collision geoms (sphere, capsule, cylinder, ellipsoid, box) are filled with particles
 (:mod:`terrasph.sph3d`'s shells) in the body's frame and made one driven body of a
 :func:`terrasph.sph3d.geostatic_bed` of glass beads whose free surface lies at the model's floor.
 The coupled step is the planar coupling's (:mod:`terrasph.robots.coupling`), in 3D:
@@ -38,7 +38,17 @@ from terrasph.robots.coupling import (
     velocity_servos,
 )
 from terrasph.robots.geoms import is_collision_geom
-from terrasph.sph3d import Bed3D, BodyShape3D, bed_simulation, box, capsule, cylinder, geostatic_bed, sphere
+from terrasph.sph3d import (
+    Bed3D,
+    BodyShape3D,
+    bed_simulation,
+    box,
+    capsule,
+    cylinder,
+    ellipsoid,
+    geostatic_bed,
+    sphere,
+)
 
 __all__ = ["Coupled3D", "CoupledBody3D", "bed_under", "body_shape_3d"]
 
@@ -48,6 +58,7 @@ _SHAPES = {
     mujoco.mjtGeom.mjGEOM_CAPSULE: lambda size, dx, h: capsule(size[0], size[1], dx, h),
     mujoco.mjtGeom.mjGEOM_CYLINDER: lambda size, dx, h: cylinder(size[0], size[1], dx, h),
     mujoco.mjtGeom.mjGEOM_BOX: lambda size, dx, h: box((size[0], size[1], size[2]), dx, h),
+    mujoco.mjtGeom.mjGEOM_ELLIPSOID: lambda size, dx, h: ellipsoid((size[0], size[1], size[2]), dx, h),
 }
 
 
@@ -63,7 +74,7 @@ def _rotation(quaternion: np.ndarray) -> np.ndarray:
 
 def body_shape_3d(model: mujoco.MjModel, body: int, name: str, spacing: float, h_factor: float) -> BodyShape3D:
     """The particles of body `body`'s collision geoms in the body's frame (each geom's shell moved by
-    its ``geom_pos``, ``geom_quat``); ConfigError naming a geom of a type not filled (ellipsoid, mesh,
+    its ``geom_pos``, ``geom_quat``); ConfigError naming a geom of a type not filled (mesh,
     plane, …) or too thin for the wall layers, or a body without collision geom."""
     positions, normals = [], []
     for geom in range(model.ngeom):
@@ -73,7 +84,7 @@ def body_shape_3d(model: mujoco.MjModel, body: int, name: str, spacing: float, h
         if kind not in _SHAPES:
             raise ConfigError(f"geom '{_geom_name(model, geom)}' of coupled body '{name}' is a "
                               f"{mujoco.mjtGeom(kind).name[7:].lower()}: the 3D SPH terrain fills sphere, capsule, "
-                              "cylinder and box geoms (give it contype=conaffinity=0, or leave its body out)")
+                              "cylinder, ellipsoid and box geoms (give it contype=conaffinity=0, or leave its body out)")
         try:
             shell = _SHAPES[kind](model.geom_size[geom], spacing, h_factor)
         except ConfigError as error:
