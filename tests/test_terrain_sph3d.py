@@ -213,7 +213,7 @@ def test_the_coupled_3d_run_is_the_same_on_one_two_and_three_threads(restore_thr
         _core.set_num_threads(threads)
         model = mujoco.MjModel.from_xml_string(SLAB_XML.replace('pos="0 0 0.05"', 'pos="0 0 0.07"'))
         data = mujoco.MjData(model)
-        sand = attach(model, data, "sph3d", spacing=0.025, bed_depth=0.1, bed_margin=0.1)
+        sand = attach(model, data, "sph3d", spacing=0.025, bed_depth=0.1, bed_margin=0.2)
         for push in pushes:
             data.qfrc_applied[:] = push
             sand.step(5)
@@ -222,3 +222,22 @@ def test_the_coupled_3d_run_is_the_same_on_one_two_and_three_threads(restore_thr
     for other in results[1:]:
         for a, b in zip(results[0], other):
             np.testing.assert_array_equal(a, b)
+
+
+def test_a_body_reaching_the_beds_side_stops_the_run_by_name() -> None:
+    """The slab pushed sideways along the sand toward the near side of a narrow bed: the step that
+    brings it within a kernel support and a spacing of the side wall raises InstabilityError naming
+    the body, before its particles reach the wall's inner face."""
+    from terrasph import InstabilityError
+
+    model = mujoco.MjModel.from_xml_string(SLAB_XML)
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data, 100)
+    sand = attach(model, data, "sph3d", spacing=0.025, bed_depth=0.1, bed_margin=0.15)
+    sand.step(25)
+    data.qvel[0] = 1.0  # 1 m/s toward +x, the side 15 cm away
+    with pytest.raises(InstabilityError, match="'slab' reached a side of the 3D bed"):
+        sand.step(150)
+    core = sand._stepper.core
+    body_x = np.asarray(core.wall_position)[np.asarray(core.wall_body) == 0, 0]
+    assert body_x.max() < sand._stepper.sides[1][0]

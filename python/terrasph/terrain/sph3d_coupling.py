@@ -14,7 +14,8 @@ The coupled step is the planar coupling's (:mod:`terrasph.robots.coupling`), in 
 4. Each body's frame pose (``xpos``, ``xquat``), its velocity and angular velocity at the frame
    origin (``mj_objectVelocity`` of the body frame, mjOBJ_XBODY; mjOBJ_BODY is the centre of mass's) at t_{n+1} and their change over the step / dt are
    the driven body's kinematics at the end of the next SPH step.
-5. The SPH takes one step of dt.
+5. The SPH takes one step of dt; a body that has come within a kernel support of a side of the
+   bed stops the run (:meth:`Coupled3D.check_sides`).
 
 The scheme is explicit (the load lags the body by one step) and deterministic.
 """
@@ -28,6 +29,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from terrasph import InstabilityError
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots.coupling import (
@@ -157,6 +159,10 @@ class Coupled3D:
         upper = np.maximum(every.max(axis=0), [0.0, 0.0, surface + headroom]) + reach
         upper[:2] = every.max(axis=0)[:2] + reach
         self.bed, self.lower, self.upper = bed, lower, upper
+        grains = bed.granular["position"]
+        half = 0.5 * numerics.spacing
+        #: the inner faces of the bed's side walls (x, y; m): low corner, high corner
+        self.sides = (grains[:, :2].min(axis=0) - half, grains[:, :2].max(axis=0) + half)
         self.core = bed_simulation(bed, material, numerics, lower, upper, extra)
         self._index = [self.core.add_driven_body(2 + k, np.array(data.xpos[b.body_id]),
                                                  np.array(data.xquat[b.body_id])) for k, b in enumerate(self.coupled)]
@@ -219,6 +225,7 @@ class Coupled3D:
                                           (velocity - old_velocity) / dt, (omega - old_omega) / dt)
             self._velocity[body.name] = (velocity, omega)
         self.core.advance(self.core.time + dt, 1)
+        self.check_sides()
         return dt
 
     def advance(self, t_end: float) -> int:
@@ -228,6 +235,24 @@ class Coupled3D:
             self.step()
             taken += 1
         return taken
+
+    def check_sides(self) -> None:
+        """:class:`terrasph.InstabilityError` naming the first coupled body with a particle within
+        a kernel support and a spacing (2h + Δx) of a side wall of the bed, lower than that above the
+        surface: grains between them would be squeezed against the fixed wall, which does not yield
+        as the bed beyond it would."""
+        reach = (2.0 * self.numerics.h_factor + 1.0) * self.numerics.spacing
+        low, high = self.sides
+        for body in self.coupled:
+            points = self._world(body, body.shape.position)
+            near = points[points[:, 2] < self.surface + reach]
+            if len(near) and (np.any(near[:, :2] < low + reach) or np.any(near[:, :2] > high - reach)):
+                error = InstabilityError(
+                    f"coupled body '{body.name}' reached a side of the 3D bed (x, y in [{low[0]:.4g}, {high[0]:.4g}] × "
+                    f"[{low[1]:.4g}, {high[1]:.4g}] m) at t = {self.time:.6g} s; widen the bed (bed_size or "
+                    "bed_margin of attach)")
+                error.step, error.time, error.particle, error.reason = self.step_count, self.time, -1, "bed side"
+                raise error
 
     def reset_body_means(self) -> None:
         """Starts a new averaging interval of the bodies' loads."""
