@@ -134,3 +134,16 @@ def test_the_ant_on_the_3d_sph_bed() -> None:
     for _ in range(5):
         env.step(env.action_space.sample())
     assert env.terrain.leaked_grains == 0
+
+
+@pytest.mark.slow
+def test_a_reset_puts_back_the_undisturbed_3d_sph_bed() -> None:
+    """On the 3D SPH bed, a reset puts back the bed built at the start: after an episode, the same
+    trajectory as a fresh environment's."""
+    actions = np.random.default_rng(4).uniform(-1.0, 1.0, (8, 8))
+    used = OnSand(gymnasium.make("Ant-v5"), terrain="sph3d")
+    _rollout(used, 11, actions)
+    again = _rollout(used, 5, actions)
+    fresh = _rollout(OnSand(gymnasium.make("Ant-v5"), terrain="sph3d"), 5, actions)
+    assert len(again) == len(fresh) and all(np.array_equal(a, b) for a, b in zip(again, fresh))
+    assert used.terrain.leaked_grains == 0
