@@ -270,32 +270,54 @@ class RFTTerrain(Terrain):
         self._stepper.restart()
 
 
-class SPHTerrain(Terrain):
-    """A planar model on the SPH bed (:class:`terrasph.robots.coupling.CoupledSimulation`): the
-    coupled step at the SPH's step bound, until the model's time is reached (the target kept, so
-    steps that end past it do not add up); the undisturbed bed is the one built by :func:`attach`."""
+class _SPHBedTerrain(Terrain):
+    """What the SPH terrains share: the coupled step at the SPH's step bound (``stepper``, on the
+    compiled simulation ``core``), until the model's time is reached (the target kept, so steps
+    that end past it do not add up); the undisturbed bed is the one built by :func:`attach`; the
+    memory is the SPH's whole state with the coupling's own."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: CoupledSimulation,
-                 model_step: float, integrator: int | None) -> None:
-        self._stepper = coupled
-        self._target = coupled.time
-        self._bed = copy.deepcopy(coupled.sim.core.state())
-        super().__init__("sph", model, data, coupled.robot.coupled, coupled.surface(),
-                         model_step, integrator)
+    def __init__(self, kind: str, model: mujoco.MjModel, data: mujoco.MjData, stepper: Any, core: Any,
+                 coupled: Sequence[Any], surface: float, model_step: float, integrator: int | None) -> None:
+        self._stepper, self._core = stepper, core
+        self._target = stepper.time
+        self._bed = copy.deepcopy(core.state())
+        super().__init__(kind, model, data, coupled, surface, model_step, integrator)
 
     @property
     def time_step(self) -> float:
         """The SPH's step (s) now: its stable bound."""
-        return self._stepper.time_step()
+        return float(self._stepper.time_step())
 
     @property
     def leaked_grains(self) -> int:
-        """Grains that have left the bed's domain."""
-        return int(self._stepper.sim.leaked_particles)
+        """Grains that have been inside a wall or body at any step (the leak counter)."""
+        return int(self._core.penetrated_particles)
 
     def _advance(self, nstep: int) -> None:
         self._target += nstep * self._model_step
         self._stepper.advance(self._target)
+
+    def _memory(self) -> dict[str, Any]:
+        return {"sph": self._core.state(), "coupling": self._stepper.state(), "target": self._target}
+
+    def _put_memory(self, memory: dict[str, Any]) -> None:
+        self._core.restore(memory["sph"])
+        self._stepper.restore_state(memory["coupling"])
+        self._target = float(memory["target"])
+
+    def _restart(self) -> None:
+        self._core.restore(copy.deepcopy(self._bed))
+        self._stepper.restart()
+        self._target = self._stepper.time
+
+
+class SPHTerrain(_SPHBedTerrain):
+    """A planar model on the SPH bed (:class:`terrasph.robots.coupling.CoupledSimulation`)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: CoupledSimulation,
+                 model_step: float, integrator: int | None) -> None:
+        super().__init__("sph", model, data, coupled, coupled.sim.core, coupled.robot.coupled, coupled.surface(),
+                         model_step, integrator)
 
     def _mean_loads(self) -> dict[str, np.ndarray]:
         samples = [self._stepper.body_sample(name) for name in self._names]
@@ -307,45 +329,14 @@ class SPHTerrain(Terrain):
     def _surface_now(self) -> float:
         return self._stepper.surface()
 
-    def _memory(self) -> dict[str, Any]:
-        return {"sph": self._stepper.sim.core.state(), "coupling": self._stepper.state(), "target": self._target}
 
-    def _put_memory(self, memory: dict[str, Any]) -> None:
-        self._stepper.sim.core.restore(memory["sph"])
-        self._stepper.restore_state(memory["coupling"])
-        self._target = float(memory["target"])
-
-    def _restart(self) -> None:
-        self._stepper.sim.core.restore(copy.deepcopy(self._bed))
-        self._stepper.restart()
-        self._target = self._stepper.time
-
-
-class SPH3DTerrain(Terrain):
-    """A 3D model on a 3D SPH bed (:class:`terrasph.terrain.sph3d_coupling.Coupled3D`): the coupled
-    step at the SPH's step bound until the model's time is reached (the target kept, as
-    :class:`SPHTerrain`); the undisturbed bed is the one built by :func:`attach`."""
+class SPH3DTerrain(_SPHBedTerrain):
+    """A 3D model on a 3D SPH bed (:class:`terrasph.terrain.sph3d_coupling.Coupled3D`)."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: Coupled3D, model_step: float,
                  integrator: int | None) -> None:
-        self._stepper = coupled
-        self._target = coupled.time
-        self._bed = copy.deepcopy(coupled.core.state())
-        super().__init__("sph3d", model, data, coupled.coupled, coupled.surface, model_step, integrator)
-
-    @property
-    def time_step(self) -> float:
-        """The SPH's step (s) now: its stable bound."""
-        return self._stepper.time_step()
-
-    @property
-    def leaked_grains(self) -> int:
-        """Grains that have left the bed's domain."""
-        return self._stepper.leaked_particles
-
-    def _advance(self, nstep: int) -> None:
-        self._target += nstep * self._model_step
-        self._stepper.advance(self._target)
+        super().__init__("sph3d", model, data, coupled, coupled.core, coupled.coupled, coupled.surface, model_step,
+                         integrator)
 
     def _mean_loads(self) -> dict[str, np.ndarray]:
         return {name: self._stepper.mean_load(k) for k, name in enumerate(self._names)}
@@ -353,18 +344,9 @@ class SPH3DTerrain(Terrain):
     def _lowest(self, k: int) -> float:
         return self._stepper.lowest_z(k)
 
-    def _memory(self) -> dict[str, Any]:
-        return {"coupling": self._stepper.state(), "target": self._target}
-
     def _put_memory(self, memory: dict[str, Any]) -> None:
-        self._stepper.restore_state(memory["coupling"])
-        self._target = float(memory["target"])
-        mujoco.mj_forward(self.model, self.data)
-
-    def _restart(self) -> None:
-        self._stepper.core.restore(copy.deepcopy(self._bed))
-        self._stepper.restart()
-        self._target = self._stepper.time
+        super()._put_memory(memory)
+        mujoco.mj_forward(self.model, self.data)  # the derived poses sinkage() reads
 
 
 def _sph3d_terrain(model: mujoco.MjModel, data: mujoco.MjData, bodies: Sequence[str], couple_below: float | None,

@@ -270,12 +270,11 @@ class Coupled3D:
         return float(np.asarray(self.core.wall_position)[owner == self._index[k], 2].min())
 
     def state(self) -> dict[str, Any]:
-        """The coupling's memory (the SPH state, each body's last rates)."""
-        return {"sph": self.core.state(), "velocity": {k: (v.copy(), w.copy()) for k, (v, w) in self._velocity.items()}}
+        """The coupling's own memory (each body's last rates); the SPH's is its core's state."""
+        return {"velocity": {k: (v.copy(), w.copy()) for k, (v, w) in self._velocity.items()}}
 
     def restore_state(self, saved: dict[str, Any]) -> None:
-        """Puts back a :meth:`state`."""
-        self.core.restore(saved["sph"])
+        """Puts back a :meth:`state` (after the core's state of the same moment)."""
         self._velocity = {k: (np.array(v), np.array(w)) for k, (v, w) in saved["velocity"].items()}
 
     def restart(self) -> None:
