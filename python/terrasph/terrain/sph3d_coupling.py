@@ -33,7 +33,7 @@ from terrasph import InstabilityError
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.robots.coupling import (
-    MIN_MASS_RATIO,
+    check_mass_ratio,
     divergence_error,
     divergences,
     mujoco_step,
@@ -138,13 +138,9 @@ class Coupled3D:
                  surface: float, material: Material, numerics: Numerics, headroom: float) -> None:
         self.model, self.data, self.coupled = model, data, list(coupled)
         self.material, self.numerics, self.surface = material, numerics, surface
-        for body in self.coupled:
+        for body in self.coupled:  # the grains its particles' cells displace
             displaced = material.reference_density * len(body.shape.position) * body.shape.spacing ** 3
-            ratio = float(model.body_mass[body.body_id]) / displaced
-            if ratio < MIN_MASS_RATIO:
-                raise ConfigError(f"coupled body '{body.name}' is too light for the coupling: its mass over that of "
-                                  f"the grains its particles displace is {ratio:.3g}, allowed >= {MIN_MASS_RATIO:g} "
-                                  "(the explicit scheme's stability limit, docs/robots.md); make it heavier")
+            check_mass_ratio(body.name, float(model.body_mass[body.body_id]) / displaced)
         walls = []
         for k, body in enumerate(self.coupled):
             n = len(body.shape.position)
