@@ -111,10 +111,11 @@ def _check_mass_ratios(robot: PlanarRobot, grain_density: float) -> None:
         check_mass_ratio(body.name, float(robot.model.body_mass[body.body_id]) / displaced_grain_mass(body, grain_density))
 
 
-def check_mass_ratio(name: str, ratio: float) -> None:
+def check_mass_ratio(name: str, ratio: float, stacklevel: int = 4) -> None:
     """Refuses coupled body `name` whose mass over that of the grains its shape displaces, `ratio`,
     is below MIN_MASS_RATIO: the load lags the body by one step, and a body that light is thrown
-    off the bed by it (docs/robots.md); warns below ACCURATE_MASS_RATIO."""
+    off the bed by it (docs/robots.md); warns below ACCURATE_MASS_RATIO (the warning points
+    `stacklevel` frames up: the user's call)."""
     if ratio < MIN_MASS_RATIO:
         raise ConfigError(f"coupled body '{name}' is too light for the coupling: its mass over that of the "
                           f"grains it displaces is {ratio:.3g}, allowed >= {MIN_MASS_RATIO:g} (the explicit "
@@ -123,7 +124,7 @@ def check_mass_ratio(name: str, ratio: float) -> None:
         warnings.warn(f"coupled body '{name}' is light for the coupling: its mass over that of the grains it "
                       f"displaces is {ratio:.3g}, below {ACCURATE_MASS_RATIO:g}; if it turns freely or under a torque "
                       "(not held by a velocity servo) its motion depends on its mass (docs/robots.md)",
-                      RuntimeWarning, stacklevel=4)
+                      RuntimeWarning, stacklevel=stacklevel)
 
 
 @dataclasses.dataclass(frozen=True)

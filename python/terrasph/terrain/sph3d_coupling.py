@@ -140,7 +140,7 @@ class Coupled3D:
         self.material, self.numerics, self.surface = material, numerics, surface
         for body in self.coupled:  # the grains its particles' cells displace
             displaced = material.reference_density * len(body.shape.position) * body.shape.spacing ** 3
-            check_mass_ratio(body.name, float(model.body_mass[body.body_id]) / displaced)
+            check_mass_ratio(body.name, float(model.body_mass[body.body_id]) / displaced, stacklevel=5)  # attach's caller
         walls = []
         for k, body in enumerate(self.coupled):
             n = len(body.shape.position)
