@@ -22,7 +22,7 @@ from terrasph.geometry import wall_layers_needed
 from terrasph.scene import GRAVITY, earth_pressure_at_rest
 
 __all__ = ["BED_WALLS", "Bed3D", "BodyShape3D", "bed_simulation", "body_walls", "box", "capsule", "core_params",
-           "cylinder", "extrude", "geostatic_bed", "geostatic_deviatoric_stress", "sphere"]
+           "cylinder", "ellipsoid", "extrude", "geostatic_bed", "geostatic_deviatoric_stress", "sphere"]
 
 BED_WALLS = {"floor": 0, "sides": 1}  # wall groups of a bed's box
 
@@ -92,6 +92,23 @@ def sphere(radius: float, spacing: float, h_factor: float = 1.3) -> BodyShape3D:
     r = np.linalg.norm(points, axis=1)
     normal = points / np.maximum(r, 1e-300)[:, None]
     return _shell("sphere", points, r0 - r, normal, dx, 2.0 * r0, h_factor)
+
+
+def ellipsoid(half_axes: tuple[float, float, float], spacing: float, h_factor: float = 1.3) -> BodyShape3D:
+    """An ellipsoid of semi-axes (a, b, c) along x, y, z at the origin (MuJoCo's ellipsoid). With
+    F = |(x/a, y/b, z/c)|, the depth below the surface is taken to first order, (1 − F)/|∇F| (exact
+    for a sphere), and the normal along ∇F."""
+    axes = np.array([_positive("half_axes", h) for h in half_axes])
+    dx = _positive("spacing", spacing)
+    points = _cells(axes, dx)
+    scaled = np.linalg.norm(points / axes, axis=1)
+    gradient = points / axes**2 / np.maximum(scaled, 1e-300)[:, None]  # ∇F
+    size = np.linalg.norm(gradient, axis=1)
+    at_centre = size == 0.0
+    size[at_centre] = 1.0 / axes.min()  # the centre: depth the smallest semi-axis
+    normal = gradient / size[:, None]
+    normal[at_centre] = (0.0, 0.0, 1.0)
+    return _shell("ellipsoid", points, (1.0 - scaled) / size, normal, dx, 2.0 * axes.min(), h_factor)
 
 
 def _segment_shell(name: str, radius: float, half_length: float, spacing: float, h_factor: float,

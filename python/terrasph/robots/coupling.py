@@ -55,7 +55,8 @@ from terrasph.robots.metrics import free_surface
 from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "SURFACE_MARGIN", "CoupledSimulation", "RobotStepper", "displaced_grain_mass", "divergences",
+__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "SURFACE_MARGIN", "CoupledSimulation", "RobotStepper",
+           "check_mass_ratio", "displaced_grain_mass", "divergences",
            "mujoco_derived",
            "mujoco_state", "mujoco_step", "restore_mujoco_state", "undisturbed_surface", "unwrapped", "velocity_servos"]
 
@@ -104,20 +105,26 @@ def displaced_grain_mass(body: CoupledBody, grain_density: float) -> float:
 
 
 def _check_mass_ratios(robot: PlanarRobot, grain_density: float) -> None:
-    """Refuses a coupled body lighter than MIN_MASS_RATIO × the grains it displaces: the load lags
-    the body by one step, and a body that light is thrown off the bed by it (docs/robots.md). The
-    body's own MuJoCo mass counts, not what it is jointed to (conservative for a wheel on a chassis)."""
+    """Refuses a coupled body lighter than MIN_MASS_RATIO × the grains it displaces (:func:`check_mass_ratio`).
+    The body's own MuJoCo mass counts, not what it is jointed to (conservative for a wheel on a chassis)."""
     for body in robot.coupled:
-        ratio = float(robot.model.body_mass[body.body_id]) / displaced_grain_mass(body, grain_density)
-        if ratio < MIN_MASS_RATIO:
-            raise ConfigError(f"coupled body '{body.name}' is too light for the coupling: its mass over that of the "
-                              f"grains it displaces is {ratio:.3g}, allowed >= {MIN_MASS_RATIO:g} (the explicit "
-                              "scheme's stability limit, docs/robots.md); make it heavier")
-        if ratio < ACCURATE_MASS_RATIO:
-            warnings.warn(f"coupled body '{body.name}' is light for the coupling: its mass over that of the grains it "
-                          f"displaces is {ratio:.3g}, below {ACCURATE_MASS_RATIO:g}; if it turns freely or under a torque "
-                          "(not held by a velocity servo) its motion depends on its mass (docs/robots.md)",
-                          RuntimeWarning, stacklevel=3)
+        check_mass_ratio(body.name, float(robot.model.body_mass[body.body_id]) / displaced_grain_mass(body, grain_density))
+
+
+def check_mass_ratio(name: str, ratio: float, stacklevel: int = 4) -> None:
+    """Refuses coupled body `name` whose mass over that of the grains its shape displaces, `ratio`,
+    is below MIN_MASS_RATIO: the load lags the body by one step, and a body that light is thrown
+    off the bed by it (docs/robots.md); warns below ACCURATE_MASS_RATIO (the warning points
+    `stacklevel` frames up: the user's call)."""
+    if ratio < MIN_MASS_RATIO:
+        raise ConfigError(f"coupled body '{name}' is too light for the coupling: its mass over that of the "
+                          f"grains it displaces is {ratio:.3g}, allowed >= {MIN_MASS_RATIO:g} (the explicit "
+                          "scheme's stability limit, docs/robots.md); make it heavier")
+    if ratio < ACCURATE_MASS_RATIO:
+        warnings.warn(f"coupled body '{name}' is light for the coupling: its mass over that of the grains it "
+                      f"displaces is {ratio:.3g}, below {ACCURATE_MASS_RATIO:g}; if it turns freely or under a torque "
+                      "(not held by a velocity servo) its motion depends on its mass (docs/robots.md)",
+                      RuntimeWarning, stacklevel=stacklevel)
 
 
 @dataclasses.dataclass(frozen=True)

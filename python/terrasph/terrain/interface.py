@@ -14,14 +14,16 @@ model's ``opt.timestep``, with the terrain's loads on the coupled bodies. What t
   model moving in the x–z plane (slides along x and z, hinges about y);
 * ``"sph"``: a planar model on an SPH bed of glass beads
   (:class:`terrasph.robots.coupling.CoupledSimulation`, built by
-  :func:`terrasph.robots.mjcf_scene.sph_coupling`), the model shifted into the bed's frame.
+  :func:`terrasph.robots.mjcf_scene.sph_coupling`), the model shifted into the bed's frame;
+* ``"sph3d"``: any model on a 3D SPH bed of glass beads
+  (:class:`terrasph.terrain.sph3d_coupling.Coupled3D`), the bed laid in the model's frame.
 
 The RFT terrains are implicit in the load (docs/rft.md): the stepper takes MuJoCo's step itself,
 the load entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrain's
 measured step (``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
 :data:`~terrasph.robots.rft3d_terrain.RFT3D_TIME_STEP` 3D): the model's step is cut into equal
 substeps no longer than that, all taken in one call of the compiled stepper. The SPH coupling is
-explicit at the SPH's step bound. ``opt.timestep`` is the model's own again when
+explicit at the SPH's step bound (both SPH terrains). ``opt.timestep`` is the model's own again when
 :meth:`Terrain.step` returns. The steps use MuJoCo's semi-implicit Euler integrator (the scheme the
 implicit RFT correction is derived for), whatever the model's ``opt.integrator`` (put back after
 the call): on gymnasium's Ant (RK4 in its file), at the 3D terrain's step, Euler substeps walked a
@@ -51,17 +53,18 @@ from terrasph.config import ConfigError
 from terrasph.fidelity import DEFAULT_TIER
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.geoms import body_shape
-from terrasph.robots.mjcf import Coupling, PlanarRobot, check_planar
+from terrasph.robots.mjcf import Coupling, PlanarRobot, body_name, check_planar
 from terrasph.robots.mjcf_scene import sph_coupling
 from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, bodies_3d
 from terrasph.robots.rft_terrain import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
 from terrasph.robots.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
+from terrasph.terrain.sph3d_coupling import Coupled3D, CoupledBody3D, bed_under, body_shape_3d
 
-__all__ = ["INTEGRATORS", "PLANAR_SPACING", "SPH_BED", "TERRAINS", "RFTTerrain", "SPHTerrain", "Terrain",
-           "attach"]
+__all__ = ["INTEGRATORS", "PLANAR_SPACING", "SPH3D_BED", "SPH_BED", "TERRAINS", "RFTTerrain", "SPH3DTerrain",
+           "SPHTerrain", "Terrain", "attach"]
 
 #: the terrains :func:`attach` offers
-TERRAINS = ("rft3d", "rft", "sph")
+TERRAINS = ("rft3d", "rft", "sph", "sph3d")
 
 #: the particle spacing (m) of a planar body's shape (its drawing and lowest point; the RFT elements
 #: follow the geoms' outline, :class:`terrasph.rft.SurfaceElements`), the scenes' Δx
@@ -71,11 +74,20 @@ PLANAR_SPACING = 0.005
 _OPTIONS = {"rft3d": ("couple_below", "time_step", "element_length", "integrator"),
             "rft": ("couple_below", "time_step", "element_length", "spacing", "integrator"),
             "sph": ("couple_below", "spacing", "bed_width", "bed_depth", "freeboard", "fidelity", "numerics",
-                    "start_x", "widths", "integrator")}
+                    "start_x", "widths", "integrator"),
+            "sph3d": ("couple_below", "spacing", "bed_size", "bed_margin", "bed_depth", "freeboard", "fidelity",
+                      "numerics", "integrator")}
 
 #: the SPH bed of :func:`attach` unless its options say otherwise: 2 m of glass beads 10 cm deep at a
 #: coarse 1 cm spacing (a lying Walker2d spans 1.5 m), 20 cm of container wall above them
 SPH_BED = {"spacing": 0.01, "bed_width": 2.0, "bed_depth": 0.1, "freeboard": 0.2, "fidelity": DEFAULT_TIER}
+
+#: the 3D SPH bed of :func:`attach` unless its options say otherwise: glass beads 15 cm deep at a coarse
+#: 5 cm spacing (gymnasium's Ant's capsules are 16 cm thick, three wall layers at most), reaching
+#: `bed_margin` beyond the coupled geoms on each side (or `bed_size` (x, y) across), its wall 10 cm
+#: above the grains
+SPH3D_BED = {"spacing": 0.05, "bed_size": None, "bed_margin": 0.3, "bed_depth": 0.15, "freeboard": 0.1, "numerics": None,
+             "fidelity": DEFAULT_TIER}
 
 #: the integrators of the terrain's substeps (:func:`attach`'s option ``integrator``)
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "model": None}
@@ -258,32 +270,54 @@ class RFTTerrain(Terrain):
         self._stepper.restart()
 
 
-class SPHTerrain(Terrain):
-    """A planar model on the SPH bed (:class:`terrasph.robots.coupling.CoupledSimulation`): the
-    coupled step at the SPH's step bound, until the model's time is reached (the target kept, so
-    steps that end past it do not add up); the undisturbed bed is the one built by :func:`attach`."""
+class _SPHBedTerrain(Terrain):
+    """What the SPH terrains share: the coupled step at the SPH's step bound (``stepper``, on the
+    compiled simulation ``core``), until the model's time is reached (the target kept, so steps
+    that end past it do not add up); the undisturbed bed is the one built by :func:`attach`; the
+    memory is the SPH's whole state with the coupling's own."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: CoupledSimulation,
-                 model_step: float, integrator: int | None) -> None:
-        self._stepper = coupled
-        self._target = coupled.time
-        self._bed = copy.deepcopy(coupled.sim.core.state())
-        super().__init__("sph", model, data, coupled.robot.coupled, coupled.surface(),
-                         model_step, integrator)
+    def __init__(self, kind: str, model: mujoco.MjModel, data: mujoco.MjData, stepper: Any, core: Any,
+                 coupled: Sequence[Any], surface: float, model_step: float, integrator: int | None) -> None:
+        self._stepper, self._core = stepper, core
+        self._target = stepper.time
+        self._bed = copy.deepcopy(core.state())
+        super().__init__(kind, model, data, coupled, surface, model_step, integrator)
 
     @property
     def time_step(self) -> float:
         """The SPH's step (s) now: its stable bound."""
-        return self._stepper.time_step()
+        return float(self._stepper.time_step())
 
     @property
     def leaked_grains(self) -> int:
-        """Grains that have left the bed's domain."""
-        return int(self._stepper.sim.leaked_particles)
+        """Grains that have been inside a wall or body at any step (the leak counter)."""
+        return int(self._core.penetrated_particles)
 
     def _advance(self, nstep: int) -> None:
         self._target += nstep * self._model_step
         self._stepper.advance(self._target)
+
+    def _memory(self) -> dict[str, Any]:
+        return {"sph": self._core.state(), "coupling": self._stepper.state(), "target": self._target}
+
+    def _put_memory(self, memory: dict[str, Any]) -> None:
+        self._core.restore(memory["sph"])
+        self._stepper.restore_state(memory["coupling"])
+        self._target = float(memory["target"])
+
+    def _restart(self) -> None:
+        self._core.restore(copy.deepcopy(self._bed))
+        self._stepper.restart()
+        self._target = self._stepper.time
+
+
+class SPHTerrain(_SPHBedTerrain):
+    """A planar model on the SPH bed (:class:`terrasph.robots.coupling.CoupledSimulation`)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: CoupledSimulation,
+                 model_step: float, integrator: int | None) -> None:
+        super().__init__("sph", model, data, coupled, coupled.sim.core, coupled.robot.coupled, coupled.surface(),
+                         model_step, integrator)
 
     def _mean_loads(self) -> dict[str, np.ndarray]:
         samples = [self._stepper.body_sample(name) for name in self._names]
@@ -295,18 +329,78 @@ class SPHTerrain(Terrain):
     def _surface_now(self) -> float:
         return self._stepper.surface()
 
-    def _memory(self) -> dict[str, Any]:
-        return {"sph": self._stepper.sim.core.state(), "coupling": self._stepper.state(), "target": self._target}
+
+class SPH3DTerrain(_SPHBedTerrain):
+    """A 3D model on a 3D SPH bed (:class:`terrasph.terrain.sph3d_coupling.Coupled3D`)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: Coupled3D, model_step: float,
+                 integrator: int | None) -> None:
+        super().__init__("sph3d", model, data, coupled, coupled.core, coupled.coupled, coupled.surface, model_step,
+                         integrator)
+
+    def _mean_loads(self) -> dict[str, np.ndarray]:
+        return {name: self._stepper.mean_load(k) for k, name in enumerate(self._names)}
+
+    def _lowest(self, k: int) -> float:
+        return self._stepper.lowest_z(k)
 
     def _put_memory(self, memory: dict[str, Any]) -> None:
-        self._stepper.sim.core.restore(memory["sph"])
-        self._stepper.restore_state(memory["coupling"])
-        self._target = float(memory["target"])
+        super()._put_memory(memory)
+        mujoco.mj_forward(self.model, self.data)  # the derived poses sinkage() reads
 
-    def _restart(self) -> None:
-        self._stepper.sim.core.restore(copy.deepcopy(self._bed))
-        self._stepper.restart()
-        self._target = self._stepper.time
+
+def _sph3d_terrain(model: mujoco.MjModel, data: mujoco.MjData, bodies: Sequence[str], couple_below: float | None,
+                   options: dict[str, Any], model_step: float, integrator: int | None) -> SPH3DTerrain:
+    """The 3D SPH terrain of :func:`attach` (its options checked before the model's floor is switched off)."""
+    from terrasph.fidelity import scene_numerics
+    from terrasph.robots.leg_wheel import BED_NUMERICS
+    from terrasph.robots.mjcf_scene import KICK_HEIGHT
+    from terrasph.scenes.leg_rotation import glass_beads  # the scene registry imports the robots' modules
+
+    settings = {**SPH3D_BED, **{k: v for k, v in options.items() if k not in ("integrator", "couple_below")}}
+    for name in ("spacing", "bed_depth"):
+        _check_number(name, settings[name], positive=True)
+    for name in ("bed_margin", "freeboard"):
+        _check_number(name, settings[name], positive=False)
+    size = settings["bed_size"]
+    if size is not None:
+        if not (isinstance(size, (tuple, list)) and len(size) == 2):
+            raise ConfigError(f"parameter 'bed_size' = {size!r} is invalid: allowed None or (x, y) in m, each > 0")
+        for value in size:
+            _check_number("bed_size", value, positive=True)
+    numerics = scene_numerics("mjcf", settings["fidelity"], float(settings["spacing"]), BED_NUMERICS,
+                              dict(settings["numerics"] or {}))
+    floor, level = floor_geoms(model, data)
+    chosen = coupled_body_ids(model, data, level, tuple(bodies), couple_below)
+    if 0 in chosen:
+        raise ConfigError("coupled body 'world' cannot move; couple a body of the robot")
+    coupled = []
+    for body in chosen:
+        name = body_name(model, body)
+        if not model.body_mass[body] > 0:
+            raise ConfigError(f"coupled body '{name}' has no mass in the MJCF model; give it geoms with mass or an "
+                              "<inertial>")
+        coupled.append(CoupledBody3D(name, body, body_shape_3d(model, body, name, numerics.spacing,
+                                                                numerics.h_factor)))
+    points = np.concatenate([b.shape.position @ data.xmat[b.body_id].reshape(3, 3).T + data.xpos[b.body_id]
+                             for b in coupled])
+    material = glass_beads()
+    bed = bed_under((points.min(axis=0), points.max(axis=0)), level, size, float(settings["bed_margin"]),
+                    float(settings["bed_depth"]), material, numerics.spacing, numerics.h_factor,
+                    float(settings["freeboard"]))
+    stepper = Coupled3D(model, data, coupled, bed, level, material, numerics, KICK_HEIGHT)
+    switch_off_floor(model, floor)
+    model.opt.timestep = model_step
+    mujoco.mj_forward(model, data)
+    return SPH3DTerrain(model, data, stepper, model_step, integrator)
+
+
+def _check_number(name: str, value: Any, positive: bool) -> None:
+    """ConfigError naming `name` unless `value` is a finite number > 0 (`positive`) or >= 0 (m)."""
+    if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)
+                                       and (value > 0 if positive else value >= 0)):
+        raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number "
+                          f"{'>' if positive else '>='} 0 (m)")
 
 
 def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", table: rft.RFTCoefficients | str = "generic",
@@ -319,12 +413,16 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
     (s): the terrain's longest step; ``element_length`` (m): the RFT elements' size; ``spacing``
     (m, planar): the bodies' particle spacing, :data:`PLANAR_SPACING`; ``integrator``: MuJoCo's
     integrator in the terrain's substeps, ``"euler"`` (default: the implicit correction's own
-    scheme; the measured choice, module docstring) or ``"model"`` (the model's ``opt.integrator``).
+    scheme; the measured choice, module docstring) or ``"model"`` (the model's ``opt.integrator``);
+    the SPH beds' options: :data:`SPH_BED` (planar), :data:`SPH3D_BED` (3D: ``spacing`` (m) of the
+    grains and the bodies' particles, ``bed_size`` (x, y; m) or ``bed_margin`` (m) beyond the
+    coupled geoms, ``bed_depth``, ``freeboard`` (m), ``fidelity``, ``numerics``).
 
     Refused before anything is changed, as :class:`terrasph.config.ConfigError` naming the item: a
     terrain, table or option not offered; gravity not along −z; a model the planar terrain cannot
     carry (naming its joint or body); no body to couple, a named body the model lacks, a coupled
-    body without mass. On success the model's floor is switched off (logged)."""
+    body without mass; on the 3D SPH a geom it does not fill (mesh, plane, …) or too thin for the
+    spacing. On success the model's floor is switched off (logged)."""
     if not isinstance(model, mujoco.MjModel) or not isinstance(data, mujoco.MjData):
         raise ConfigError("parameters 'model' and 'data' must be a compiled mujoco.MjModel and its mujoco.MjData")
     if terrain not in TERRAINS:
@@ -333,8 +431,8 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
     if unknown:
         raise ConfigError(f"parameter '{unknown[0]}' is not an option of terrain {terrain!r}: allowed "
                           f"{', '.join(_OPTIONS[terrain])}")
-    if terrain == "sph" and table != "generic":
-        raise ConfigError(f"parameter 'table' = {table!r} is invalid on the SPH terrain: allowed only its default "
+    if terrain in ("sph", "sph3d") and table != "generic":
+        raise ConfigError(f"parameter 'table' = {table!r} is invalid on the SPH terrains: allowed only its default "
                           "'generic' there (it sets the RFT terrains' sand; the SPH's is its bed)")
     table = rft.coefficient_table(table)
     gravity = _downward_gravity(model)
@@ -357,6 +455,9 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
         model.opt.timestep = model_step
         mujoco.mj_forward(model, data)
         return SPHTerrain(model, data, coupled_sph, model_step, INTEGRATORS[integrator])
+    if terrain == "sph3d":
+        return _sph3d_terrain(model, data, tuple(bodies or ()), couple_below, options, model_step,
+                              INTEGRATORS[integrator])
     floor, level = floor_geoms(model, data)
     chosen = coupled_body_ids(model, data, level, tuple(bodies or ()), couple_below)
     if 0 in chosen:
