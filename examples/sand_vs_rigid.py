@@ -44,15 +44,17 @@ def random_policy(env: gymnasium.Env, seed: int) -> Policy:
 def episode(env: gymnasium.Env, feet: tuple[str, ...], policy: Policy, seed: int, steps: int) -> dict[str, float]:
     """One episode of `policy` from reset(seed), at most `steps` long (shorter if the environment
     ends it: gymnasium's Walker2d when it falls): the torso's travel along x (m), the feet's deepest
-    sinkage (m, 0 on the rigid floor) and their slip (m/s)."""
+    sinkage (m, 0 on the rigid floor), their slip (m/s), the episode's return (the sum of the
+    environment's rewards) and its length (s)."""
     env.reset(seed=seed)
     model, data = env.unwrapped.model, env.unwrapped.data
     ids = _body_ids(model, feet)
-    start, sinkage, speeds = float(data.qpos[0]), 0.0, []
+    start, sinkage, speeds, total = float(data.qpos[0]), 0.0, [], 0.0
     twist = np.zeros(6)
     time0 = float(data.time)
     for _ in range(steps):
-        _, _, terminated, truncated, _ = env.step(policy(float(data.time) - time0))
+        _, reward, terminated, truncated, _ = env.step(policy(float(data.time) - time0))
+        total += float(reward)
         for foot in ids:
             if data.cfrc_ext[foot, 5] > LOADED:
                 mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, foot, twist, 0)
@@ -62,7 +64,8 @@ def episode(env: gymnasium.Env, feet: tuple[str, ...], policy: Policy, seed: int
         if terminated or truncated:
             break
     return {"distance": float(data.qpos[0]) - start, "sinkage": sinkage,
-            "slip": float(np.mean(speeds)) if speeds else float("nan")}
+            "slip": float(np.mean(speeds)) if speeds else float("nan"), "return": total,
+            "length": float(data.time) - time0}
 
 
 def main() -> None:
