@@ -26,7 +26,7 @@ import numpy as np
 from terrasph.config import ConfigError
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "CheckpointError", "configuration_differences", "read_checkpoint",
-           "write_checkpoint"]
+           "restore_core", "write_checkpoint"]
 
 FORMAT = "terrasph-checkpoint"
 #: Bumped whenever the State's layout changes; a checkpoint of another version is refused.
@@ -150,3 +150,19 @@ def configuration_differences(saved: Mapping[str, Any], current: Mapping[str, An
         elif _json(saved[key]) != _json(current[key]):
             differences.append(name)
     return differences
+
+
+def restore_core(core: Any, path: str | os.PathLike[str], description: Mapping[str, Any]) -> dict[str, Any]:
+    """Restores the core State of a simulation described by `description` from the checkpoint at
+    `path` and returns the run loop's progress saved with it; CheckpointError naming the entries of
+    another configuration, or saying why the State does not fit."""
+    state, config, progress = read_checkpoint(path)
+    differences = configuration_differences(config, description)
+    if differences:
+        raise CheckpointError(f"checkpoint {path} belongs to another configuration; it differs in: "
+                              f"{', '.join(differences)}")
+    try:
+        core.restore(state)
+    except (ValueError, TypeError, KeyError) as error:
+        raise CheckpointError(f"checkpoint {path} does not fit this simulation: {error}") from error
+    return progress

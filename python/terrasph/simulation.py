@@ -363,22 +363,9 @@ class Simulation:
         with it. The checkpoint must belong to this simulation's configuration (scene, material,
         numerics, width, bodies): anything else is refused with :class:`CheckpointError` naming
         the entries that differ, as is a corrupted, truncated or other-version file."""
-        from terrasph.checkpoint import (
-            CheckpointError,
-            configuration_differences,
-            read_checkpoint,
-        )
+        from terrasph.checkpoint import restore_core
 
-        state, config, progress = read_checkpoint(path)
-        differences = configuration_differences(config, self.describe())
-        if differences:
-            raise CheckpointError(f"checkpoint {path} belongs to another configuration; it differs in: "
-                                  f"{', '.join(differences)}")
-        try:
-            self.core.restore(state)
-        except (ValueError, TypeError, KeyError) as error:
-            raise CheckpointError(f"checkpoint {path} does not fit this simulation: {error}") from error
-        return progress
+        return restore_core(self.core, path, self.describe())
 
     # -- run loop -------------------------------------------------------------------------
     def run(self, t_end: float, *, output: str | os.PathLike | None = None, frame_interval: float = 0.05,

@@ -109,22 +109,9 @@ class Simulation3D:
     def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
         """Replaces the State by the one saved in `path` (of this configuration only) and returns the
         run loop's progress saved with it."""
-        from terrasph.checkpoint import (
-            CheckpointError,
-            configuration_differences,
-            read_checkpoint,
-        )
+        from terrasph.checkpoint import restore_core
 
-        state, config, progress = read_checkpoint(path)
-        differences = configuration_differences(config, self.describe())
-        if differences:
-            raise CheckpointError(f"checkpoint {path} belongs to another configuration; it differs in: "
-                                  f"{', '.join(differences)}")
-        try:
-            self.core.restore(state)
-        except (ValueError, TypeError, KeyError) as error:
-            raise CheckpointError(f"checkpoint {path} does not fit this simulation: {error}") from error
-        return progress
+        return restore_core(self.core, path, self.describe())
 
     def frame_fields(self) -> dict[str, np.ndarray]:
         """The grains' position, velocity, density, pressure and stress (3 × 3), and the body
