@@ -139,3 +139,29 @@ def test_a_sweep_of_cases_too_big_is_refused_before_any_run(tmp_path, capsys) ->
     err = capsys.readouterr().err
     assert exit_info.value.code == 2 and len(err.splitlines()) == 1 and "--yes" in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_draws_run_each_point_with_several_schedules_that_share_its_settled_start() -> None:
+    from terrasph.scenes import scene_entry
+    from terrasph.settle_cache import pre_drive_fields
+
+    raw = tiny_spec(runs=3)
+    raw["design"]["input"] = {"parameter": "omega_schedule", "kinds": ["constant", "step", "ramp", "random"],
+                              "range": [0.5, 3.0], "draws": 4}
+    cases = parse_spec(raw).cases
+    assert len(cases) == 3 * 4
+    entry = scene_entry("leg-wheel")
+    points: dict[str, list] = {}
+    for index, case in enumerate(cases):
+        settled = pre_drive_fields(entry.config_from(case.config))  # what the settle cache keys on
+        points.setdefault(repr(sorted(settled.items())), []).append((index, case))
+    assert len(points) == 3  # one settled start per point of the design
+    for members in points.values():
+        assert [index % 3 for index, _ in members] == [members[0][0]] * 4  # draw by draw: point k at k, k+3, ...
+        assert sorted(case.varied["input_kind"] for _, case in members) == ["constant", "ramp", "random", "step"]
+        schedules_drawn = {repr(case.config["omega_schedule"]) for _, case in members}
+        assert len(schedules_drawn) == 4
+    bad = tiny_spec(runs=3)
+    bad["design"]["input"] = {"parameter": "omega_schedule", "range": [0.5, 3.0], "draws": 0}
+    with pytest.raises(ConfigError, match="design.input.draws"):
+        parse_spec(bad)

@@ -19,6 +19,9 @@ YAML (or the same tables in TOML)::
         range: [0.5, 3.0]       # the input's values
         duration: 1.5           # schedule length (s; default t_end − settle_time of the scene)
         segments: 4             # segments of a "random" schedule
+        draws: 1                # schedules per point of the design (> 1: each point runs with
+                                # `draws` schedules, the kinds taken in turn; the cases that share a
+                                # point share its settled start through the settle cache)
 
 Every range end and every case is checked by building the scene's own configuration (so a range
 outside a parameter's allowed range is refused with that parameter's own message), and
@@ -50,7 +53,7 @@ METHODS = ("grid", "random", "latin-hypercube")
 _TOP_KEYS = {"scene", "seed", "fixed", "design"}
 _DESIGN_KEYS = {"method", "runs", "vary", "input"}
 _VARY_KEYS = {"range", "values", "levels"}
-_INPUT_KEYS = {"parameter", "kinds", "range", "duration", "segments"}
+_INPUT_KEYS = {"parameter", "kinds", "range", "duration", "segments", "draws"}
 
 
 @dataclass(frozen=True)
@@ -142,6 +145,8 @@ def parse_spec(raw: Any) -> SweepSpec:
                   for name, spec in vary.items()]
     input_spec = _input(design["input"], fields, build) if "input" in design else None
     rows = _design_rows(method, design, dimensions, input_spec, seed)
+    if input_spec is not None and input_spec["draws"] > 1:
+        rows = _rows_with_draws(rows, input_spec)
     cases = []
     for index, varied in enumerate(rows):
         if input_spec is not None:
@@ -260,7 +265,25 @@ def _input(spec: Any, fields: Mapping[str, Any], build: Any) -> dict[str, Any]:
     segments = spec.get("segments", 4)
     if isinstance(segments, bool) or not isinstance(segments, int) or not 1 <= segments <= 100:
         raise ConfigError(f"sweep spec: 'design.input.segments' = {segments!r} is invalid: allowed an integer 1–100")
-    return {"parameter": name, "kinds": kinds, "range": (low, high), "duration": float(duration), "segments": segments}
+    draws = spec.get("draws", 1)
+    if isinstance(draws, bool) or not isinstance(draws, int) or not 1 <= draws <= 1000:
+        raise ConfigError(f"sweep spec: 'design.input.draws' = {draws!r} is invalid: allowed an integer 1–1000")
+    return {"parameter": name, "kinds": kinds, "range": (low, high), "duration": float(duration), "segments": segments,
+            "draws": draws}
+
+
+def _rows_with_draws(rows: list[dict[str, Any]], input_spec: dict[str, Any]) -> list[dict[str, Any]]:
+    """Each point of the design `draws` times, the schedule kinds taken in turn from the point's own
+    drawn kind. Ordered draw by draw (every point's first draw, then every point's second, ...), so
+    that a sweep's first pass settles each point once and the later passes start from the cache
+    instead of waiting on a worker that is settling the same point."""
+    kinds = input_spec["kinds"]
+    expanded = []
+    for draw in range(input_spec["draws"]):
+        for row in rows:
+            kind = kinds[(kinds.index(row["input_kind"]) + draw) % len(kinds)]
+            expanded.append({**row, "input_kind": kind})
+    return expanded
 
 
 def _design_rows(method: str, design: Mapping[str, Any], dimensions: list[dict[str, Any]],
