@@ -2,7 +2,8 @@
 converged reference (``--reference-step``, 0.25 ms), on the outcomes a user of gymnasium's ``Ant-v5``
 reads.
 
-gymnasium's ``ant.xml`` unmodified (RK4, 0.01 s in its file; the terrain's substeps are Euler),
+gymnasium's ``ant.xml`` unmodified (RK4, 0.01 s in its file; the terrain's substeps are Euler, and at
+``--model-integrator`` substeps also the file's RK4: attach's option ``integrator``),
 from the file's pose with Ant-v5's reset noise drawn from each seed (qpos + U(−0.1, 0.1), qvel +
 0.1 N(0, 1)), dropped on the generic sand and settled 1 s with zero actions, then driven 2 s with
 the commands held 0.05 s (Ant-v5's control interval):
@@ -19,7 +20,7 @@ decimetres under a change of the last bits), so ``random`` and ``gait`` are read
 the seeds: each setting's mean and standard deviation, and its mean's difference from the
 reference's with the standard error of that difference.
 
-    OMP_NUM_THREADS=1 python benchmarks/studies/sand_substeps.py [--seeds 12] [--steps 2.5e-4 1e-3 2e-3 2.5e-3 5e-3 1e-2]
+    OMP_NUM_THREADS=1 python benchmarks/studies/sand_substeps.py [--seeds 12] [--steps 1e-3 2e-3 2.5e-3 5e-3 1e-2] [--model-integrator 5e-3]
 
 writes benchmarks/results/sand_substeps.json (machine, date, commit inside) and prints a table.
 """
@@ -56,14 +57,14 @@ def gait(time_now: float) -> np.ndarray:
     return 0.3 * np.sin(2.0 * np.pi * time_now + PHASES)
 
 
-def _ant(time_step: float, seed: int | None) -> tuple[mujoco.MjModel, mujoco.MjData, object]:
+def _ant(time_step: float, seed: int | None, integrator: str = "euler") -> tuple[mujoco.MjModel, mujoco.MjData, object]:
     model = mujoco.MjModel.from_xml_path(str(ANT))
     data = mujoco.MjData(model)
     if seed is not None:  # Ant-v5's reset noise
         rng = np.random.default_rng(seed)
         data.qpos[:] = model.qpos0 + rng.uniform(-0.1, 0.1, model.nq)
         data.qvel[:] = 0.1 * rng.standard_normal(model.nv)
-    sand = attach(model, data, "rft3d", time_step=time_step)
+    sand = attach(model, data, "rft3d", time_step=time_step, integrator=integrator)
     return model, data, sand
 
 
@@ -71,9 +72,9 @@ def _ankles(sand: object) -> list[str]:
     return [name for name in sand.bodies if name.endswith("ankle")]
 
 
-def rest(time_step: float) -> dict[str, float]:
+def rest(time_step: float, integrator: str) -> dict[str, float]:
     """The file's pose settled on the sand: ankle sinkage (m, mean of four) and lift / weight over the last 0.5 s."""
-    model, _data, sand = _ant(time_step, None)
+    model, _data, sand = _ant(time_step, None, integrator)
     per = round(CONTROL_INTERVAL / model.opt.timestep)
     weight = float(model.body_subtreemass[1] * -model.opt.gravity[2])
     lift = []
@@ -86,9 +87,9 @@ def rest(time_step: float) -> dict[str, float]:
             "lift_over_weight": float(np.mean(lift) / weight)}
 
 
-def rollout(time_step: float, seed: int, policy: str) -> dict[str, float]:
+def rollout(time_step: float, seed: int, policy: str, integrator: str) -> dict[str, float]:
     """Settled 1 s, then driven 2 s by `policy` (random or gait): travel (m) and deepest ankle sinkage (m)."""
-    model, data, sand = _ant(time_step, seed)
+    model, data, sand = _ant(time_step, seed, integrator)
     per = round(CONTROL_INTERVAL / model.opt.timestep)
     sand.step(round(SETTLE / model.opt.timestep))
     start = data.xpos[1, :2].copy()
@@ -107,12 +108,12 @@ def _stats(values: list[float]) -> dict[str, float]:
     return {"mean": float(np.mean(values)), "std": float(np.std(values, ddof=1)), "values": values}
 
 
-def setting(time_step: float, seeds: int) -> dict[str, object]:
-    """One substep's outcomes and the CPU time (s) they took."""
+def setting(time_step: float, seeds: int, integrator: str = "euler") -> dict[str, object]:
+    """One substep's outcomes (attach's option `integrator` in the substeps) and the CPU time (s) they took."""
     start = time.process_time()
-    row: dict[str, object] = {"time_step": time_step, "rest": rest(time_step)}
+    row: dict[str, object] = {"time_step": time_step, "integrator": integrator, "rest": rest(time_step, integrator)}
     for policy in ("random", "gait"):
-        runs = [rollout(time_step, seed, policy) for seed in range(seeds)]
+        runs = [rollout(time_step, seed, policy, integrator) for seed in range(seeds)]
         row[policy] = {key: _stats([r[key] for r in runs]) for key in ("travel", "deepest_sinkage")}
     row["cpu_s"] = time.process_time() - start
     return row
@@ -134,7 +135,7 @@ def against(row: dict, reference: dict, seeds: int) -> dict[str, object]:
 
 
 #: the table docs/terrain.md shows (docs/hooks/generated_tables.py): key, heading, format
-COLUMNS = [["substep_ms", "substep (ms)", "{:g}"], ["rest_sinkage_mm", "at rest: ankle sinkage (mm)", "{:.2f}"],
+COLUMNS = [["substep_ms", "substep (ms)", "{:g}"], ["integrator", "substeps' integrator", "{}"], ["rest_sinkage_mm", "at rest: ankle sinkage (mm)", "{:.2f}"],
            ["rest_lift_over_weight", "at rest: lift / weight", "{:.4f}"],
            ["random_travel_error", "random: travel", "{:+.1%}"], ["random_travel_se", "±", "{:.1%}"],
            ["random_sinkage_error", "random: deepest sinkage", "{:+.1%}"], ["random_sinkage_se", "±", "{:.1%}"],
@@ -146,7 +147,8 @@ def table_row(row: dict) -> dict[str, float]:
     """A setting's row of :data:`COLUMNS`: at rest its values, driven its means' differences from the
     reference's over the reference's (0 on the reference's own row) with their standard errors."""
     errors = row.get("errors", {})
-    flat = {"substep_ms": 1e3 * row["time_step"], "rest_sinkage_mm": 1e3 * row["rest"]["ankle_sinkage"],
+    flat = {"substep_ms": 1e3 * row["time_step"], "integrator": "the model's (RK4)" if row["integrator"] == "model"
+            else "Euler", "rest_sinkage_mm": 1e3 * row["rest"]["ankle_sinkage"],
             "rest_lift_over_weight": row["rest"]["lift_over_weight"]}
     for policy in ("random", "gait"):
         for key, name in (("travel", "travel"), ("deepest_sinkage", "sinkage")):
@@ -179,19 +181,28 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=12)
     parser.add_argument("--steps", nargs="+", type=float, default=[1e-3, 2e-3, 2.5e-3, 5e-3, 1e-2])
     parser.add_argument("--reference-step", type=float, default=2.5e-4)
+    parser.add_argument("--model-integrator", nargs="*", type=float, default=[5e-3],
+                        help="substeps (s) also run with the model's own integrator (attach's integrator='model')")
     parser.add_argument("--out", type=pathlib.Path, default=RESULT)
     args = parser.parse_args()
     logging.disable(logging.WARNING)
     command = (f"OMP_NUM_THREADS=1 python benchmarks/studies/sand_substeps.py --seeds {args.seeds} --steps "
-               + " ".join(f"{s:g}" for s in args.steps) + f" --reference-step {args.reference_step:g}")
+               + " ".join(f"{s:g}" for s in args.steps) + f" --reference-step {args.reference_step:g} --model-integrator "
+               + " ".join(f"{s:g}" for s in args.model_integrator))
     reference = setting(args.reference_step, args.seeds)
     rows = [{**reference, "reference": True}]
-    for step in args.steps:
-        row = setting(step, args.seeds)
+    unstable: list[dict[str, object]] = []
+    for step, integrator in [(step, "euler") for step in args.steps] + [(s, "model") for s in args.model_integrator]:
+        try:
+            row = setting(step, args.seeds, integrator)
+        except terrasph.InstabilityError as error:  # MuJoCo could not integrate a state: the setting is unusable
+            unstable.append({"time_step": step, "integrator": integrator, "error": str(error)})
+            print(f"{integrator} {1e3 * step:5.2f} ms: unstable: {error}", flush=True)
+            continue
         row["errors"] = against(row, reference, args.seeds)
         rows.append(row)
         e = row["errors"]
-        print(f"{1e3 * step:5.2f} ms: rest sinkage {1e3 * e['rest_sinkage_m']:+.2f} mm, lift/W "
+        print(f"{integrator} {1e3 * step:5.2f} ms: rest sinkage {1e3 * e['rest_sinkage_m']:+.2f} mm, lift/W "
               f"{e['rest_lift_over_weight']:.3f}; random travel {100 * e['random_travel_rel']:+.1f} ± "
               f"{100 * e['random_travel_se_rel']:.1f} %, sinkage {100 * e['random_deepest_sinkage_rel']:+.1f} ± "
               f"{100 * e['random_deepest_sinkage_se_rel']:.1f} %; gait travel {100 * e['gait_travel_rel']:+.1f} ± "
@@ -199,7 +210,7 @@ def main() -> None:
               f"{100 * e['gait_deepest_sinkage_se_rel']:.1f} %  (cpu {row['cpu_s']:.0f} s)", flush=True)
         result = {"study": "benchmarks/studies/sand_substeps.py", "provenance": provenance(command),
                   "seeds": args.seeds, "reference_step": args.reference_step, "columns": COLUMNS,
-                  "rows": [table_row(r) for r in rows], "details": rows}
+                  "rows": [table_row(r) for r in rows], "details": rows, "unstable": unstable}
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(result, indent=1) + "\n")  # after each setting: a checkpoint of sorts
 
