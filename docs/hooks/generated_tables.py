@@ -75,7 +75,8 @@ def _cell(value: object, form: str) -> str:
         return f"{1e3 * float(value):.2f}"
     if form == "%":
         return f"{100 * float(value):.1f} %"
-    return form.format(value).replace(",", " ")
+    text = form.format(value)
+    return text.replace(",", " ") if isinstance(value, (int, float)) else text  # thousands apart by spaces
 
 
 def results_table(name: str) -> str:
