@@ -55,7 +55,7 @@ from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.geoms import body_shape
 from terrasph.robots.mjcf import Coupling, PlanarRobot, body_name, check_planar
 from terrasph.robots.mjcf_scene import sph_coupling
-from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, bodies_3d
+from terrasph.robots.rft3d_terrain import RFT3DCoupling, Robot3D, bodies_3d
 from terrasph.robots.rft_terrain import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
 from terrasph.robots.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
 from terrasph.terrain.sph3d_coupling import Coupled3D, CoupledBody3D, bed_under, body_shape_3d
