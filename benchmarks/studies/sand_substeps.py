@@ -189,6 +189,7 @@ def main() -> None:
     command = (f"OMP_NUM_THREADS=1 python benchmarks/studies/sand_substeps.py --seeds {args.seeds} --steps "
                + " ".join(f"{s:g}" for s in args.steps) + f" --reference-step {args.reference_step:g} --model-integrator "
                + " ".join(f"{s:g}" for s in args.model_integrator))
+    meta = provenance(command)  # before the first write of the (tracked) result file
     reference = setting(args.reference_step, args.seeds)
     rows = [{**reference, "reference": True}]
     unstable: list[dict[str, object]] = []
@@ -208,7 +209,7 @@ def main() -> None:
               f"{100 * e['random_deepest_sinkage_se_rel']:.1f} %; gait travel {100 * e['gait_travel_rel']:+.1f} ± "
               f"{100 * e['gait_travel_se_rel']:.1f} %, sinkage {100 * e['gait_deepest_sinkage_rel']:+.1f} ± "
               f"{100 * e['gait_deepest_sinkage_se_rel']:.1f} %  (cpu {row['cpu_s']:.0f} s)", flush=True)
-        result = {"study": "benchmarks/studies/sand_substeps.py", "provenance": provenance(command),
+        result = {"study": "benchmarks/studies/sand_substeps.py", "provenance": meta,
                   "seeds": args.seeds, "reference_step": args.reference_step, "columns": COLUMNS,
                   "rows": [table_row(r) for r in rows], "details": rows, "unstable": unstable}
         args.out.parent.mkdir(parents=True, exist_ok=True)
