@@ -132,3 +132,21 @@ def test_cli_reference_lists_every_command(hooks) -> None:
         assert f"## `terrasph {command}`" in reference
     for scene in SCENES:
         assert f"### `terrasph run {scene}`" in reference
+
+
+@pytest.mark.parametrize(("name", "page"), [("sand_substeps", "terrain.md"), ("gym_sand_speed", "terrain.md"),
+                                            ("rft_plugin_step", "mujoco_plugin.md")])
+def test_the_sand_pages_tables_are_their_result_files(hooks, name: str, page: str) -> None:
+    """The substep study, the gym speed benchmark and the plugin's step study are shown from their
+    result files (their own columns), with the file's provenance, on the page that cites them."""
+    generated_tables, _ = hooks
+    data = json.loads((ROOT / "benchmarks" / "results" / f"{name}.json").read_text())
+    table = generated_tables.results_table(name)
+    for key in ("date", "commit", "command"):
+        assert str(data["provenance"][key]) in table
+    lines = [line for line in table.splitlines() if line.startswith("| ") and "---" not in line]
+    assert len(lines) == 1 + len(data["rows"])
+    for row, line in zip(data["rows"], lines[1:]):
+        key, _, form = data["columns"][0]
+        assert line.startswith(f"| {form.format(row[key])} |")
+    assert f"<!-- results: {name} -->" in (ROOT / "docs" / page).read_text()

@@ -4,7 +4,7 @@ A/B protocol): in each round every variant runs the same number of random-action
 included) after its warm-up, one after the other, and the ratio sand/rigid is taken within the
 round. Absolute steps/s drift with the machine's load; the ratios are the result.
 
-    OMP_NUM_THREADS=1 python benchmarks/performance/bench_gym_sand.py [--rounds 5] [--steps 400]
+    OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive python benchmarks/performance/bench_gym_sand.py [--rounds 5] [--steps 400]
 
 writes benchmarks/results/gym_sand_speed.json (machine, date, commit, each round's steps/s, the
 ratios' median and range) and prints a table.
@@ -25,18 +25,26 @@ import time
 
 import gymnasium
 import numpy as np
+import terrasph
 from terrasph.gym import OnSand
 
-#: (name, environment, terrain or None for the rigid floor)
-VARIANTS = (("Walker2d-v5 rigid", "Walker2d-v5", None), ("Walker2d-v5 rft", "Walker2d-v5", "rft"),
-            ("Ant-v5 rigid", "Ant-v5", None), ("Ant-v5 rft3d", "Ant-v5", "rft3d"))
-RATIOS = (("Walker2d-v5 rft", "Walker2d-v5 rigid"), ("Ant-v5 rft3d", "Ant-v5 rigid"))
+#: (name, environment, terrain or None for the rigid floor, the terrain's options): each at attach's defaults,
+#: and Ant also at the accurate 1 ms substeps (docs/terrain.md, "Substeps")
+VARIANTS = (("Walker2d-v5 rigid", "Walker2d-v5", None, {}), ("Walker2d-v5 rft", "Walker2d-v5", "rft", {}),
+            ("Ant-v5 rigid", "Ant-v5", None, {}), ("Ant-v5 rft3d", "Ant-v5", "rft3d", {}),
+            ("Ant-v5 rft3d 1 ms", "Ant-v5", "rft3d", {"time_step": 1e-3}))
+RATIOS = (("Walker2d-v5 rft", "Walker2d-v5 rigid"), ("Ant-v5 rft3d", "Ant-v5 rigid"),
+          ("Ant-v5 rft3d 1 ms", "Ant-v5 rigid"))
 RESULT = pathlib.Path(__file__).resolve().parents[1] / "results" / "gym_sand_speed.json"
+#: the table docs/terrain.md shows (docs/hooks/generated_tables.py): key, heading, format
+COLUMNS = [["environment", "environment on sand", "{}"], ["substeps", "substeps per env step", "{}"],
+           ["substep_ms", "substep (ms)", "{:g}"], ["median", "sand / rigid steps per second, median", "{:.2f}"],
+           ["min", "lowest round", "{:.2f}"], ["max", "highest round", "{:.2f}"]]
 
 
-def _environment(env_id: str, terrain: str | None) -> gymnasium.Env:
+def _environment(env_id: str, terrain: str | None, options: dict[str, float]) -> gymnasium.Env:
     env = gymnasium.make(env_id)
-    return env if terrain is None else OnSand(env, terrain=terrain)
+    return env if terrain is None else OnSand(env, terrain=terrain, **options)
 
 
 def _steps_per_second(env: gymnasium.Env, steps: int, seed: int) -> float:
@@ -80,7 +88,7 @@ def main() -> None:
     parser.add_argument("--out", type=pathlib.Path, default=RESULT)
     args = parser.parse_args()
     logging.disable(logging.WARNING)  # the floor's one line per environment
-    environments = {name: _environment(env_id, terrain) for name, env_id, terrain in VARIANTS}
+    environments = {name: _environment(env_id, terrain, options) for name, env_id, terrain, options in VARIANTS}
     for env in environments.values():
         _steps_per_second(env, args.warmup, 0)
     rounds: list[dict[str, float]] = []
@@ -88,16 +96,27 @@ def main() -> None:
         row = {name: _steps_per_second(env, args.steps, k + 1) for name, env in environments.items()}
         rounds.append(row)
         print(f"round {k + 1}: " + ", ".join(f"{name} {rate:.0f}/s" for name, rate in row.items()), flush=True)
-    ratios = {}
+    ratios, rows = {}, []
     for sand, rigid in RATIOS:
         values = [row[sand] / row[rigid] for row in rounds]
         ratios[f"{sand} / {rigid}"] = {"median": statistics.median(values), "min": min(values), "max": max(values),
                                        "rounds": values}
-    result = {"benchmark": "benchmarks/performance/bench_gym_sand.py",
-              "command": f"OMP_NUM_THREADS=1 python benchmarks/performance/bench_gym_sand.py --rounds {args.rounds} "
-                         f"--steps {args.steps}",
+        env = environments[sand]
+        rows.append({"environment": f"{sand.split()[0]} on {env.terrain.kind}",
+                     "substeps": round(env.unwrapped.dt / env.terrain.time_step),
+                     "substep_ms": 1e3 * env.terrain.time_step, "median": statistics.median(values),
+                     "min": min(values), "max": max(values)})
+    command = (f"OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive python benchmarks/performance/bench_gym_sand.py "
+               f"--rounds {args.rounds} --steps {args.steps}")
+    machine = _machine()
+    result = {"benchmark": "benchmarks/performance/bench_gym_sand.py", "command": command,
               "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-              "commit": _commit(), "machine": _machine(),
+              "commit": _commit(), "machine": machine,
+              "provenance": {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                             "terrasph": terrasph.__version__, "commit": _commit(), "cpu": machine["cpu"],
+                             "threads": machine["omp_num_threads"], "cores": machine["logical_cpus"],
+                             "command": command, "load_average_1min": machine["load_average_1min"]},
+              "columns": COLUMNS, "rows": rows,
               "steps_per_round": args.steps, "steps_per_second": rounds, "ratios": ratios,
               "note": "interleaved rounds on a shared machine: the ratios within a round are the result, "
                       "absolute steps/s drift with the load"}

@@ -39,6 +39,7 @@ import argparse
 import datetime
 import json
 import math
+import os
 import pathlib
 import platform
 import subprocess
@@ -49,6 +50,7 @@ from dataclasses import dataclass
 import gymnasium
 import mujoco
 import numpy as np
+import terrasph
 from terrasph import mujoco_plugin
 from terrasph.rft3d import BodyElements
 from terrasph.robots.rft3d_terrain import Body3D, RFT3DCoupling, Robot3D
@@ -269,6 +271,43 @@ def summarise(rows: list[dict]) -> list[dict]:
     return out
 
 
+#: the variants docs/mujoco_plugin.md shows, in its order, and their names there
+SHOWN = {"euler-implicit": "plugin, Euler, implicit (default)", "reference": "terrasph's implicit stepper, Euler",
+         "rk4-explicit": "plugin, RK4 (the file as shipped), explicit", "euler-explicit": "plugin, Euler, `implicit=false`"}
+#: the table docs/mujoco_plugin.md shows (docs/hooks/generated_tables.py): key, heading, format
+COLUMNS = [["variant", "variant", "{}"], ["dt_ms", "dt (ms)", "{:g}"],
+           ["stand_mm", "standing: torso position error (mm)", "{:.3g}"],
+           ["walk_path_mm", "walk: torso path error after 1 s (mm), median", "{:.3g}"],
+           ["walk_path_range_mm", "(range over the seeds)", "{}"],
+           ["walk_load", "walk: vertical load RMS error (0.05 s means), median", "{:.1%}"],
+           ["walk_load_range", "(range)", "{}"]]
+
+
+def _millimetres(metres: float) -> str:
+    """A length in mm to three digits, whole above a metre."""
+    return f"{1e3 * metres:.3g}" if metres < 1.0 else f"{1e3 * metres:.0f}"
+
+
+def table_rows(summary: list[dict]) -> list[dict]:
+    """The summary as :data:`COLUMNS`' rows: per shown variant and step, the standing error (the same for
+    every seed: the median) and the walk's path and load errors (median and range over the seeds)."""
+    entries = {(e["phase"], e["variant"], e["dt"]): e for e in summary}
+    rows = []
+    for variant, name in SHOWN.items():
+        for dt in sorted({e["dt"] for e in summary if e["variant"] == variant}):
+            stand, walk = entries.get(("stand", variant, dt), {}), entries.get(("walk", variant, dt), {})
+            if "path_end_m" not in stand or "path_end_m" not in walk:
+                rows.append({"variant": name, "dt_ms": 1e3 * dt, "stand_mm": math.nan, "walk_path_mm": math.nan,
+                             "walk_path_range_mm": "unstable", "walk_load": math.nan, "walk_load_range": "unstable"})
+                continue
+            path, load = walk["path_end_m"], walk["load_rms_rel"]
+            rows.append({"variant": name, "dt_ms": 1e3 * dt, "stand_mm": 1e3 * stand["path_end_m"]["median"],
+                         "walk_path_mm": 1e3 * path["median"],
+                         "walk_path_range_mm": f"{_millimetres(path['min'])}–{_millimetres(path['max'])}",
+                         "walk_load": load["median"], "walk_load_range": f"{load['min']:.1%}–{load['max']:.1%}"})
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", nargs="+", type=float, default=[1e-2, 5e-3, 2e-3, 1e-3, 5e-4])
@@ -295,13 +334,21 @@ def main() -> None:
             cells.append("—" if v is None else f"{fmt(v['median'], scale)} [{fmt(v['min'], scale)}, {fmt(v['max'], scale)}]")
         print(f"| {entry['phase']} | {entry['variant']} | {1e3 * entry['dt']:g} | {'yes' if entry['stable'] else 'no'} | "
               f"{cells[0]} | {cells[1]} |")
-    result = {**provenance(), "command": "python benchmarks/validation/rft_plugin_step.py " + " ".join(
+    meta = provenance()
+    command = "OMP_NUM_THREADS=1 python benchmarks/validation/rft_plugin_step.py " + " ".join(
+        [f"--steps {' '.join(f'{s:g}' for s in args.steps)}", f"--reference-step {args.reference_step:g}",
+         f"--seeds {' '.join(str(s) for s in args.seeds)}"])
+    result = {**meta, "provenance": {"date": meta["date"], "terrasph": terrasph.__version__, "commit": meta["commit"],
+                                     "cpu": meta["machine"], "threads": os.environ.get("OMP_NUM_THREADS"),
+                                     "cores": os.cpu_count(), "command": command},
+              "columns": COLUMNS, "rows": table_rows(summary),
+              "command": "python benchmarks/validation/rft_plugin_step.py " + " ".join(
         [f"--steps {' '.join(f'{s:g}' for s in args.steps)}", f"--reference-step {args.reference_step:g}",
          f"--seeds {' '.join(str(s) for s in args.seeds)}"]),
         "model": "gymnasium ant.xml, floor contacts off, plugin terrasph.rft (generic map, surface 0)",
         "weight_n": weight, "control_interval_s": CONTROL_INTERVAL,
         "phases": {name: {"start_s": b, "end_s": e, "random_actions": r} for name, (b, e, r) in PHASES.items()},
-        "summary": summary, "rows": rows}
+        "summary": summary, "seed_rows": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=1) + "\n")
     print(f"wrote {args.out}")

@@ -51,7 +51,7 @@ constexpr double kGlassBeadsZeta = 2.44e5;
 constexpr double kElementFraction = 0.1;
 /// terrasph.robots.rft3d_terrain's NEWTON_ITERATIONS, NEWTON_HALVINGS, NEWTON_TOLERANCE: the implicit
 /// correction's Newton iterations per step at most, halvings of a step, and relative tolerance.
-constexpr NewtonSettings kNewton{12, 6, 1e-8};
+constexpr NewtonSettings kNewton{12, 20, 1e-8};
 /// Li, Zhang & Goldman 2013 (Science 339:1408), supplementary Table S2, as terrasph.rft.GENERIC.
 constexpr const char* kGenericTerms = "A00=0.206 A10=0.169 B11=0.212 B01=0.358 Bm11=0.055 C11=-0.124 C01=0.253 "
                                       "Cm11=0.007 D10=0.088";
@@ -275,7 +275,7 @@ struct Sand {
   double surface = 0.0, regularisation = kRegularisationSpeed;
   bool implicit = true;
   std::vector<RobotBody3D> bodies;
-  std::vector<double> reach;  // each body's body_reach (m)
+  std::vector<BodyBounds> bounds;  // each body's body_bounds()
   Submerged sub;  // the elements below the surface at the step's start pose
   // what compute() leaves for advance(): the time it saw, the generalised load G_n
   double start_time = std::nan("");
@@ -298,7 +298,7 @@ struct Sand {
       throw ConfigError("option gravity = (" + shortest(g[0]) + ", " + shortest(g[1]) + ", " + shortest(g[2]) +
                         ") is invalid for the sand: allowed along -z (its surface is level)");
     for (const int b : coupled_bodies(m, instance)) bodies.push_back(body_elements(m, b, length));
-    reach = body_reach(bodies);
+    bounds = body_bounds(bodies);
   }
 
   /// Writes the owners' wrenches into `state` (6 per coupled body, 0 for the others).
@@ -310,7 +310,7 @@ struct Sand {
 
   /// The explicit load at the current state: each owner's wrench W(v_com, ω) into qfrc_passive.
   void compute(const mjModel* m, mjData* d, mjtNum* state) {
-    sub.fill(bodies, reach, d->xpos, d->xmat, d->xipos, surface);
+    sub.fill(bodies, bounds, d->xpos, d->xmat, d->xipos, surface);
     wrenches.assign(sub.owners.size(), Vector6::Zero());
     start_load = Vector::Zero(m->nv);
     for (std::size_t i = 0; i < sub.owners.size(); ++i) {

@@ -35,6 +35,11 @@ MujocoApi::MujocoApi(const std::string& library) {
   find(handle, "mj_kinematics", kinematics);
   find(handle, "mj_comPos", com_positions);
   find(handle, "mj_comVel", com_velocities);
+  find(handle, "mj_forwardSkip", forward_skip);
+  find(handle, "mj_Euler", euler);
+  find(handle, "mj_checkPos", check_positions);
+  find(handle, "mj_checkVel", check_velocities);
+  find(handle, "mj_checkAcc", check_accelerations);
 }
 
 }  // namespace terrasph::rft

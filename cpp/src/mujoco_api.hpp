@@ -24,6 +24,11 @@ struct MujocoApi {
   decltype(&mj_kinematics) kinematics = nullptr;
   decltype(&mj_comPos) com_positions = nullptr;
   decltype(&mj_comVel) com_velocities = nullptr;
+  decltype(&mj_forwardSkip) forward_skip = nullptr;
+  decltype(&mj_Euler) euler = nullptr;
+  decltype(&mj_checkPos) check_positions = nullptr;
+  decltype(&mj_checkVel) check_velocities = nullptr;
+  decltype(&mj_checkAcc) check_accelerations = nullptr;
 
   /// Opens `library` (the path of the MuJoCo shared library); throws std::runtime_error if it is not
   /// MuJoCo of the headers' version or lacks a function.

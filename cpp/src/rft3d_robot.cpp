@@ -32,7 +32,7 @@ struct Robot3DStepper::Impl {
   Vector generalised;
   Matrix stiffness, mass;
   std::vector<mjtNum> linear, angular;
-  std::vector<double> reach;  // each body's body_reach (m)
+  std::vector<BodyBounds> bounds;  // each body's body_bounds()
 
   Impl(const std::string& library, std::uintptr_t model, std::uintptr_t data, std::vector<RobotBody3D> bodies_,
        std::vector<VelocityServo> servos_, double surface_, Coefficients table_, double regularisation_,
@@ -41,11 +41,11 @@ struct Robot3DStepper::Impl {
         bodies(std::move(bodies_)), servos(std::move(servos_)), surface(surface_), regularisation(regularisation_),
         table(table_), newton(newton_), nv(static_cast<int>(m->nv)), commands(servos.size()), generalised(m->nv),
         stiffness(m->nv, m->nv), mass(m->nv, m->nv), linear(static_cast<std::size_t>(3 * m->nv)),
-        angular(static_cast<std::size_t>(3 * m->nv)), reach(body_reach(bodies)) {}
+        angular(static_cast<std::size_t>(3 * m->nv)), bounds(body_bounds(bodies)) {}
 
   /// The elements below the surface at the current pose (Submerged::fill).
   void submerge() {
-    sub.fill(bodies, reach, d->xpos, d->xmat, d->xipos, surface);
+    sub.fill(bodies, bounds, d->xpos, d->xmat, d->xipos, surface);
     jacobians.resize(sub.owners.size(), Matrix::Zero(6, nv));
     wrenches.resize(sub.owners.size());
   }
@@ -71,6 +71,20 @@ struct Robot3DStepper::Impl {
       generalised[servos[k].dof] += servos[k].gear * force;
       if (jacobian) stiffness(servos[k].dof, servos[k].dof) += servos[k].gear * slope;
     }
+  }
+
+  /// MuJoCo's step from the forward pass just made, with the loads now in xfrc_applied and the
+  /// actuators' settings now in the model: under Euler, mj_step's stages after the velocity's
+  /// (mj_forwardSkip from mjSTAGE_VEL, mj_checkAcc, mj_Euler: the positions' and velocities' stages
+  /// are the start's, computed once); under another integrator, mj_step.
+  void integrate() {
+    if (m->opt.integrator != mjINT_EULER) {
+      api.step(m, d);
+      return;
+    }
+    api.forward_skip(m, d, mjSTAGE_VEL, 0);
+    api.check_accelerations(m, d);
+    api.euler(m, d);
   }
 
   /// The wrenches at the step's start pose as backward_euler() evaluates them.
@@ -101,11 +115,15 @@ int Robot3DStepper::step() {
   mjModel* m = s.m;
   mjData* d = s.d;
   m->opt.timestep = dt_;  // MuJoCo's step is the implicit correction's dt
-  s.api.forward(m, d);    // the start pose's frames, Jacobians and mass matrix
+  if (m->opt.integrator == mjINT_EULER) {  // mj_step's checks before its forward pass (integrate())
+    s.api.check_positions(m, d);
+    s.api.check_velocities(m, d);
+  }
+  s.api.forward(m, d);  // the start pose's frames, Jacobians and mass matrix
   s.submerge();
   std::fill(d->xfrc_applied, d->xfrc_applied + 6 * m->nbody, 0.0);
   if (s.sub.owners.empty()) {  // nothing in the sand: MuJoCo's step alone
-    s.api.step(m, d);
+    s.integrate();
   } else {
     implicit_step();
   }
@@ -133,7 +151,7 @@ void Robot3DStepper::implicit_step() {
   for (std::size_t k = 0; k < s.servos.size(); ++k)
     forces[k] = servo_force(s.servos[k], s.commands[k], start[s.servos[k].dof]).first;
   set_servos(m, d, s.servos, forces.data(), s.commands);
-  s.api.step(m, d);
+  s.integrate();
   set_servos(m, d, s.servos, nullptr, s.commands);
   const Vector explicit_qvel = Eigen::Map<const Vector>(d->qvel, s.nv);
   Impl::StepLoads loads{s, s.generalised, s.stiffness, {}};

@@ -7,7 +7,8 @@
   (``terrasph.fidelity.scene_tiers``).
 * ``<!-- results: NAME -->``: the rows of ``benchmarks/results/NAME.json`` as a table, under a line
   saying when, on which CPU, with which commit and by which command they were measured (the file's
-  ``provenance``).
+  ``provenance``); the columns are the file's own ``columns`` ([key, heading, format string] each)
+  if it names them, else those of :data:`RESULT_COLUMNS` that every row has.
 """
 
 from __future__ import annotations
@@ -74,7 +75,8 @@ def _cell(value: object, form: str) -> str:
         return f"{1e3 * float(value):.2f}"
     if form == "%":
         return f"{100 * float(value):.1f} %"
-    return form.format(value).replace(",", " ")
+    text = form.format(value)
+    return text.replace(",", " ") if isinstance(value, (int, float)) else text  # thousands apart by spaces
 
 
 def results_table(name: str) -> str:
@@ -83,7 +85,8 @@ def results_table(name: str) -> str:
     if not isinstance(data, dict) or "provenance" not in data:
         raise ValueError(f"benchmarks/results/{name}.json has no provenance: re-run its benchmark")
     rows, meta = data["rows"], data["provenance"]
-    columns = [c for c in RESULT_COLUMNS if all(c[0] in row for row in rows)]
+    columns = [tuple(c) for c in data["columns"]] if "columns" in data else \
+        [c for c in RESULT_COLUMNS if all(c[0] in row for row in rows)]
     lines = [f"*Measured {meta['date']} with terrasph {meta['terrasph']} (commit `{meta['commit']}`) on "
              f"{meta['cpu']}, {meta['threads']} thread(s) of {meta['cores']} cores; from "
              f"`benchmarks/results/{name}.json`, written by `{meta['command']}`.*", "",

@@ -21,7 +21,7 @@ model's ``opt.timestep``, with the terrain's loads on the coupled bodies. What t
 The RFT terrains are implicit in the load (docs/rft.md): the stepper takes MuJoCo's step itself,
 the load entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrain's
 measured step (``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
-:data:`~terrasph.robots.rft3d_terrain.RFT3D_TIME_STEP` 3D): the model's step is cut into equal
+:data:`RFT3D_SUBSTEP` 3D): the model's step is cut into equal
 substeps no longer than that, all taken in one call of the compiled stepper. The SPH coupling is
 explicit at the SPH's step bound (both SPH terrains). ``opt.timestep`` is the model's own again when
 :meth:`Terrain.step` returns. The steps use MuJoCo's semi-implicit Euler integrator (the scheme the
@@ -55,12 +55,12 @@ from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.geoms import body_shape
 from terrasph.robots.mjcf import Coupling, PlanarRobot, body_name, check_planar
 from terrasph.robots.mjcf_scene import sph_coupling
-from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, bodies_3d
+from terrasph.robots.rft3d_terrain import RFT3DCoupling, Robot3D, bodies_3d
 from terrasph.robots.rft_terrain import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
 from terrasph.robots.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
 from terrasph.terrain.sph3d_coupling import Coupled3D, CoupledBody3D, bed_under, body_shape_3d
 
-__all__ = ["INTEGRATORS", "PLANAR_SPACING", "SPH3D_BED", "SPH_BED", "TERRAINS", "RFTTerrain", "SPH3DTerrain",
+__all__ = ["INTEGRATORS", "PLANAR_SPACING", "RFT3D_SUBSTEP", "SPH3D_BED", "SPH_BED", "TERRAINS", "RFTTerrain", "SPH3DTerrain",
            "SPHTerrain", "Terrain", "attach"]
 
 #: the terrains :func:`attach` offers
@@ -69,6 +69,12 @@ TERRAINS = ("rft3d", "rft", "sph", "sph3d")
 #: the particle spacing (m) of a planar body's shape (its drawing and lowest point; the RFT elements
 #: follow the geoms' outline, :class:`terrasph.rft.SurfaceElements`), the scenes' Δx
 PLANAR_SPACING = 0.005
+
+#: the 3D RFT terrain's longest substep (s) here: gymnasium's Ant-v5 at 5 ms came within the seed scatter of
+#: a 0.25 ms reference in travel and within 9 % in its feet's deepest sinkage, standing 0.1 mm off its sinkage,
+#: at 0.55× the rigid environment's steps per second (1 ms: 0.18×); benchmarks/results/sand_substeps.json and
+#: gym_sand_speed.json, docs/terrain.md. The run loop's scenes keep RFT3D_TIME_STEP (the rover's travel, docs/rft.md)
+RFT3D_SUBSTEP = 5e-3
 
 #: the options of each terrain beyond `table` and `bodies` (:func:`attach`)
 _OPTIONS = {"rft3d": ("couple_below", "time_step", "element_length", "integrator"),
@@ -440,7 +446,7 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
     integrator = options.get("integrator", "euler")
     if integrator not in INTEGRATORS:
         raise ConfigError(f"parameter 'integrator' = {integrator!r} is invalid: allowed one of {', '.join(INTEGRATORS)}")
-    longest = options.get("time_step", RFT3D_TIME_STEP if terrain == "rft3d" else RFT_TIME_STEP)
+    longest = options.get("time_step", RFT3D_SUBSTEP if terrain == "rft3d" else RFT_TIME_STEP)
     if isinstance(longest, bool) or not (isinstance(longest, (int, float)) and math.isfinite(longest) and longest > 0):
         raise ConfigError(f"parameter 'time_step' = {longest!r} is invalid: allowed a finite number > 0 (s)")
     substeps = max(1, math.ceil(model_step / longest * (1 - 1e-12)))
