@@ -66,16 +66,18 @@ def test_the_leg_wheel_on_rft_ends_at_a_bed_end_given() -> None:
     assert 0.5 - 0.08 - BED_END_MARGIN - 0.02 < wheel["reference"][-1, 0] < 0.5 - BED_END_MARGIN
 
 
-def test_the_leg_wheel_on_rft_without_a_bed_width_runs_as_long_as_asked() -> None:
+def test_the_leg_wheel_on_rft_without_a_bed_width_runs_as_long_as_asked(tmp_path, capsys) -> None:
     """The RFT terrain is a plane without ends: with no bed_width the same run goes on past the SPH
     bed's 0.5 m to its end time (the wheel, at about 10 cm/s, passes x = 0.5 m before t = 3 s)."""
-    config = LegWheel(terrain="rft", start_x=0.3, settle_time=0.1, t_end=3.0)
-    assert config.bed_width is None and LegWheel().bed_width == SPH_BED_WIDTH
-    run = run_leg_wheel(config, plot=False)
-    wheel = run.series["robot/wheel"]
-    assert run.summary()["end_of_bed"] is None
+    assert LegWheel(terrain="rft").bed_width is None and LegWheel().bed_width == SPH_BED_WIDTH
+    out = tmp_path / "rft.h5"
+    assert main(["run", "leg-wheel", "--terrain", "rft", "--start-x", "0.3", "--settle-time", "0.1", "--t-end", "3",
+                 "--no-progress", "--out", str(out)]) == 0
+    assert json.loads(capsys.readouterr().out)["end_of_bed"] is None
+    assert _run_status(out)["status"] == "completed"
+    wheel = read_run(out).series["robot/wheel"]
     assert wheel["time"][-1] == pytest.approx(3.0, abs=0.005)
-    assert wheel["reference"][-1, 0] + config.leg_length > SPH_BED_WIDTH
+    assert wheel["reference"][-1, 0] + LegWheel().leg_length > SPH_BED_WIDTH
 
 
 def test_the_rover_ends_at_the_end_of_its_bed(tmp_path) -> None:

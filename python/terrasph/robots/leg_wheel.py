@@ -191,8 +191,11 @@ def wheel_numerics(config: WheelScene) -> Numerics:
 
 
 def wheel_footprint(config: WheelScene, wheels: int, material: Material) -> Footprint:
-    """The bed, `wheels` wheels and the container of bed_and_wheel (size guard)."""
+    """The bed, `wheels` wheels and the container of bed_and_wheel (size guard); a bed without a
+    width (the RFT terrain's plane) holds no grains and no container."""
     wheel_area = wheels * config.legs * config.leg_length * config.thickness
+    if config.bed_width is None:
+        return Footprint(config.spacing, wheel_area, 0.0, config.t_end, material, wheel_numerics(config))
     return Footprint(config.spacing, config.bed_width * config.bed_depth + wheel_area,
                      config.bed_width + 2.0 * (config.bed_depth + 2.5 * config.leg_length), config.t_end,
                      material, wheel_numerics(config))
