@@ -33,12 +33,18 @@ from typing import Any, NamedTuple
 import h5py
 import numpy as np
 
-__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "defined_values", "read_run", "write_results", "write_xdmf",
+__all__ = ["RAW_FRAME_BYTES", "SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "defined_values", "read_run", "write_results", "write_xdmf",
            "write_xdmf_sets"]
 
 SCHEMA_VERSION = 1
 UNITS = "SI; 2D plane strain, forces in N for the body's real width"
 _COMPRESSIONS = ("gzip", "lzf", "none")
+#: a frame (all its fields) smaller than this (bytes) is stored without compression: a robot's frames
+#: on the RFT terrain (its bodies' drawing, ~20 kB) shrink by 16 % under gzip with shuffle (lzf: 13 %)
+#: for ten times the wall of writing them raw, more than the RFT steps between two frames cost
+#: (benchmarks/performance/bench_run_overhead.py); a frame of grains, far larger and seconds of
+#: stepping apart, is compressed
+RAW_FRAME_BYTES = 64 * 1024
 _SERIES_CHUNK_ROWS = 256
 _RESERVED_FRAME_NAMES = ("time", "step")
 
@@ -92,7 +98,8 @@ class RunWriter:
         Optional software versions (e.g. ``{"terrasph": "0.1.0", "numpy": "2.1"}``), stored as
         root attributes ``version_<name>``.
     compression:
-        ``"gzip"`` (with byte shuffle), ``"lzf"`` or ``"none"``; applies to frames and static arrays.
+        ``"gzip"`` (with byte shuffle), ``"lzf"`` or ``"none"``; applies to static arrays and to
+        frames of at least :data:`RAW_FRAME_BYTES` (smaller frames are stored raw).
     overwrite:
         Replace an existing file; if False an existing ``path`` raises ``FileExistsError``.
     """
@@ -274,6 +281,7 @@ class RunWriter:
                     f"got shape {data.shape} and dtype {data.dtype}"
                 )
         shapes: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+        filters = self._filters if sum(data.nbytes for data in arrays.values()) >= RAW_FRAME_BYTES else {}
         for name, data in arrays.items():
             frames.create_dataset(
                 name,
@@ -281,7 +289,7 @@ class RunWriter:
                 maxshape=(None, *data.shape),
                 chunks=(1, *data.shape),
                 dtype=data.dtype,
-                **self._filters,
+                **filters,
             )
             shapes[name] = (data.shape, data.dtype)
         return shapes
