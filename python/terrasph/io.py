@@ -326,23 +326,44 @@ class RunWriter:
         file = self._open_file()
         if not group or group.startswith("/"):
             raise ValueError(f"group must be a non-empty relative path like 'diagnostics', got {group!r}")
-        arrays = [{name: np.asarray(value) for name, value in row.items()} for row in rows]
-        if not arrays:
+        if not rows:
             return
-        if any(not row for row in arrays):
+        if any(not row for row in rows):
             raise ValueError(f"values for series group {group!r} must hold at least one entry")
         if group not in self._series_shapes:
-            self._series_shapes[group] = self._create_series(file["series"], group, arrays[0])
+            first = {name: np.asarray(value) for name, value in rows[0].items()}
+            self._series_shapes[group] = self._create_series(file["series"], group, first)
         expected = self._series_shapes[group]
-        for row in arrays:
-            self._check_series_row(group, expected, row)
+        columns = self._series_columns(group, expected, rows)
         series = file["series"][group]
-        for name in expected:
+        for name, column in columns.items():
             dataset = series[name]
             index = dataset.shape[0]
-            dataset.resize(index + len(arrays), axis=0)
-            dataset[index:] = np.stack([row[name] for row in arrays])
+            dataset.resize(index + len(column), axis=0)
+            dataset[index:] = column
         file.flush()
+
+    @classmethod
+    def _series_columns(cls, group: str, expected: Mapping[str, tuple[tuple[int, ...], np.dtype]],
+                        rows: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
+        """`rows` as one array per entry of the group (rows × the entry's shape), each checked once
+        against the group's first row; a mismatch is named by :meth:`_check_series_row` (row by row,
+        only then)."""
+        columns: dict[str, np.ndarray] = {}
+        for name, (shape, dtype) in expected.items():
+            try:
+                column = np.asarray([row[name] for row in rows])
+            except (KeyError, ValueError):  # an entry missing, or of another shape than its others
+                break
+            if column.shape[1:] != shape or column.dtype.kind not in "biuf" or \
+                    not np.can_cast(column.dtype, dtype, casting="same_kind"):
+                break
+            columns[name] = column
+        if len(columns) < len(expected) or any(len(row) != len(expected) for row in rows):
+            for row in rows:
+                cls._check_series_row(group, expected, {name: np.asarray(value) for name, value in row.items()})
+            raise ValueError(f"series {group!r}: rows that do not stack into the first row's shapes {dict(expected)}")
+        return columns
 
     @staticmethod
     def _check_series_row(group: str, expected: Mapping[str, tuple[tuple[int, ...], np.dtype]],
@@ -715,7 +736,8 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
     * ``<stem>.xdmf.h5`` holds HDF5 virtual datasets, one per frame, set and field component, each
       mapping a slice of the run file's ``/frames/<field>`` (no particle data is copied; the run
       file is referenced by its relative path, so keep the files together), and each set's
-      Polyvertex connectivity;
+      Polyvertex connectivity; a set whose frames are under :data:`RAW_FRAME_BYTES` (a robot's
+      bodies) has copies of those slices instead, written several times faster than views;
     * ``<stem>.grains.xdmf`` and, in scenes with bodies, ``<stem>.bodies.xdmf``: a Temporal
       collection of Uniform grids, one per frame, each with that frame's positions as geometry
       (ParaView moves the particles) and as the point data ``position_x``, ``position_z`` (meshio's
@@ -752,12 +774,14 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
             components = [(label + suffix, dataset, index) for label, dataset in [("position", positions), *fields]
                           for suffix, index in (_component_suffixes(dataset.shape[2:], dim) if len(dataset.shape) > 2
                                                 else [("", ())])]
+            frame_bytes = sum(math.prod(d.shape[1:]) * d.dtype.itemsize for d in (positions, *dict(fields).values()))
+            slicer = _CopiedSlices(views, file) if frame_bytes < RAW_FRAME_BYTES else virtual_slice
             views_of_frame: dict[str, _Layout] = {}  # each view's layout, the frame's index a stand-in
             for k in range(n_frames):  # the geometry, a frame's positions whole, then each component
                 slices: list[tuple[str, _Layout, tuple[int | slice, ...]]] = [("position", positions, (k,))]
                 slices += [(label, dataset, (k, slice(None), *component)) for label, dataset, component in components]
                 for label, dataset, index in slices:
-                    view = virtual_slice(f"{name}/frame_{k}/{label}", dataset, index)
+                    view = slicer(f"{name}/frame_{k}/{label}", dataset, index)
                     views_of_frame[label] = view._replace(name=f"/{name}/frame_{_FRAME_INDEX}/{label}")
             # one frame's XML with stand-ins for its index and time, repeated for every frame (_write_frames_xml)
             grid = ET.SubElement(collection, "Grid", Name=f"frame_{_FRAME_INDEX}", GridType="Uniform")
@@ -809,6 +833,35 @@ def _polyvertex(grid: ET.Element, count: int, side_ref: str, connectivity: h5py.
 def _node_attribute(grid: ET.Element, name: str, h5_ref: str, dataset: h5py.Dataset | _Layout) -> None:
     attribute = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar", Center="Node")
     _whole(attribute, h5_ref, dataset)
+
+
+class _CopiedSlices:
+    """Makes the side file's datasets as copies of slices of a run file's datasets (each read once),
+    with HDF5's own calls and the link property list, types and dataspaces made once: for small
+    frames, where a copy costs less than the virtual dataset (:class:`_VirtualSlices`) it replaces."""
+
+    def __init__(self, views: h5py.File, source: h5py.File) -> None:
+        self.views, self.source = views, source
+        self.links = h5py.h5p.create(h5py.h5p.LINK_CREATE)
+        self.links.set_create_intermediate_group(True)
+        self.arrays: dict[str, np.ndarray] = {}
+        self.types: dict[np.dtype, Any] = {}
+        self.spaces: dict[tuple[int, ...], Any] = {}
+
+    def __call__(self, name: str, dataset: _Layout, index: tuple[int | slice, ...]) -> _Layout:
+        """A dataset `name` holding ``dataset[index]`` of the run file."""
+        if dataset.name not in self.arrays:
+            self.arrays[dataset.name] = self.source[dataset.name][()]
+        data = np.ascontiguousarray(self.arrays[dataset.name][index])
+        if data.shape not in self.spaces:
+            self.spaces[data.shape] = h5py.h5s.create_simple(data.shape)
+        if data.dtype not in self.types:
+            self.types[data.dtype] = h5py.h5t.py_create(data.dtype, logical=True)
+        created = h5py.h5d.create(self.views.id, name.encode(), self.types[data.dtype], self.spaces[data.shape],
+                                  lcpl=self.links)
+        created.write(h5py.h5s.ALL, h5py.h5s.ALL, data)
+        created.close()
+        return _Layout(f"/{name}", data.shape, data.dtype)
 
 
 class _VirtualSlices:
