@@ -505,9 +505,9 @@ class RunLoop:
                     last_step = (stepper.time - time_before) / max(1, stepper.step_count - steps_before)
                     per_step = (wallclock.perf_counter() - started) / max(1, stepper.step_count - steps_before)
                     chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
-                    # the bar shows simulated time, never past its total (the last step may end past t_end)
-                    bar.update(min(bar.total, round(stepper.time - t_start, 9)) - bar.n)
-                    bar.set_postfix(steps=stepper.step_count, refresh=False)
+                    if self.progress:  # the bar shows simulated time, never past its total (the last step may end past t_end)
+                        bar.update(min(bar.total, round(stepper.time - t_start, 9)) - bar.n)
+                        bar.set_postfix(steps=stepper.step_count, refresh=False)
                     at_end = stepper.time >= t_end * (1 - 1e-14)
                     if stepper.time >= next_sample * (1 - 1e-12) or (sampled and at_end):
                         record_sample()
