@@ -736,8 +736,7 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
     * ``<stem>.xdmf.h5`` holds HDF5 virtual datasets, one per frame, set and field component, each
       mapping a slice of the run file's ``/frames/<field>`` (no particle data is copied; the run
       file is referenced by its relative path, so keep the files together), and each set's
-      Polyvertex connectivity; a set whose frames are under :data:`RAW_FRAME_BYTES` (a robot's
-      bodies) has copies of those slices instead, written several times faster than views;
+      Polyvertex connectivity;
     * ``<stem>.grains.xdmf`` and, in scenes with bodies, ``<stem>.bodies.xdmf``: a Temporal
       collection of Uniform grids, one per frame, each with that frame's positions as geometry
       (ParaView moves the particles) and as the point data ``position_x``, ``position_z`` (meshio's
@@ -774,14 +773,12 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
             components = [(label + suffix, dataset, index) for label, dataset in [("position", positions), *fields]
                           for suffix, index in (_component_suffixes(dataset.shape[2:], dim) if len(dataset.shape) > 2
                                                 else [("", ())])]
-            frame_bytes = sum(math.prod(d.shape[1:]) * d.dtype.itemsize for d in (positions, *dict(fields).values()))
-            slicer = _CopiedSlices(views, file) if frame_bytes < RAW_FRAME_BYTES else virtual_slice
             views_of_frame: dict[str, _Layout] = {}  # each view's layout, the frame's index a stand-in
             for k in range(n_frames):  # the geometry, a frame's positions whole, then each component
                 slices: list[tuple[str, _Layout, tuple[int | slice, ...]]] = [("position", positions, (k,))]
                 slices += [(label, dataset, (k, slice(None), *component)) for label, dataset, component in components]
                 for label, dataset, index in slices:
-                    view = slicer(f"{name}/frame_{k}/{label}", dataset, index)
+                    view = virtual_slice(f"{name}/frame_{k}/{label}", dataset, index)
                     views_of_frame[label] = view._replace(name=f"/{name}/frame_{_FRAME_INDEX}/{label}")
             # one frame's XML with stand-ins for its index and time, repeated for every frame (_write_frames_xml)
             grid = ET.SubElement(collection, "Grid", Name=f"frame_{_FRAME_INDEX}", GridType="Uniform")
@@ -833,35 +830,6 @@ def _polyvertex(grid: ET.Element, count: int, side_ref: str, connectivity: h5py.
 def _node_attribute(grid: ET.Element, name: str, h5_ref: str, dataset: h5py.Dataset | _Layout) -> None:
     attribute = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar", Center="Node")
     _whole(attribute, h5_ref, dataset)
-
-
-class _CopiedSlices:
-    """Makes the side file's datasets as copies of slices of a run file's datasets (each read once),
-    with HDF5's own calls and the link property list, types and dataspaces made once: for small
-    frames, where a copy costs less than the virtual dataset (:class:`_VirtualSlices`) it replaces."""
-
-    def __init__(self, views: h5py.File, source: h5py.File) -> None:
-        self.views, self.source = views, source
-        self.links = h5py.h5p.create(h5py.h5p.LINK_CREATE)
-        self.links.set_create_intermediate_group(True)
-        self.arrays: dict[str, np.ndarray] = {}
-        self.types: dict[np.dtype, Any] = {}
-        self.spaces: dict[tuple[int, ...], Any] = {}
-
-    def __call__(self, name: str, dataset: _Layout, index: tuple[int | slice, ...]) -> _Layout:
-        """A dataset `name` holding ``dataset[index]`` of the run file."""
-        if dataset.name not in self.arrays:
-            self.arrays[dataset.name] = self.source[dataset.name][()]
-        data = np.ascontiguousarray(self.arrays[dataset.name][index])
-        if data.shape not in self.spaces:
-            self.spaces[data.shape] = h5py.h5s.create_simple(data.shape)
-        if data.dtype not in self.types:
-            self.types[data.dtype] = h5py.h5t.py_create(data.dtype, logical=True)
-        created = h5py.h5d.create(self.views.id, name.encode(), self.types[data.dtype], self.spaces[data.shape],
-                                  lcpl=self.links)
-        created.write(h5py.h5s.ALL, h5py.h5s.ALL, data)
-        created.close()
-        return _Layout(f"/{name}", data.shape, data.dtype)
 
 
 class _VirtualSlices:
