@@ -108,8 +108,8 @@ def draw(results: dict[str, list[dict[str, Any]]]) -> Figure:
                 panel.bar(at, scale * row[key], 0.8 / len(rows), color=colour,
                           label=("rigid floor" if row["floor"] == "rigid" else "sand") if k == 0 else None)
                 panel.plot([at] * len(row["episodes"]), [scale * e[key] for e in row["episodes"]], "k.", ms=3)
-        panel.set_xticks(range(len(groups)), [f"{env_id.split('-')[0]}\n{name}" for env_id, name in groups],
-                         fontsize=7)
+        panel.set_xticks(range(len(groups)), [f"{env_id.split('-')[0]}: {name}" for env_id, name in groups],
+                         fontsize=7, rotation=30, ha="right")
         panel.set_ylabel(label)
         panel.axhline(0.0, color="k", lw=0.5)
     panels[0].legend(fontsize=8)
