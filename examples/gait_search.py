@@ -37,8 +37,8 @@ from collections.abc import Callable
 import gymnasium
 import mujoco
 import numpy as np
-from sand_vs_rigid import CASES, Policy, episode, random_policy
-from terrasph.gym import OnSand
+from matplotlib.figure import Figure
+from sand_vs_rigid import CASES, Policy, episode, make, random_policy, rollouts
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULT = ROOT / "benchmarks" / "results" / "gait_search.json"
@@ -105,12 +105,6 @@ GAITS = {
 }
 
 
-def make(env_id: str, floor: str) -> gymnasium.Env:
-    """`env_id` on MuJoCo's rigid floor (`floor` ``"rigid"``) or on the terrain `floor`."""
-    env = gymnasium.make(env_id)
-    return env if floor == "rigid" else OnSand(env, terrain=floor)
-
-
 def search(env: gymnasium.Env, feet: tuple[str, ...], gait: Gait, seed: int, population: int, iterations: int,
            elite: int, steps: int, resets: int) -> dict[str, object]:
     """The cross-entropy method over `gait`'s parameters on `env` (module docstring), each gait scored
@@ -155,27 +149,18 @@ def study(env_id: str, terrain: str, feet: tuple[str, ...], seed: int, populatio
     gaits = {"hand-set gait": np.array(gait.start),
              **{f"best on {floor}": np.array(list(searches[floor]["parameters"].values())) for floor in floors}}
     held_out = range(seed + resets, seed + resets + HELD_OUT_RESETS)
-    rollouts = []
-    for floor in floors:
-        policies = {"random actions": lambda reset, env=envs[floor]: random_policy(env, reset),
-                    **{name: lambda reset, p=parameters: gait.policy(p) for name, parameters in gaits.items()}}
-        for name, policy in policies.items():
-            rows = [episode(envs[floor], feet, policy(reset), reset, steps) for reset in held_out]
-            rollouts.append({"policy": name, "floor": floor, "resets": list(held_out), "episodes": rows,
-                             **{key: float(np.nanmean([row[key] for row in rows])) for key in rows[0]}})
+    policies = {"random actions": random_policy,
+                **{name: lambda env, reset, p=parameters: gait.policy(p) for name, parameters in gaits.items()}}
     return {"environment": env_id, "terrain": terrain, "steps": steps,
-            "duration": steps * envs["rigid"].unwrapped.dt, "search": searches, "rollouts": rollouts}
+            "duration": steps * envs["rigid"].unwrapped.dt, "search": searches,
+            "rollouts": rollouts(envs, feet, policies, held_out, steps)}
 
 
-def figure(results: list[dict[str, object]], path: pathlib.Path) -> None:
-    """Per environment: each floor's search (best and mean return per round) and the travel of the
+def draw(results: list[dict[str, object]]) -> Figure:
+    """Per environment: each floor's search (best and mean score per round) and the travel of the
     two best gaits on both floors."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(len(results), 2, figsize=(10, 3.4 * len(results)), squeeze=False)
+    fig = Figure(figsize=(10, 3.4 * len(results)), layout="constrained")
+    axes = fig.subplots(len(results), 2, squeeze=False)
     for (progress, cross), result in zip(axes, results):
         floors = list(result["search"])
         for floor, colour in zip(floors, ("tab:grey", "tab:orange")):
@@ -195,10 +180,13 @@ def figure(results: list[dict[str, object]], path: pathlib.Path) -> None:
         cross.set(ylabel="travel (m): mean, dots each reset", title=f"{result['environment']}: each best gait on both floors")
         cross.axhline(0.0, color="k", lw=0.5)
         cross.legend(fontsize=8)
-    fig.tight_layout()
+    return fig
+
+
+def figure(results: list[dict[str, object]], path: pathlib.Path) -> None:
+    """:func:`draw` saved to `path`."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    draw(results).savefig(path, dpi=110)
 
 
 def main() -> None:

@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import argparse
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import gymnasium
 import mujoco
 import numpy as np
+from matplotlib.figure import Figure
 from terrasph.gym import OnSand
 from terrasph.robots.mjcf import body_name
 
@@ -68,6 +70,52 @@ def episode(env: gymnasium.Env, feet: tuple[str, ...], policy: Policy, seed: int
             "length": float(data.time) - time0}
 
 
+def make(env_id: str, floor: str) -> gymnasium.Env:
+    """`env_id` on MuJoCo's rigid floor (`floor` ``"rigid"``) or on the terrain `floor`."""
+    env = gymnasium.make(env_id)
+    return env if floor == "rigid" else OnSand(env, terrain=floor)
+
+
+def rollouts(envs: dict[str, gymnasium.Env], feet: tuple[str, ...],
+             policies: dict[str, Callable[[gymnasium.Env, int], Policy]], resets: Sequence[int],
+             steps: int) -> list[dict[str, Any]]:
+    """Each policy on each floor (`envs`: floor → environment), one :func:`episode` from each reset:
+    per floor and policy, the episodes and their means. A policy is made per environment and reset
+    (``policies[name](env, reset)``)."""
+    rows = []
+    for floor, env in envs.items():
+        for name, policy in policies.items():
+            episodes = [episode(env, feet, policy(env, reset), reset, steps) for reset in resets]
+            rows.append({"policy": name, "floor": floor, "resets": list(resets), "episodes": episodes,
+                         **{key: float(np.nanmean([e[key] for e in episodes])) for key in episodes[0]}})
+    return rows
+
+
+def draw(results: dict[str, list[dict[str, Any]]]) -> Figure:
+    """Travel, foot sinkage and foot slip of :func:`rollouts`' rows (`results`: environment → rows),
+    a group of bars per environment and policy, one bar per floor, each reset's value a dot."""
+    figure = Figure(figsize=(11.0, 3.6), layout="constrained")
+    panels = figure.subplots(1, 3)
+    groups = [(env_id, name) for env_id, rows in results.items() for name in dict.fromkeys(r["policy"] for r in rows)]
+    for panel, (key, label, scale) in zip(panels, (("distance", "travel (m)", 1.0),
+                                                   ("sinkage", "foot sinkage (mm)", 1000.0),
+                                                   ("slip", "foot slip (m/s)", 1.0))):
+        for k, (env_id, name) in enumerate(groups):
+            rows = [r for r in results[env_id] if r["policy"] == name]
+            for j, row in enumerate(rows):
+                at = k + 0.8 * (j + 0.5) / len(rows) - 0.4
+                colour = "tab:grey" if row["floor"] == "rigid" else "tab:orange"
+                panel.bar(at, scale * row[key], 0.8 / len(rows), color=colour,
+                          label=("rigid floor" if row["floor"] == "rigid" else "sand") if k == 0 else None)
+                panel.plot([at] * len(row["episodes"]), [scale * e[key] for e in row["episodes"]], "k.", ms=3)
+        panel.set_xticks(range(len(groups)), [f"{env_id.split('-')[0]}: {name}" for env_id, name in groups],
+                         fontsize=7, rotation=30, ha="right")
+        panel.set_ylabel(label)
+        panel.axhline(0.0, color="k", lw=0.5)
+    panels[0].legend(fontsize=8)
+    return figure
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--episodes", type=int, default=3)
@@ -76,15 +124,10 @@ def main() -> None:
     logging.disable(logging.WARNING)  # the floor's one line per environment
     print(f"{'environment':<13} {'floor':<6} {'distance (m)':>13} {'foot sinkage (mm)':>18} {'foot slip (m/s)':>16}")
     for env_id, terrain, feet in CASES:
-        for floor in ("rigid", terrain):
-            env = gymnasium.make(env_id)
-            if floor != "rigid":
-                env = OnSand(env, terrain=terrain)
-            rows = [episode(env, feet, random_policy(env, seed), seed, args.steps)
-                    for seed in range(args.episodes)]
-            mean = {key: np.nanmean([row[key] for row in rows]) for key in rows[0]}
-            print(f"{env_id:<13} {floor:<6} {mean['distance']:>13.3f} {1000 * mean['sinkage']:>18.1f} "
-                  f"{mean['slip']:>16.3f}")
+        envs = {floor: make(env_id, floor) for floor in ("rigid", terrain)}
+        for row in rollouts(envs, feet, {"random actions": random_policy}, range(args.episodes), args.steps):
+            print(f"{env_id:<13} {row['floor']:<6} {row['distance']:>13.3f} {1000 * row['sinkage']:>18.1f} "
+                  f"{row['slip']:>16.3f}")
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ import pytest
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.robots.leg_wheel import SPH_BED_WIDTH, LegWheel, run_leg_wheel
 from terrasph.robots.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
 from terrasph.robots.rover import Rover, run_rover
 from terrasph.robots.run import BED_END_MARGIN, BedEnds
@@ -57,13 +57,27 @@ def test_a_leg_wheel_reaching_the_end_of_its_bed_ends_its_run_there(tmp_path, ca
     assert summary["final_sinkage"] == pytest.approx(series["robot/wheel"]["sinkage"][-1])
 
 
-def test_the_leg_wheel_on_rft_ends_at_the_same_bed_end() -> None:
-    config = LegWheel(terrain="rft", start_x=0.3, settle_time=0.1, t_end=6.0)
+def test_the_leg_wheel_on_rft_ends_at_a_bed_end_given() -> None:
+    config = LegWheel(terrain="rft", start_x=0.3, settle_time=0.1, t_end=6.0, bed_width=SPH_BED_WIDTH)
     run = run_leg_wheel(config, plot=False)
     wheel = run.series["robot/wheel"]
     assert run.summary()["end_of_bed"] is not None and wheel["time"][-1] < 6.0
     # the C-leg's tips are on a circle of 8 cm: the axle stops within 8 cm + margin + a frame's travel
     assert 0.5 - 0.08 - BED_END_MARGIN - 0.02 < wheel["reference"][-1, 0] < 0.5 - BED_END_MARGIN
+
+
+def test_the_leg_wheel_on_rft_without_a_bed_width_runs_as_long_as_asked(tmp_path, capsys) -> None:
+    """The RFT terrain is a plane without ends: with no bed_width the same run goes on past the SPH
+    bed's 0.5 m to its end time (the wheel, at about 10 cm/s, passes x = 0.5 m before t = 3 s)."""
+    assert LegWheel(terrain="rft").bed_width is None and LegWheel().bed_width == SPH_BED_WIDTH
+    out = tmp_path / "rft.h5"
+    assert main(["run", "leg-wheel", "--terrain", "rft", "--start-x", "0.3", "--settle-time", "0.1", "--t-end", "3",
+                 "--no-progress", "--out", str(out)]) == 0
+    assert json.loads(capsys.readouterr().out)["end_of_bed"] is None
+    assert _run_status(out)["status"] == "completed"
+    wheel = read_run(out).series["robot/wheel"]
+    assert wheel["time"][-1] == pytest.approx(3.0, abs=0.005)
+    assert wheel["reference"][-1, 0] + LegWheel().leg_length > SPH_BED_WIDTH
 
 
 def test_the_rover_ends_at_the_end_of_its_bed(tmp_path) -> None:
@@ -104,9 +118,9 @@ def test_the_default_leg_wheel_run_stays_on_its_bed() -> None:
     run takes minutes; its axle, measured, moves 9.6 cm/s after the pause against RFT's 9.7 cm/s) the
     run ends at its end time, the wheel's reach (axle + tip radius 8 cm) short of the bed's end by more
     than the margin."""
-    config = LegWheel(terrain="rft")
+    config = LegWheel(terrain="rft", bed_width=SPH_BED_WIDTH)
     run = run_leg_wheel(config, plot=False)
     wheel = run.series["robot/wheel"]
     assert run.summary().get("end_of_bed") is None
     assert wheel["time"][-1] == pytest.approx(config.t_end, abs=0.005)  # its last 2 ms step may end past it
-    assert wheel["reference"][-1, 0] + config.leg_length < config.bed_width - BED_END_MARGIN
+    assert wheel["reference"][-1, 0] + config.leg_length < SPH_BED_WIDTH - BED_END_MARGIN

@@ -150,3 +150,22 @@ def test_the_sand_pages_tables_are_their_result_files(hooks, name: str, page: st
         key, _, form = data["columns"][0]
         assert line.startswith(f"| {form.format(row[key])} |")
     assert f"<!-- results: {name} -->" in (ROOT / "docs" / page).read_text()
+
+
+def test_the_run_overhead_table_of_runs_md_is_its_result_files() -> None:
+    """docs/howto/runs.md's table of what a run costs besides its steps quotes the medians of
+    benchmarks/results/run_overhead.json (bench_run_overhead.py), side by side, to the digit shown."""
+    data = json.loads((ROOT / "benchmarks" / "results" / "run_overhead.json").read_text())
+    rows = table_after("What a run costs besides its steps", (ROOT / "docs" / "howto" / "runs.md").read_text())
+    assert rows[0][-1] == "total / stepping"
+    quoted = {row[0][0]: row for row in rows[1:]}
+    assert set(quoted) == set(data["medians"])
+    for side, medians in data["medians"].items():
+        row = quoted[side]
+        assert row[1:7] == [f"{medians[key]:.3f}" for key in ("stepping", "samples", "frames_write", "series_write",
+                                                               "sidecars", "loop")]
+        assert row[7] == f"{medians['build']:.3f}"
+        assert row[8] == f"{medians['after']:.3f} ({medians['figure']:.3f})"
+        assert row[9] == f"{medians['total']:.3f}"
+        assert row[10] == f"{medians['imports']:.3f} ({medians['matplotlib_import']:.3f})"
+        assert row[11] == f"{data['total_over_stepping'][side]:.2f}"

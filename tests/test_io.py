@@ -79,9 +79,24 @@ def test_frames_are_chunked_per_frame_and_compressed(tmp_path: pathlib.Path) -> 
     with h5py.File(path, "r") as file:
         stress = file["frames/stress"]
         assert stress.chunks == (1, N, 2, 2)
-        assert stress.compression == "gzip"
+        assert stress.compression is None  # a frame of 12 particles is far below RAW_FRAME_BYTES: raw
         assert stress.maxshape == (None, N, 2, 2)
         assert json.loads(file.attrs["config_json"]) == CONFIG
+
+
+def test_frames_of_at_least_raw_frame_bytes_are_compressed_smaller_ones_raw(tmp_path: pathlib.Path) -> None:
+    """The frames' compression follows their size (io.RAW_FRAME_BYTES): a frame of that many bytes
+    is gzip-compressed with shuffle, one a particle smaller is stored raw; both read back bit for bit."""
+    large = io.RAW_FRAME_BYTES // 16  # particles of an (N, 2) float64 field: exactly RAW_FRAME_BYTES
+    rng = np.random.default_rng(1)
+    for count, compression in ((large, "gzip"), (large - 1, None)):
+        values = rng.normal(size=(count, 2))
+        path = tmp_path / f"frames{count}.h5"
+        with io.RunWriter(path, CONFIG) as writer:
+            writer.write_frame(0.0, 0, {"position": values})
+        with h5py.File(path, "r") as file:
+            assert file["frames/position"].compression == compression
+        np.testing.assert_array_equal(io.read_run(path).frame(0)["position"], values)
 
 
 def test_frame_mismatch_names_the_field(tmp_path: pathlib.Path) -> None:

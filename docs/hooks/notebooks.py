@@ -1,9 +1,10 @@
 """MkDocs hook: the notebooks of notebooks/ as pages of the manual (Tutorials → Notebooks).
 
 Each notebook becomes ``notebooks/NAME.md``: its Markdown cells as they are, its code cells as
-Python blocks, and the outputs stored in the file (text, and PNG figures as images). The notebooks
-are kept in the repository without outputs and take minutes each to run (the slow test tier
-executes them: tests/test_notebooks.py), so the manual shows their text and code; run one
+Python blocks, and the outputs stored in the file (text, and PNG figures as images). A notebook
+that runs in about a minute is stored with the outputs of its full run, so its page shows its
+figures; the others take minutes each and are stored without outputs (the slow test tier executes
+every notebook in quick mode: tests/test_notebooks.py), so their pages show text and code: run one
 (`jupyter lab notebooks/NAME.ipynb`) for its figures. Plain JSON is read here, so building the
 manual needs neither nbconvert nor a kernel.
 """
@@ -25,7 +26,9 @@ def _text(source: str | list[str]) -> str:
 def notebook_markdown(path: Path) -> str:
     """The page of one notebook."""
     notebook = json.loads(path.read_text())
-    parts = [f"*Notebook `notebooks/{path.name}`: run it with Jupyter for its figures.*\n"]
+    shown = any("image/png" in output.get("data", {}) for cell in notebook["cells"] for output in cell.get("outputs", []))
+    parts = [f"*Notebook `notebooks/{path.name}`: " + ("shown with the outputs of its full run.*\n" if shown else
+                                                        "run it with Jupyter for its figures.*\n")]
     for cell in notebook["cells"]:
         source = _text(cell["source"]).rstrip()
         if cell["cell_type"] == "markdown":  # its links to docs/ made relative to docs/notebooks/
@@ -52,8 +55,8 @@ def _title(path: Path) -> str:
 def on_files(files, config):
     """Add one generated page per notebook and their index."""
     notebooks = sorted((ROOT / "notebooks").glob("*.ipynb"))
-    index = ["# Notebooks", "", "Parameter studies that import the package, shown here as text and code "
-             "(the notebooks are stored without outputs; the slow test tier runs each one).", ""]
+    index = ["# Notebooks", "", "Studies that import the package, shown here as text and code, with the "
+             "figures of those stored with their outputs (the slow test tier runs each one).", ""]
     for path in notebooks:
         files.append(File.generated(config, f"notebooks/{path.stem}.md", content=notebook_markdown(path)))
         index.append(f"* [{_title(path)}]({path.stem}.md) — `notebooks/{path.name}`")

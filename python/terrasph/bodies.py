@@ -136,10 +136,11 @@ class BodyShape:
     def transformed(self, angle: float, origin: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
         """Positions and normals after a rotation by `angle` (radians, positive = clockwise,
         docs/design.md §2) about the reference point, then a translation of the reference point to `origin`."""
-        rot = rotation_matrix(angle)
-        positions = self.position @ rot.T + np.asarray(origin, dtype=float)
-        normals = self.normal @ rot.T
-        return positions, normals
+        return self.positions_at(angle, origin), self.normal @ rotation_matrix(angle).T
+
+    def positions_at(self, angle: float, origin: tuple[float, float]) -> np.ndarray:
+        """The positions of :meth:`transformed` alone."""
+        return self.position @ rotation_matrix(angle).T + np.asarray(origin, dtype=float)
 
     def transformed_outline(self, angle: float, origin: tuple[float, float]) -> tuple[np.ndarray, ...]:
         """The outline loops at the pose of :meth:`transformed` (rotation then translation)."""
@@ -149,8 +150,7 @@ class BodyShape:
     def lowest_point(self, angle: float = 0.0, origin: tuple[float, float] = (0.0, 0.0)) -> float:
         """Lowest z of the body at this pose: min z of its particles minus Δx/2 (the particles are
         cell centres), for sinkage (docs/design.md §3.8)."""
-        positions, _ = self.transformed(angle, origin)
-        return float(positions[:, 1].min() - 0.5 * self.spacing)
+        return float(self.positions_at(angle, origin)[:, 1].min() - 0.5 * self.spacing)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -33,12 +33,18 @@ from typing import Any, NamedTuple
 import h5py
 import numpy as np
 
-__all__ = ["SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "defined_values", "read_run", "write_results", "write_xdmf",
+__all__ = ["RAW_FRAME_BYTES", "SCHEMA_VERSION", "UNITS", "RunData", "RunWriter", "defined_values", "read_run", "write_results", "write_xdmf",
            "write_xdmf_sets"]
 
 SCHEMA_VERSION = 1
 UNITS = "SI; 2D plane strain, forces in N for the body's real width"
 _COMPRESSIONS = ("gzip", "lzf", "none")
+#: a frame (all its fields) smaller than this (bytes) is stored without compression: a robot's frames
+#: on the RFT terrain (its bodies' drawing, ~20 kB) shrink by 16 % under gzip with shuffle (lzf: 13 %)
+#: for ten times the wall of writing them raw, more than the RFT steps between two frames cost
+#: (benchmarks/performance/bench_run_overhead.py); a frame of grains, far larger and seconds of
+#: stepping apart, is compressed
+RAW_FRAME_BYTES = 64 * 1024
 _SERIES_CHUNK_ROWS = 256
 _RESERVED_FRAME_NAMES = ("time", "step")
 
@@ -92,7 +98,8 @@ class RunWriter:
         Optional software versions (e.g. ``{"terrasph": "0.1.0", "numpy": "2.1"}``), stored as
         root attributes ``version_<name>``.
     compression:
-        ``"gzip"`` (with byte shuffle), ``"lzf"`` or ``"none"``; applies to frames and static arrays.
+        ``"gzip"`` (with byte shuffle), ``"lzf"`` or ``"none"``; applies to static arrays and to
+        frames of at least :data:`RAW_FRAME_BYTES` (smaller frames are stored raw).
     overwrite:
         Replace an existing file; if False an existing ``path`` raises ``FileExistsError``.
     """
@@ -274,6 +281,7 @@ class RunWriter:
                     f"got shape {data.shape} and dtype {data.dtype}"
                 )
         shapes: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+        filters = self._filters if sum(data.nbytes for data in arrays.values()) >= RAW_FRAME_BYTES else {}
         for name, data in arrays.items():
             frames.create_dataset(
                 name,
@@ -281,7 +289,7 @@ class RunWriter:
                 maxshape=(None, *data.shape),
                 chunks=(1, *data.shape),
                 dtype=data.dtype,
-                **self._filters,
+                **filters,
             )
             shapes[name] = (data.shape, data.dtype)
         return shapes
@@ -318,23 +326,44 @@ class RunWriter:
         file = self._open_file()
         if not group or group.startswith("/"):
             raise ValueError(f"group must be a non-empty relative path like 'diagnostics', got {group!r}")
-        arrays = [{name: np.asarray(value) for name, value in row.items()} for row in rows]
-        if not arrays:
+        if not rows:
             return
-        if any(not row for row in arrays):
+        if any(not row for row in rows):
             raise ValueError(f"values for series group {group!r} must hold at least one entry")
         if group not in self._series_shapes:
-            self._series_shapes[group] = self._create_series(file["series"], group, arrays[0])
+            first = {name: np.asarray(value) for name, value in rows[0].items()}
+            self._series_shapes[group] = self._create_series(file["series"], group, first)
         expected = self._series_shapes[group]
-        for row in arrays:
-            self._check_series_row(group, expected, row)
+        columns = self._series_columns(group, expected, rows)
         series = file["series"][group]
-        for name in expected:
+        for name, column in columns.items():
             dataset = series[name]
             index = dataset.shape[0]
-            dataset.resize(index + len(arrays), axis=0)
-            dataset[index:] = np.stack([row[name] for row in arrays])
+            dataset.resize(index + len(column), axis=0)
+            dataset[index:] = column
         file.flush()
+
+    @classmethod
+    def _series_columns(cls, group: str, expected: Mapping[str, tuple[tuple[int, ...], np.dtype]],
+                        rows: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
+        """`rows` as one array per entry of the group (rows × the entry's shape), each checked once
+        against the group's first row; a mismatch is named by :meth:`_check_series_row` (row by row,
+        only then)."""
+        columns: dict[str, np.ndarray] = {}
+        for name, (shape, dtype) in expected.items():
+            try:
+                column = np.asarray([row[name] for row in rows])
+            except (KeyError, ValueError):  # an entry missing, or of another shape than its others
+                break
+            if column.shape[1:] != shape or column.dtype.kind not in "biuf" or \
+                    not np.can_cast(column.dtype, dtype, casting="same_kind"):
+                break
+            columns[name] = column
+        if len(columns) < len(expected) or any(len(row) != len(expected) for row in rows):
+            for row in rows:
+                cls._check_series_row(group, expected, {name: np.asarray(value) for name, value in row.items()})
+            raise ValueError(f"series {group!r}: rows that do not stack into the first row's shapes {dict(expected)}")
+        return columns
 
     @staticmethod
     def _check_series_row(group: str, expected: Mapping[str, tuple[tuple[int, ...], np.dtype]],

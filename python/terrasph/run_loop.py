@@ -385,7 +385,7 @@ class RunLoop:
         check_end_time(t_end, stepper.time if reached is None else max(reached, stepper.time))
         writer = self._open_writer(saved, resume)
         sampled = bool(self.recorders)
-        series: dict[str, dict[str, list[Any]]] = {}
+        series: dict[str, list[dict[str, Any]]] = {}  # each group's rows of this run, in order
         series_rows: dict[str, int] = dict(saved.get("series_rows", {}))
         frames = saved.get("frames", 0)
         start = wallclock.perf_counter() - saved.get("wall_time", 0.0)
@@ -397,15 +397,13 @@ class RunLoop:
 
         # when the leak counter first rose above 0 (a frame's time), warned of once and kept in /run
         leak: dict[str, float] = {"first_leak_time": saved["first_leak_time"]} if "first_leak_time" in saved else {}
-        unwritten: dict[str, list[dict[str, Any]]] = {}  # rows since the last write, written in one batch
+        written: dict[str, int] = {}  # each group's rows of `series` written to the file, the rest in the next batch
         unwritten_frames: list[tuple[float, int, dict[str, np.ndarray]]] = []  # frames since it, likewise
         last_write = -math.inf  # the run's first frame is written at once: a reader sees the run has begun
 
         def append(group: str, row: dict[str, Any]) -> None:
-            for key, value in row.items():
-                series.setdefault(group, {}).setdefault(key, []).append(value)
+            series.setdefault(group, []).append(row)
             if writer:
-                unwritten.setdefault(group, []).append(row)
                 series_rows[group] = series_rows.get(group, 0) + 1
 
         def write_pending() -> None:
@@ -413,13 +411,15 @@ class RunLoop:
             each group one): every SERIES_WRITE_SECONDS on a frame, before every checkpoint, on a stop
             and at the end, so `frames` and `series_rows` are what is written."""
             nonlocal last_write
-            batch, groups = list(unwritten_frames), dict(unwritten)
+            batch = list(unwritten_frames)
+            groups = {group: rows[written.get(group, 0):] for group, rows in series.items()}
             unwritten_frames.clear()  # before the writes: a batch that fails is not written again at the end
-            unwritten.clear()
+            written.update({group: len(rows) for group, rows in series.items()})
             if writer:
                 writer.write_frames(batch)
                 for group, rows in groups.items():
-                    writer.append_series_rows(group, rows)
+                    if rows:
+                        writer.append_series_rows(group, rows)
             last_write = wallclock.perf_counter()
 
         def add_frame() -> None:
@@ -505,9 +505,9 @@ class RunLoop:
                     last_step = (stepper.time - time_before) / max(1, stepper.step_count - steps_before)
                     per_step = (wallclock.perf_counter() - started) / max(1, stepper.step_count - steps_before)
                     chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
-                    # the bar shows simulated time, never past its total (the last step may end past t_end)
-                    bar.update(min(bar.total, round(stepper.time - t_start, 9)) - bar.n)
-                    bar.set_postfix(steps=stepper.step_count, refresh=False)
+                    if self.progress:  # the bar shows simulated time, never past its total (the last step may end past t_end)
+                        bar.update(min(bar.total, round(stepper.time - t_start, 9)) - bar.n)
+                        bar.set_postfix(steps=stepper.step_count, refresh=False)
                     at_end = stepper.time >= t_end * (1 - 1e-14)
                     if stepper.time >= next_sample * (1 - 1e-12) or (sampled and at_end):
                         record_sample()
@@ -561,7 +561,8 @@ class RunLoop:
             whole = read_run(self.output)
             return LoopResult(stepper.time, stepper.step_count, wallclock.perf_counter() - start, whole.n_frames,
                               status, whole.series)
-        arrays = {group: {key: np.asarray(values) for key, values in rows.items()} for group, rows in series.items()}
+        arrays = {group: {key: np.asarray([row[key] for row in rows]) for key in rows[0]}
+                  for group, rows in series.items()}
         return LoopResult(stepper.time, stepper.step_count, wallclock.perf_counter() - start, frames, status, arrays)
 
     def _open_writer(self, saved: dict[str, Any], resume: bool) -> Any:

@@ -48,10 +48,12 @@ from terrasph.settle_cache import SettleCache, run_after_pause
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
 
-__all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
+__all__ = ["SPH_BED_WIDTH", "WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
 
 #: the five morphologies of Fig. 4.2 and the plain wheel
 WHEELS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg", "wheel")
+#: the SPH bed's default width (m), the container of the dissertation's Fig. 4.3 runs
+SPH_BED_WIDTH = 0.5
 
 
 @dataclass(frozen=True)
@@ -76,7 +78,7 @@ class WheelScene(BeadBed):
     width: float = option(0.1, help="each wheel's out-of-plane width; loads are for it", unit="m")
     foot_ratio: float = option(0.33, help="foot/leg length of the L-legs")
     spacing: float = option(0.005 / 3, help="particle spacing dx; parts thinner than 3 dx are refused", unit="m")
-    bed_width: float = shared("bed_width", 0.5)
+    bed_width: float = shared("bed_width", SPH_BED_WIDTH)
     bed_depth: float = shared("bed_depth", 0.1)
     start_x: float = option(0.12, help="axle x at start (the rover: the middle of its axles)", unit="m")
     settle_time: float = shared("settle_time", 2.0)
@@ -102,6 +104,11 @@ class LegWheel(WheelScene):
     #: if given, the commanded spin after the pause instead of `omega`: knots (t − settle_time, ω) of a
     #: piecewise-linear schedule (terrasph.schedules; a repeated time is a step), ω ≥ 0
     omega_schedule: tuple[tuple[float, float], ...] = ()
+    #: the bed the wheel runs on, x from 0 to bed_width (m); its run ends at either end (BedEnds). On
+    #: the SPH its container's inner width, default SPH_BED_WIDTH; the RFT terrain is a plane without
+    #: ends, so there the run ends at a bed only when one is given (the RFT run is as long as asked)
+    bed_width: float | None = shared("bed_width", None,  # type: ignore[assignment]  # None on RFT: no ends
+                                     default_text=f"{SPH_BED_WIDTH} on the SPH; on RFT none (a plane without ends)")
     load: float = option(4.9, help="vertical load carried by the chassis", unit="N")
     wheel_density: float = option(1200.0, help="the wheel's material (a printed polymer)", unit="kg/m^3")
     motor_gain: float = option(20.0, help="velocity servo gain", unit="N m s/rad")
@@ -110,10 +117,13 @@ class LegWheel(WheelScene):
     rft_table: str = shared("rft_table", "generic")
 
     def __post_init__(self) -> None:
+        if self.bed_width is None and self.terrain != "rft":
+            object.__setattr__(self, "bed_width", SPH_BED_WIDTH)
         check_wheel_config(self, positive=("wheel_density", "motor_gain", "motor_torque"), nonnegative=("load",))
         rft.check_terrain(self, self.SPH_ONLY_FIELDS, ("rft_table",))
         object.__setattr__(self, "omega_schedule", check_knots("omega_schedule", self.omega_schedule, lower=0.0))
-        if not self.leg_length < self.start_x < self.bed_width - self.leg_length:
+        far = math.inf if self.bed_width is None else self.bed_width - self.leg_length
+        if not self.leg_length < self.start_x < far:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed between leg_length and "
                               "bed_width − leg_length (the wheel must start clear of the container)")
 
@@ -154,6 +164,8 @@ def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative:
     for name in ("leg_length", "thickness", "width", "spacing", "bed_width", "bed_depth", "t_end",
                  "series_interval", "frame_interval", *positive):
         value = getattr(config, name)
+        if name == "bed_width" and value is None:  # the RFT terrain's plane without ends (LegWheel)
+            continue
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
     check_settle_time(config.settle_time, config.t_end)
@@ -179,8 +191,11 @@ def wheel_numerics(config: WheelScene) -> Numerics:
 
 
 def wheel_footprint(config: WheelScene, wheels: int, material: Material) -> Footprint:
-    """The bed, `wheels` wheels and the container of bed_and_wheel (size guard)."""
+    """The bed, `wheels` wheels and the container of bed_and_wheel (size guard); a bed without a
+    width (the RFT terrain's plane) holds no grains and no container."""
     wheel_area = wheels * config.legs * config.leg_length * config.thickness
+    if config.bed_width is None:
+        return Footprint(config.spacing, wheel_area, 0.0, config.t_end, material, wheel_numerics(config))
     return Footprint(config.spacing, config.bed_width * config.bed_depth + wheel_area,
                      config.bed_width + 2.0 * (config.bed_depth + 2.5 * config.leg_length), config.t_end,
                      material, wheel_numerics(config))
@@ -252,11 +267,13 @@ def build_leg_wheel(config: LegWheel) -> CoupledSimulation | RFTCoupling:
     return CoupledSimulation(robot, Simulation(scene, config.material(), numerics))
 
 
-def wheel_bed_ends(config: WheelScene, coupled: CoupledSimulation | RFTCoupling, resume: bool) -> BedEnds:
+def wheel_bed_ends(config: WheelScene, coupled: CoupledSimulation | RFTCoupling, resume: bool) -> BedEnds | None:
     """Where a wheel scene's run ends (:class:`terrasph.robots.run.BedEnds`): the container's inner
-    walls on the SPH, the same bed (0 to bed_width) on the RFT terrain, so both cover the same ground."""
-    ends = coupled.sim.scene.bed_ends if isinstance(coupled, CoupledSimulation) else None
-    return BedEnds(coupled, (0.0, config.bed_width) if ends is None else ends, resume=resume)
+    walls on the SPH; on the RFT terrain the bed from 0 to `bed_width` if one is given (None, the
+    default there: a plane without ends, no end check)."""
+    if isinstance(coupled, CoupledSimulation) and coupled.sim.scene.bed_ends is not None:
+        return BedEnds(coupled, coupled.sim.scene.bed_ends, resume=resume)
+    return None if config.bed_width is None else BedEnds(coupled, (0.0, config.bed_width), resume=resume)
 
 
 def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
@@ -293,7 +310,8 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
 
     def run(stepper: CoupledSimulation | RFTCoupling, end: float, out: str | os.PathLike[str] | None,
             resumed: bool) -> dict[str, dict[str, np.ndarray]]:
-        bed.coupled = stepper  # the end check follows the stepper that runs (a cached pause continues on another)
+        if bed is not None:
+            bed.coupled = stepper  # the end check follows the stepper that runs (a cached pause continues on another)
         return run_coupled(stepper, end, output=out, frame_interval=config.frame_interval,
                            series_interval=config.series_interval, control=motor, progress=progress, memory=work,
                            resume=resumed, end_check=bed, config=run_config)
@@ -321,7 +339,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
                # by the spin-up, where Rω is near 0)
                "mean_slip": (float(slip(speed, spin, coupled.robot.coupled[0].shape.radius)) if driving.any()
                              else math.nan),
-               "end_of_bed": bed.reason}
+               "end_of_bed": bed.reason if bed is not None else None}
     if output is not None:
         write_results(output, summary)
     figure = None

@@ -48,8 +48,14 @@ def plot_robot(series: dict[str, dict[str, np.ndarray]], bodies: Sequence[str],
                title: str = "") -> Figure:
     """Three panels for the coupled `bodies` of a run's ``series`` (``/series/robot/<body>``): the
     path of each body origin (axle), slip (Eq. 4.8, where defined: :func:`defined_slip`) and sinkage
-    against time. A dotted line marks the end of the pause (`settle_time`)."""
-    figure = Figure(figsize=(6.4, 7.5), layout="constrained")
+    against time. A dotted line marks the end of the pause (`settle_time`). Up to
+    LEGEND_INSIDE_BODIES bodies, whose legend is inside, the panels' margins are fixed (the
+    constrained layout's search of them took 1.4x the figure's wall); more get it, for their legend
+    below the panels."""
+    inside = len(bodies) <= LEGEND_INSIDE_BODIES
+    figure = Figure(figsize=(6.4, 7.5), layout=None if inside else "constrained")
+    if inside:
+        figure.subplots_adjust(left=0.11, right=0.97, top=0.96, bottom=0.06, hspace=0.3)
     trajectory, slip_ax, sink_ax = figure.subplots(3, 1)
     for name in bodies:
         body = series[f"robot/{name}"]

@@ -101,6 +101,7 @@ def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, pr
     ``cache`` (the settled pause, terrasph.settle_cache) as in :func:`run_leg_wheel`."""
     coupled = build_rover(config)
     bed = wheel_bed_ends(config, coupled, resume)
+    assert bed is not None  # the rover runs on the SPH, whose bed has its container's ends
 
     def motors(run: CoupledSimulation) -> None:
         run.robot.data.ctrl[:] = config.omega if run.time >= config.settle_time else 0.0
