@@ -4,13 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from terrasph.config import Material, Numerics
+from terrasph.config import Material, Numerics, glass_beads
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots import CoupledSimulation, PlanarRobot
-from terrasph.robots.mjcf import Coupling
+from terrasph.mjcf.model import Coupling, PlanarRobot
 from terrasph.scene import Scene
-from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import Simulation
+from terrasph.terrain.sph_coupling import CoupledSimulation
 
 DX = 0.005
 #: glass beads of the robot scenes (3 mm, ρ_s = 2600 kg/m³, packing 0.63, μ1 = tan 23°, μ2 = tan 33°)

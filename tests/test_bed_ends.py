@@ -14,11 +14,11 @@ import pytest
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
-from terrasph.robots.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
-from terrasph.robots.rover import Rover, run_rover
 from terrasph.robots.run import BED_END_MARGIN, BedEnds
 from terrasph.run_loop import FINISHED_STATUSES
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.scenes.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
+from terrasph.scenes.rover import Rover, run_rover
 
 gymnasium = pytest.importorskip("gymnasium")
 HOPPER = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets", "hopper.xml")

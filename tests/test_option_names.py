@@ -66,7 +66,7 @@ def test_the_material_options_reach_the_bed(scene) -> None:
     (μ = tan of the angle, Eq. 2.31; wet density × (1 + w)), and without them the chapter 3 beads."""
     import math
 
-    from terrasph.scenes.leg_rotation import glass_beads
+    from terrasph.config import glass_beads
 
     entry = SCENES[scene]
     build = getattr(__import__(entry.module, fromlist=["_"]), f"build_{entry.config_key}")

@@ -25,12 +25,13 @@ from terrasph.bodies import plate, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import read_run
+from terrasph.mjcf.model import PlanarRobot
 from terrasph.motion import Motion, Rotate
-from terrasph.robots import ROVER, CoupledSimulation, PlanarRobot
-from terrasph.robots.coupling import ACCURATE_MASS_RATIO, MIN_MASS_RATIO, undisturbed_surface
+from terrasph.robots import ROVER
 from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
+from terrasph.terrain.sph_coupling import ACCURATE_MASS_RATIO, MIN_MASS_RATIO, CoupledSimulation, undisturbed_surface
 
 G = 9.81
 PLATE = plate(0.04, 3 * DX, 0.05, DX)

@@ -17,8 +17,8 @@ from robot_helpers import BEADS, DX, mjcf
 from terrasph.bodies import plate, rotation_matrix, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots import PlanarRobot, shape_inertial, slip
-from terrasph.robots.metrics import free_surface
+from terrasph.mjcf.model import PlanarRobot, shape_inertial
+from terrasph.robots.metrics import free_surface, slip
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 

@@ -20,8 +20,8 @@ import pytest
 from robot_helpers import assert_same_series
 from terrasph.cli import main
 from terrasph.io import read_run
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
-from terrasph.robots.rover import Rover, run_rover
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
+from terrasph.scenes.rover import Rover, run_rover
 from terrasph.settle_cache import (
     CACHE_ENV,
     SettleCache,
@@ -119,7 +119,7 @@ def test_the_key_does_not_change_with_the_drive() -> None:
 
 RACER = """
 import json, sys
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.settle_cache import SettleCache
 config = LegWheel(**json.loads(sys.argv[1]))
 run = run_leg_wheel(config, sys.argv[2], plot=False, cache=SettleCache(sys.argv[3]))

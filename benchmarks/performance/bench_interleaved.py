@@ -21,8 +21,8 @@ import time
 
 from bench_levers import parse_variant
 from terrasph import _core
-from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel
+from terrasph.terrain.sph_coupling import CoupledSimulation
 
 
 def advance(coupled: CoupledSimulation, wheel: LegWheel, t_end: float) -> int:

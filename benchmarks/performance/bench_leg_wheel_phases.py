@@ -19,7 +19,7 @@ import time
 import numpy as np
 from bench_sph import parse_numerics
 from terrasph import _core
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel
 
 
 def main() -> None:

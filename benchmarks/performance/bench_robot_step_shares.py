@@ -15,7 +15,7 @@ import time
 
 import mujoco
 from terrasph import _core
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel
 
 COARSE = LegWheel(wheel="reversed-c-leg", spacing=0.005, thickness=0.015, leg_length=0.05, bed_width=0.3,
                   bed_depth=0.05, start_x=0.1, settle_time=0.0, t_end=0.3)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from terrasph.robots.leg_wheel import WHEELS, LegWheel, build_leg_wheel
+from terrasph.scenes.leg_wheel import WHEELS, LegWheel, build_leg_wheel
 
 
 def main() -> None:

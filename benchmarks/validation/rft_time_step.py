@@ -14,8 +14,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from terrasph.robots import leg_wheel
-from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, RFTCoupling
+from terrasph.scenes import leg_wheel
+from terrasph.terrain.rft_coupling import RFT_CONTROL_INTERVAL, RFTCoupling
 
 
 def main() -> None:

@@ -8,7 +8,7 @@ RFT terrain, which has no grains, the frames hold the coupled bodies only);
 reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s, force (F_x, F_z)
 N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
 the sampling interval, lowest_z m, surface m (the bed's undisturbed free surface at that time,
-:func:`terrasph.robots.coupling.undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8
+:func:`terrasph.terrain.sph_coupling.undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8
 with the shape's radius)); ``/series/robot/actuators`` (time, qpos, qvel, ctrl, the whole robot's centre of mass
 com (x, z) m, actuator force — a motor's torque in N·m for a hinge — and the total actuator power in W).
 """
@@ -26,11 +26,11 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.io import defined_values
-from terrasph.robots.coupling import SURFACE_MARGIN, CoupledSimulation, RobotStepper
+from terrasph.mjcf.model import mujoco_warnings
 from terrasph.robots.metrics import sinkage, slip
-from terrasph.robots.mjcf import mujoco_warnings
-from terrasph.robots.rft3d_terrain import RFT3DCoupling
 from terrasph.run_loop import END_OF_BED, Recorder
+from terrasph.terrain.rft3d_coupling import RFT3DCoupling
+from terrasph.terrain.sph_coupling import SURFACE_MARGIN, CoupledSimulation, RobotStepper
 
 __all__ = ["BED_END_MARGIN", "BedEnds", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled"]
 
@@ -181,8 +181,8 @@ def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: 
                 recorder: Recorder | None = None,
                 end_check: Callable[[], tuple[str, str] | None] | None = None) -> dict[str, dict[str, np.ndarray]]:
     """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`RobotStepper`, e.g. the RFT terrain's
-    :class:`terrasph.robots.rft_terrain.RFTCoupling`, or the 3D RFT terrain's
-    :class:`terrasph.robots.rft3d_terrain.RFT3DCoupling` with its `recorder`) to `t_end` (s); writes frames (the grains and
+    :class:`terrasph.terrain.rft_coupling.RFTCoupling`, or the 3D RFT terrain's
+    :class:`terrasph.terrain.rft3d_coupling.RFT3DCoupling` with its `recorder`) to `t_end` (s); writes frames (the grains and
     bodies; on the RFT terrain the bodies only) every `frame_interval` and robot samples every
     `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
@@ -191,7 +191,7 @@ def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: 
     the grains on each fixed wall (:meth:`terrasph.Simulation.wall_loads`) is sampled too, as
     ``walls/<name>`` (kept in checkpoints: track them again, about the same point, before resuming).
     `recorder` records the robot's series (default :class:`RobotLoads`, the planar robot's; the 3D
-    RFT terrain's is :class:`terrasph.robots.rft3d_terrain.RobotLoads3D`). `end_check`, asked on each
+    RFT terrain's is :class:`terrasph.terrain.rft3d_coupling.RobotLoads3D`). `end_check`, asked on each
     frame (a :class:`BedEnds`, say), ends the run early when it returns (status, reason).
 
     As :meth:`terrasph.Simulation.run` (the same loop, terrasph.run_loop.RunLoop): with an `output`,

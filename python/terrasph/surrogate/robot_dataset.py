@@ -57,7 +57,7 @@ def commanded_phase(omega_cmd: np.ndarray, dt: float, legs: int) -> dict[str, np
 
 def _bed_value(config: dict[str, Any], name: str) -> float:
     """A bed parameter of a leg-wheel configuration (its default in runs made before it existed)."""
-    from terrasph.robots.leg_wheel import LegWheel
+    from terrasph.scenes.leg_wheel import LegWheel
 
     return float(config.get(name, LegWheel.__dataclass_fields__[name].default))
 
@@ -127,9 +127,9 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str], bed: Sequence[
 def driven_phase_run(name: str, config: dict[str, Any], wheel: dict[str, np.ndarray], dt: float,
                      wheels: Sequence[str], bed: Sequence[str] = (), where: str | Path = "the run") -> Run:
     """The driven phase of a leg-wheel run resampled to `dt` (module docstring): `config` its
-    configuration (a saved one or ``dataclasses.asdict`` of a :class:`terrasph.robots.leg_wheel.LegWheel`),
+    configuration (a saved one or ``dataclasses.asdict`` of a :class:`terrasph.scenes.leg_wheel.LegWheel`),
     `wheel` its ``robot/wheel`` series (at least time, slip, sinkage, velocity; a run file's or
-    :func:`terrasph.robots.leg_wheel.run_leg_wheel`'s), `where` named in the message of a bad `dt`."""
+    :func:`terrasph.scenes.leg_wheel.run_leg_wheel`'s), `where` named in the message of a bad `dt`."""
     settle, duration = float(config["settle_time"]), float(config["t_end"])
     _check_dt(dt, duration - settle, where)
     grid = np.arange(0.0, duration - settle + 1e-9 * dt, dt)

@@ -8,20 +8,20 @@ model's ``opt.timestep``, with the terrain's loads on the coupled bodies. What t
 ``data`` as usual. The terrains are the package's steppers, each behind the same methods
 (:class:`Terrain`: what they share; :class:`RFTTerrain`, :class:`SPHTerrain`: what each says):
 
-* ``"rft3d"``: 3D resistive force theory (:class:`terrasph.robots.rft3d_terrain.RFT3DCoupling`), any
+* ``"rft3d"``: 3D resistive force theory (:class:`terrasph.terrain.rft3d_coupling.RFT3DCoupling`), any
   model (free joints, hinges about any axis);
-* ``"rft"``: planar resistive force theory (:class:`terrasph.robots.rft_terrain.RFTCoupling`), a
+* ``"rft"``: planar resistive force theory (:class:`terrasph.terrain.rft_coupling.RFTCoupling`), a
   model moving in the x–z plane (slides along x and z, hinges about y);
 * ``"sph"``: a planar model on an SPH bed of glass beads
-  (:class:`terrasph.robots.coupling.CoupledSimulation`, built by
-  :func:`terrasph.robots.mjcf_scene.sph_coupling`), the model shifted into the bed's frame;
+  (:class:`terrasph.terrain.sph_coupling.CoupledSimulation`, built by
+  :func:`terrasph.terrain.sph_coupling.sph_coupling`), the model shifted into the bed's frame;
 * ``"sph3d"``: any model on a 3D SPH bed of glass beads
   (:class:`terrasph.terrain.sph3d_coupling.Coupled3D`), the bed laid in the model's frame.
 
 The RFT terrains are implicit in the load (docs/rft.md): the stepper takes MuJoCo's step itself,
 the load entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrain's
-measured step (``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
-:data:`~terrasph.robots.rft3d_terrain.RFT3D_TIME_STEP` 3D): the model's step is cut into equal
+measured step (``time_step``, default :data:`~terrasph.terrain.rft_coupling.RFT_TIME_STEP` planar,
+:data:`~terrasph.terrain.rft3d_coupling.RFT3D_TIME_STEP` 3D): the model's step is cut into equal
 substeps no longer than that, all taken in one call of the compiled stepper. The SPH coupling is
 explicit at the SPH's step bound (both SPH terrains). ``opt.timestep`` is the model's own again when
 :meth:`Terrain.step` returns. The steps use MuJoCo's semi-implicit Euler integrator (the scheme the
@@ -33,7 +33,7 @@ gentle open-loop gait closer to the travel at half the step than RK4 substeps di
 
 The floor: the model's horizontal planes (and the world's collision geoms whose top is at their
 height) have their contacts switched off, one log line says so, and the sand's free surface lies
-at the floor's height (terrasph.robots.terrain_robot). Coupled bodies: every body with a collision
+at the floor's height (terrasph.mjcf.terrain_robot). Coupled bodies: every body with a collision
 geom, or those named (``bodies``), or those lower than ``couple_below`` above the floor now. A body
 not coupled passes through the sand.
 """
@@ -48,17 +48,16 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph import rft
-from terrasph.config import ConfigError
-from terrasph.fidelity import DEFAULT_TIER
-from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.geoms import body_shape
-from terrasph.robots.mjcf import Coupling, PlanarRobot, body_name, check_planar
-from terrasph.robots.mjcf_scene import sph_coupling
-from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, bodies_3d
-from terrasph.robots.rft_terrain import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
-from terrasph.robots.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
+from terrasph.config import ConfigError, glass_beads
+from terrasph.fidelity import DEFAULT_TIER, scene_numerics
+from terrasph.mjcf.geoms import body_shape
+from terrasph.mjcf.model import Coupling, PlanarRobot, body_name, check_planar
+from terrasph.mjcf.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
+from terrasph.terrain import rft
+from terrasph.terrain.rft3d_coupling import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, bodies_3d
+from terrasph.terrain.rft_coupling import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
 from terrasph.terrain.sph3d_coupling import Coupled3D, CoupledBody3D, bed_under, body_shape_3d
+from terrasph.terrain.sph_coupling import BED_NUMERICS, KICK_HEIGHT, CoupledSimulation, sph_coupling
 
 __all__ = ["INTEGRATORS", "PLANAR_SPACING", "SPH3D_BED", "SPH_BED", "TERRAINS", "RFTTerrain", "SPH3DTerrain",
            "SPHTerrain", "Terrain", "attach"]
@@ -67,7 +66,7 @@ __all__ = ["INTEGRATORS", "PLANAR_SPACING", "SPH3D_BED", "SPH_BED", "TERRAINS", 
 TERRAINS = ("rft3d", "rft", "sph", "sph3d")
 
 #: the particle spacing (m) of a planar body's shape (its drawing and lowest point; the RFT elements
-#: follow the geoms' outline, :class:`terrasph.rft.SurfaceElements`), the scenes' Δx
+#: follow the geoms' outline, :class:`terrasph.terrain.rft.SurfaceElements`), the scenes' Δx
 PLANAR_SPACING = 0.005
 
 #: the options of each terrain beyond `table` and `bodies` (:func:`attach`)
@@ -312,7 +311,7 @@ class _SPHBedTerrain(Terrain):
 
 
 class SPHTerrain(_SPHBedTerrain):
-    """A planar model on the SPH bed (:class:`terrasph.robots.coupling.CoupledSimulation`)."""
+    """A planar model on the SPH bed (:class:`terrasph.terrain.sph_coupling.CoupledSimulation`)."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: CoupledSimulation,
                  model_step: float, integrator: int | None) -> None:
@@ -352,11 +351,6 @@ class SPH3DTerrain(_SPHBedTerrain):
 def _sph3d_terrain(model: mujoco.MjModel, data: mujoco.MjData, bodies: Sequence[str], couple_below: float | None,
                    options: dict[str, Any], model_step: float, integrator: int | None) -> SPH3DTerrain:
     """The 3D SPH terrain of :func:`attach` (its options checked before the model's floor is switched off)."""
-    from terrasph.fidelity import scene_numerics
-    from terrasph.robots.leg_wheel import BED_NUMERICS
-    from terrasph.robots.mjcf_scene import KICK_HEIGHT
-    from terrasph.scenes.leg_rotation import glass_beads  # the scene registry imports the robots' modules
-
     settings = {**SPH3D_BED, **{k: v for k, v in options.items() if k not in ("integrator", "couple_below")}}
     for name in ("spacing", "bed_depth"):
         _check_number(name, settings[name], positive=True)
@@ -406,7 +400,7 @@ def _check_number(name: str, value: Any, positive: bool) -> None:
 def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", table: rft.RFTCoefficients | str = "generic",
            bodies: Sequence[str] | None = None, **options: Any) -> Terrain:
     """Puts the compiled `model` and its `data` on `terrain` (one of :data:`TERRAINS`) with the RFT
-    coefficient map `table` (a name of :func:`terrasph.rft.coefficient_table` or a map) and returns
+    coefficient map `table` (a name of :func:`terrasph.terrain.rft.coefficient_table` or a map) and returns
     the :class:`Terrain` that steps them (module docstring). `bodies`: the names of the bodies that
     meet the sand (default: every body with a collision geom). Options (each terrain's list:
     ``couple_below`` (m): couple only the bodies lower than this above the floor now; ``time_step``

@@ -3,13 +3,13 @@
 Each coupled body's collision geoms (sphere, capsule, cylinder, ellipsoid, box) are filled with particles
 (:mod:`terrasph.sph3d`'s shells) in the body's frame and made one driven body of a
 :func:`terrasph.sph3d.geostatic_bed` of glass beads whose free surface lies at the model's floor.
-The coupled step is the planar coupling's (:mod:`terrasph.robots.coupling`), in 3D:
+The coupled step is the planar coupling's (:mod:`terrasph.terrain.sph_coupling`), in 3D:
 
 1. dt is the SPH step bound at t_n (``numerics.fixed_dt`` if set): both sides take the same dt.
 2. Each coupled body's wrench from the grains at t_n (the rate evaluation that ended the previous
    SPH step; force and torque about the body's frame origin) is moved to its centre of mass,
    τ_com = τ_ref + (x_ref − x_com) × F, and put in MuJoCo's ``xfrc_applied`` (world axes).
-3. MuJoCo takes a step of dt (:func:`terrasph.robots.coupling.mujoco_step`, its velocity servos
+3. MuJoCo takes a step of dt (:func:`terrasph.terrain.sph_coupling.mujoco_step`, its velocity servos
    handled as there).
 4. Each body's frame pose (``xpos``, ``xquat``), its velocity and angular velocity at the frame
    origin (``mj_objectVelocity`` of the body frame, mjOBJ_XBODY; mjOBJ_BODY is the centre of mass's) at t_{n+1} and their change over the step / dt are
@@ -32,14 +32,7 @@ import numpy as np
 from terrasph import InstabilityError
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots.coupling import (
-    check_mass_ratio,
-    divergence_error,
-    divergences,
-    mujoco_step,
-    velocity_servos,
-)
-from terrasph.robots.geoms import is_collision_geom
+from terrasph.mjcf.geoms import is_collision_geom
 from terrasph.sph3d import (
     Bed3D,
     BodyShape3D,
@@ -50,6 +43,13 @@ from terrasph.sph3d import (
     ellipsoid,
     geostatic_bed,
     sphere,
+)
+from terrasph.terrain.sph_coupling import (
+    check_mass_ratio,
+    divergence_error,
+    divergences,
+    mujoco_step,
+    velocity_servos,
 )
 
 __all__ = ["Coupled3D", "CoupledBody3D", "bed_under", "body_shape_3d"]
@@ -124,7 +124,7 @@ class CoupledBody3D:
 
 
 class _Robot:
-    """The model and data a MuJoCo step of :func:`terrasph.robots.coupling.mujoco_step` moves."""
+    """The model and data a MuJoCo step of :func:`terrasph.terrain.sph_coupling.mujoco_step` moves."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.model, self.data = model, data

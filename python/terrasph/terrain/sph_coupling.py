@@ -43,22 +43,28 @@ import math
 import os
 import pathlib
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import mujoco
 import numpy as np
 
 from terrasph import InstabilityError
-from terrasph.config import ConfigError
+from terrasph.config import ConfigError, Material, glass_beads
+from terrasph.fidelity import scene_numerics
+from terrasph.geometry import wall_layers_needed
+from terrasph.mjcf.model import CoupledBody, PlanarRobot, check_planar, load_model
+from terrasph.mjcf.terrain_robot import COUPLE_BELOW, terrain_robot
 from terrasph.robots.metrics import free_surface
-from terrasph.robots.mjcf import CoupledBody, PlanarRobot
+from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "SURFACE_MARGIN", "CoupledSimulation", "RobotStepper",
+__all__ = ["ACCURATE_MASS_RATIO", "BED_NUMERICS", "KICK_HEIGHT", "MIN_MASS_RATIO", "SURFACE_MARGIN", "CoupledSimulation",
+           "RobotStepper",
            "check_mass_ratio", "displaced_grain_mass", "divergences",
            "mujoco_derived",
-           "mujoco_state", "mujoco_step", "restore_mujoco_state", "undisturbed_surface", "unwrapped", "velocity_servos"]
+           "mujoco_state", "mujoco_step", "restore_mujoco_state", "sph_coupling", "undisturbed_surface", "unwrapped",
+           "velocity_servos"]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
 #: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/validation/bench_robot_coupling.py):
@@ -70,6 +76,15 @@ MIN_MASS_RATIO = 1e-3
 #: spin departs from that of heavier wheels below 1e-2 (x5 at 1e-3; docs/robots.md,
 #: benchmarks/validation/bench_robot_driven.py). A wheel whose spin a velocity servo holds is not affected.
 ACCURATE_MASS_RATIO = 1e-2
+
+
+#: What the bed needs at every fidelity: the Shepard filter every 100 steps and the density floor
+#: ρ ≥ ρ0, as the chapter 3 legs (terrasph.scenes.leg_rotation.SCENE_NUMERICS).
+BED_NUMERICS: dict[str, Any] = {"shepard_interval": 100, "density_floor": 1.0}
+
+#: height (m) of the domain box above the container's walls: a grain kicked up at 3 m/s rises
+#: v²/2g = 0.46 m
+KICK_HEIGHT = 1.0
 
 
 #: MuJoCo's warnings of a state it cannot integrate (non-finite or huge qacc, qpos, qvel): mj_step
@@ -268,7 +283,7 @@ def velocity_servos(robot: PlanarRobot) -> list[_VelocityServo]:
 
 class RobotStepper:
     """What every stepper of a robot on a terrain shares (:class:`CoupledSimulation`, the RFT terrain's
-    :class:`terrasph.robots.rft_terrain.RFTCoupling`): `robot`, `time`, `step_count`, `step()` and
+    :class:`terrasph.terrain.rft_coupling.RFTCoupling`): `robot`, `time`, `step_count`, `step()` and
     the continuous angle of each coupled body in ``_angle``, set by the subclass. The run loop
     (terrasph.robots.run.run_coupled) reads the rest: describe, body_sample, surface,
     reset_body_means, frame_fields, static_arrays, diagnostics, run_attributes, checkpoint and restore."""
@@ -499,3 +514,40 @@ def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARG
         x = walls[owner == names.index(body.name), 0]
         extents.append((float(x.min()), float(x.max())))
     return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)
+
+
+def sph_coupling(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: float, bed_width: float,
+                 bed_depth: float, freeboard: float, fidelity: str, numerics: Mapping[str, Any] | None = None,
+                 start_x: float | None = None, bodies: tuple[str, ...] = (), couple_below: float | None = COUPLE_BELOW,
+                 widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None,
+                 material: Material | None = None) -> CoupledSimulation:
+    """A planar model standing on an SPH bed of glass beads (`bed_width` × `bed_depth` m in its
+    container, `freeboard` m of wall above it, particle spacing `spacing` m, the tier `fidelity`
+    with `numerics` overrides; the bed's `material`, glass beads by default), its centre of mass at `start_x` (default mid-bed), coupled as
+    :func:`terrasph.mjcf.terrain_robot.terrain_robot` chooses; with `data`, the caller's data of
+    the compiled model `mjcf` is the robot's. ConfigError naming the joint or body of a model that
+    is not planar."""
+    _check_planar_model(mjcf, data)
+    settings = scene_numerics("mjcf", fidelity, spacing, BED_NUMERICS, dict(numerics or {}))
+    scene = Scene(spacing=spacing)
+    surface, inner = scene.add_bed_in_container(bed_width, bed_depth, freeboard,
+                                                layers=wall_layers_needed(settings.h_factor))
+    # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
+    scene.domain_upper = (scene.domain_upper[0], surface + freeboard + KICK_HEIGHT)
+    robot = terrain_robot(mjcf, spacing, surface, 0.5 * inner if start_x is None else start_x,
+                          bodies=bodies, couple_below=couple_below, widths=widths, gravity=scene.gravity, data=data)
+    robot.add_to_scene(scene)
+    return CoupledSimulation(robot, Simulation(scene, material or glass_beads(), settings))
+
+
+def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: mujoco.MjData | None = None) -> None:
+    """ConfigError naming the first joint or body of the MJCF model (at the pose of `data`, if given)
+    that is not planar, with the terrain that takes any model."""
+    model = load_model(mjcf)
+    data = mujoco.MjData(model) if data is None else data
+    mujoco.mj_forward(model, data)
+    try:
+        check_planar(model, data)
+    except ConfigError as error:
+        raise ConfigError(f"{error}; the SPH terrain takes planar robots only: run this one on the 3D RFT "
+                          "terrain, terrain 'rft' (--terrain rft)") from None

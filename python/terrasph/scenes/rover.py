@@ -17,9 +17,13 @@ import numpy as np
 from terrasph import bodies
 from terrasph.config import ConfigError
 from terrasph.io import write_results
+from terrasph.mjcf.model import Coupling, PlanarRobot
 from terrasph.options import option, redefault
-from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import (
+from terrasph.robots import ROVER
+from terrasph.robots.metrics import slip
+from terrasph.robots.plots import plot_robot
+from terrasph.robots.run import RobotRun, run_coupled
+from terrasph.scenes.leg_wheel import (
     WheelScene,
     bed_and_wheel,
     check_wheel_config,
@@ -27,13 +31,10 @@ from terrasph.robots.leg_wheel import (
     wheel_footprint,
     wheel_shape,
 )
-from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
-from terrasph.robots.plots import plot_robot
-from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.settle_cache import SettleCache, run_after_pause
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
+from terrasph.terrain.sph_coupling import CoupledSimulation
 
 __all__ = ["WHEEL_BODIES", "Rover", "build_rover", "run_rover"]
 

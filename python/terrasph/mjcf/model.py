@@ -25,7 +25,7 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.scene import Scene
 
-__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "MujocoWarning", "PlanarRobot", "body_name", "check_planar",
+__all__ = ["CoupledBody", "Coupling", "Inertial", "MujocoWarning", "PlanarRobot", "body_name", "check_planar",
            "load_model", "mujoco_warnings", "shape_inertial"]
 
 
@@ -51,9 +51,6 @@ def mujoco_warnings() -> Iterator[None]:
         yield
     finally:
         mujoco.set_mju_user_warning(previous)
-
-#: the example planar rover shipped with the package (a chassis and two driven wheels; see the file)
-ROVER = pathlib.Path(__file__).with_name("models") / "rover.xml"
 
 #: tolerance of the planar checks on unit axes and rotation matrices
 _PLANAR_TOLERANCE = 1e-9

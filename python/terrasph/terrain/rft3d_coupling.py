@@ -1,6 +1,6 @@
-"""Any MuJoCo robot — hinges about any axis, free joints — on a flat 3D RFT terrain (terrasph.rft3d).
+"""Any MuJoCo robot — hinges about any axis, free joints — on a flat 3D RFT terrain (terrasph.terrain.rft3d).
 
-:func:`rft_robot` reads the MJCF model as the SPH terrain does (:func:`terrasph.robots.terrain_robot.
+:func:`rft_robot` reads the MJCF model as the SPH terrain does (:func:`terrasph.mjcf.terrain_robot.
 terrain_model`: the floor switched off, the bodies near it coupled) and gives each coupled body its
 collision geoms' surface as 3D RFT elements; the free surface is the floor's height, the model's
 frame is kept. :class:`RFT3DCoupling` is the run loop's stepper (terrasph.run_loop.Stepper, driven by
@@ -18,7 +18,7 @@ frame is kept. :class:`RFT3DCoupling` is the run loop's stepper (terrasph.run_lo
    best velocities so far: in a drop onto the sand a good share of the impact's steps end so, and the
    settled sinkage depends on those stops at the level of a few per cent (docs/rft.md, "3D RFT").
 
-Why implicit, as in the planar stepper (terrasph.robots.rft_terrain): the regularised load's
+Why implicit, as in the planar stepper (terrasph.terrain.rft_coupling): the regularised load's
 derivative in the normal speed is F / v_ε with v_ε = 0.1 mm/s, a damping that an explicit step
 of dt cannot carry unless dt < 2 m v_ε / F, i.e. microseconds for a robot resting on the sand
 (docs/rft.md, "3D RFT"). The loads are taken at the step's start pose.
@@ -26,7 +26,7 @@ MuJoCo's other actuators act inside its step as usual.
 
 The step runs in the compiled core (``terrasph._core.Robot3DStepper``, cpp/src/rft3d_robot.cpp),
 which calls the MuJoCo library of the ``mujoco`` package on the robot's own ``model`` and ``data``,
-as the planar stepper (terrasph.robots.rft_terrain) does: :meth:`RFT3DCoupling.advance` takes the
+as the planar stepper (terrasph.terrain.rft_coupling) does: :meth:`RFT3DCoupling.advance` takes the
 steps of a whole control interval per Python call. A state MuJoCo cannot integrate (it then resets
 the robot) raises :class:`terrasph.InstabilityError`, checked after each such call.
 """
@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import math
 import os
-import pathlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -43,23 +42,23 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph import _core, rft
+from terrasph import _core
 from terrasph.config import ConfigError
-from terrasph.rft3d import BodyElements, body_wrench
-from terrasph.robots.coupling import (
+from terrasph.mjcf.model import body_name
+from terrasph.mjcf.terrain_robot import COUPLE_BELOW, terrain_model
+from terrasph.robots.metrics import slip
+from terrasph.terrain import rft
+from terrasph.terrain.rft3d import BodyElements, body_wrench
+from terrasph.terrain.rft_coupling import RFT_CONTROL_INTERVAL, NativeRFTStepper, mujoco_library
+from terrasph.terrain.sph_coupling import (
     _velocity_servos,
     divergences,
     mujoco_state,
     restore_mujoco_state,
 )
-from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import body_name
-from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, NativeRFTStepper, mujoco_library
-from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = [
     "RFT3D_TIME_STEP",
-    "ROVER4",
     "WHEEL_BALANCE",
     "RFT3DCoupling",
     "Robot3D",
@@ -68,9 +67,6 @@ __all__ = [
     "rft_robot",
     "wheel_radii",
 ]
-
-#: the example non-planar robot shipped with the package: a four-wheeled rover on a free joint (see the file)
-ROVER4 = pathlib.Path(__file__).with_name("models") / "rover4.xml"
 
 #: MuJoCo's step on the 3D RFT terrain (s): chosen when the numpy stepper read the rover's travel at 1e-3 s
 #: within 0.3 % of that at 5e-4 s (2e-3 s 12 % short); the native one reads 5 % apart, within the spread
@@ -105,16 +101,16 @@ class Robot3D:
 def rft_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence[str] = (),
               couple_below: float = COUPLE_BELOW, element_length: float | None = None) -> Robot3D:
     """The MJCF model on the 3D RFT terrain: the floor switched off and the coupled bodies chosen as
-    on the SPH terrain (:func:`terrasph.robots.terrain_robot.terrain_model`), each with its collision
+    on the SPH terrain (:func:`terrasph.mjcf.terrain_robot.terrain_model`), each with its collision
     geoms' surface as elements about `element_length` m across
-    (:meth:`terrasph.rft3d.BodyElements.from_body`); the free surface at the floor's height."""
+    (:meth:`terrasph.terrain.rft3d.BodyElements.from_body`); the free surface at the floor's height."""
     model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below)
     return Robot3D(model, data, bodies_3d(model, chosen, element_length), level)
 
 
 def bodies_3d(model: mujoco.MjModel, chosen: Sequence[int], element_length: float | None = None) -> list[Body3D]:
     """The bodies `chosen` (ids) of the model, each with its collision geoms' surface as elements
-    about `element_length` m across (:meth:`terrasph.rft3d.BodyElements.from_body`); ConfigError
+    about `element_length` m across (:meth:`terrasph.terrain.rft3d.BodyElements.from_body`); ConfigError
     naming a body without mass."""
     coupled = []
     for body in chosen:

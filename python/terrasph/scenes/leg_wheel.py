@@ -14,7 +14,7 @@ as in chapter 3, the hip-to-toe length of each leg, so the tips lie on a circle 
 the wheels have ``legs`` = 3 legs (Whegs-like); the plain wheel has the same outer radius. Slip
 (Eq. 4.8) uses that radius. Sinkage is the depth of the wheel's lowest point below the bed's
 undisturbed free surface, measured at each sample away from the wheel
-(:func:`terrasph.robots.coupling.undisturbed_surface`).
+(:func:`terrasph.terrain.sph_coupling.undisturbed_surface`).
 """
 
 from __future__ import annotations
@@ -29,17 +29,15 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from terrasph import bodies, rft
+from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
+from terrasph.mjcf.model import Coupling, PlanarRobot, shape_inertial
 from terrasph.options import option, shared
-from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.plots import plot_robot
-from terrasph.robots.rft_terrain import RFTCoupling
 from terrasph.robots.run import BedEnds, RobotRun, run_coupled
 from terrasph.scene import GRAVITY, Scene, flung_height
 from terrasph.scenes.leg_rotation import BeadBed
@@ -47,6 +45,9 @@ from terrasph.schedules import check_knots, evaluate
 from terrasph.settle_cache import SettleCache, run_after_pause
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
+from terrasph.terrain import rft
+from terrasph.terrain.rft_coupling import RFTCoupling
+from terrasph.terrain.sph_coupling import BED_NUMERICS, CoupledSimulation
 
 __all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
 
@@ -134,11 +135,6 @@ class LegWheel(WheelScene):
         after = np.asarray(time, dtype=float) - self.settle_time
         driven = evaluate(self.omega_schedule, after) if self.omega_schedule else np.full(after.shape, self.omega)
         return np.where(after >= 0, driven, 0.0)
-
-
-#: What the bed needs at every fidelity: the Shepard filter every 100 steps and the density floor
-#: ρ ≥ ρ0, as the chapter 3 legs (terrasph.scenes.leg_rotation.SCENE_NUMERICS).
-BED_NUMERICS: dict[str, Any] = {"shepard_interval": 100, "density_floor": 1.0}
 
 
 def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...] = ()) -> None:
