@@ -29,9 +29,9 @@ import numpy as np
 
 from terrasph.schedules import evaluate
 from terrasph.surrogate.dataset import Run, split_runs, write_run
-from terrasph.surrogate.validity import PHASE_FEATURES
+from terrasph.surrogate.validity import PHASE_FEATURES, Validity, training_validity
 
-__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "commanded_phase", "driven_phase_run", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
+__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "commanded_phase", "dataset_validity", "driven_phase_run", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
            "robot_run", "split_by_range", "split_held_out"]
 
 TARGETS = ("slip", "sinkage", "forward_speed")
@@ -213,3 +213,9 @@ def split_by_range(runs: Sequence[Run], parameter: str, low: float, high: float,
     splits = split_held_out(runs, {parameter: (low, high)}, seed, fractions)
     splits["extrapolation"] = splits.pop(f"extrapolation: {parameter}")
     return splits
+
+
+def dataset_validity(dataset_dir: str | Path, runs: Sequence[Run], features: Sequence[str]) -> Validity:
+    """:func:`terrasph.surrogate.validity.training_validity` of `runs` of the robot dataset in
+    `dataset_dir` (written by ``terrasph dataset``), their configurations read from its files."""
+    return training_validity(runs, features, [leg_wheel_fields(Path(dataset_dir) / f"{run.name}.h5") for run in runs])
