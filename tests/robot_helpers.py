@@ -9,6 +9,8 @@ from terrasph.geometry import wall_layers_needed
 from terrasph.mjcf.model import Coupling, PlanarRobot
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
+from terrasph.terrain.interface import Terrain
+from terrasph.terrain.interface import couple as terrain_for
 from terrasph.terrain.sph_coupling import CoupledSimulation
 
 DX = 0.005
@@ -37,13 +39,19 @@ def far_grains_scene(x_body: float = 0.4) -> Scene:
     return scene
 
 
-def couple(xml: str, couplings: dict[str, object], scene: Scene, numerics: Numerics | None = None,
-           material: Material = BEADS) -> CoupledSimulation:
-    """Robot + scene + simulation, coupled."""
+def sph_terrain(xml: str, couplings: dict[str, object], scene: Scene, numerics: Numerics | None = None,
+                material: Material = BEADS) -> Terrain:
+    """Robot + scene + simulation, coupled: the terrain of :func:`terrasph.terrain.interface.couple`."""
     robot = PlanarRobot(xml, {k: v if v is None or isinstance(v, Coupling) else Coupling(v)
                               for k, v in couplings.items()})
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, material, numerics or Numerics(spacing=DX)))
+    return terrain_for(robot, "sph", simulation=Simulation(scene, material, numerics or Numerics(spacing=DX)))
+
+
+def couple(xml: str, couplings: dict[str, object], scene: Scene, numerics: Numerics | None = None,
+           material: Material = BEADS) -> CoupledSimulation:
+    """Robot + scene + simulation, coupled: the coupling of :func:`sph_terrain`."""
+    return sph_terrain(xml, couplings, scene, numerics, material).coupling
 
 
 def run_interrupted(monkeypatch, run: Callable[[], object], stop_at: int) -> None:

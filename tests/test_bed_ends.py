@@ -90,7 +90,7 @@ def test_an_mjcf_robot_is_watched_against_its_bed_ends() -> None:
     mid-bed (its foot: in hopper.xml a capsule of radius 0.06 m and half-length 0.195 m lying along
     x) lies between the bed's ends, and the check stays silent there."""
     coupled = build_mjcf(MjcfScene(model=HOPPER, bed_width=0.8, bed_depth=0.06, spacing=0.02, settle_time=0.0,
-                                   t_end=0.1))
+                                   t_end=0.1)).coupling
     ends = BedEnds(coupled, coupled.sim.scene.bed_ends)
     extents = ends.extents()
     assert set(extents) == {"leg", "foot"} and ends() is None

@@ -77,7 +77,7 @@ def test_the_rig_carries_the_load_and_the_wheel() -> None:
                       bed_depth=0.04, start_x=0.08, load=2.0)
     rig = build_leg_wheel(config)
     wheel_mass = shape_inertial(config.shape(), config.wheel_density, config.width).mass
-    assert rig.robot.model.body_subtreemass[1] * 9.81 == pytest.approx(2.0 + wheel_mass * 9.81, rel=1e-12)
+    assert rig.model.body_subtreemass[1] * 9.81 == pytest.approx(2.0 + wheel_mass * 9.81, rel=1e-12)
 
 
 @pytest.mark.parametrize(("key", "value"), [("wheel", "square"), ("legs", 0), ("omega", -1.0), ("start_x", 0.01)])

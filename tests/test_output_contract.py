@@ -369,7 +369,7 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypa
     from terrasph.scenes.leg_wheel import build_leg_wheel
 
     monkeypatch.chdir(tmp_path)  # where MuJoCo's own handler would write its log
-    coupled = build_leg_wheel(CASES[case][0])
+    sand = build_leg_wheel(CASES[case][0])
 
     def spoil(run) -> None:
         if run.time >= 0.01:
@@ -378,7 +378,7 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypa
     out = tmp_path / "run.h5"
     with pytest.raises(InstabilityError, match="MuJoCo could not integrate"), \
             pytest.warns(MujocoWarning, match="MuJoCo: Nan, Inf or huge value"):
-        run_coupled(coupled, 0.03, output=out, control=spoil)
+        run_coupled(sand, 0.03, output=out, control=spoil)
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
     data = read_run(out)
     status = data.group_attrs["/run"]

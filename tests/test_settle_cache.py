@@ -85,8 +85,8 @@ def test_a_run_with_another_omega_starts_from_the_same_pause_and_equals_its_own_
 
 def _key(config: LegWheel) -> str:
     built = build_leg_wheel(config)
-    return cache_key(key_text("leg-wheel", config, built.describe(), {**versions(), "mujoco": mujoco.__version__},
-                              model_digest(built.robot.model)))
+    return cache_key(key_text("leg-wheel", config, built.coupling.describe(),
+                              {**versions(), "mujoco": mujoco.__version__}, model_digest(built.model)))
 
 
 @pytest.mark.parametrize("change", [{"load": 2.5}, {"spacing": 0.0045}, {"settle_time": 0.12}, {"wheel": "wheel"},

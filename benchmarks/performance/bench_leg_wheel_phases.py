@@ -33,7 +33,7 @@ def main() -> None:
         parser.error("parameters '--threads' >= 1, '--rest' > 0 and '--driven' > 0 are required")
     _core.set_num_threads(args.threads)
     wheel = LegWheel(numerics=parse_numerics(args.numerics))
-    coupled = build_leg_wheel(wheel)
+    coupled = build_leg_wheel(wheel).coupling
     core = coupled.sim.core
     for label, spin, t_end in (("at rest", 0.0, args.rest), ("driven", wheel.omega, args.rest + args.driven)):
         coupled.robot.data.ctrl[0] = spin

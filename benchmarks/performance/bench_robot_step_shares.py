@@ -26,7 +26,7 @@ DEFAULT = LegWheel(wheel="reversed-c-leg", settle_time=0.0)
 
 def shares(config: LegWheel, threads: int, t_end: float) -> dict[str, float]:
     _core.set_num_threads(threads)
-    coupled = build_leg_wheel(config)
+    coupled = build_leg_wheel(config).coupling
     coupled.robot.data.ctrl[0] = config.omega
     clock = {"sph": 0.0, "mujoco": 0.0}
     advance, step = coupled.sim.advance, mujoco.mj_step

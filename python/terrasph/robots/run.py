@@ -1,5 +1,6 @@
-"""A coupled robot's run: the run loop (terrasph.run_loop) with the coupled step as its stepper
-(:class:`ControlledRun`) and the robot's series as a recorder (:class:`RobotLoads`).
+"""A coupled robot's run: the run loop (terrasph.run_loop) stepping a :class:`terrasph.terrain.Terrain`
+(:class:`ControlledRun`: the terrain's coupling with the scene's control) and the robot's series as a
+recorder (:class:`RobotLoads`).
 
 Layout of the file (terrasph.io.RunWriter, docs/hdf5_schema.md): frames, ``/static``,
 ``/series/diagnostics`` and ``/run`` as for any run, the frames with ``wall_position`` added (on the
@@ -29,7 +30,7 @@ from terrasph.io import defined_values
 from terrasph.mjcf.model import mujoco_warnings
 from terrasph.robots.metrics import sinkage, slip
 from terrasph.run_loop import END_OF_BED, Recorder
-from terrasph.terrain.rft3d_coupling import RFT3DCoupling
+from terrasph.terrain.interface import Terrain
 from terrasph.terrain.sph_coupling import SURFACE_MARGIN, CoupledSimulation, RobotStepper
 
 __all__ = ["BED_END_MARGIN", "BedEnds", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled"]
@@ -117,13 +118,14 @@ class RobotLoads:
 
 
 class ControlledRun:
-    """A coupled simulation as the run loop's stepper (terrasph.run_loop.Stepper) with the caller's
-    `control`, called before each step, and its running values `memory` (plain data), kept in the
+    """A terrain as the run loop's stepper (terrasph.run_loop.Stepper): :meth:`Terrain.advance` with the
+    caller's `control` (called with the terrain's coupling, before each step or control interval),
+    the rest read from its coupling; the caller's running values `memory` (plain data) are kept in the
     checkpoints with MuJoCo's state."""
 
-    def __init__(self, coupled: RobotStepper | RFT3DCoupling, control: Callable[[Any], None] | None,
-                 memory: dict[str, Any]) -> None:
-        self.coupled = coupled
+    def __init__(self, terrain: Terrain, control: Callable[[Any], None] | None, memory: dict[str, Any]) -> None:
+        self.terrain = terrain
+        self.coupled = terrain.coupling
         self.control = control
         self.memory = memory
 
@@ -136,7 +138,7 @@ class ControlledRun:
         return self.coupled.step_count
 
     def advance(self, t_end: float, max_steps: int) -> int:
-        return self.coupled.advance(t_end, max_steps, self.control)
+        return self.terrain.advance(t_end, max_steps, self.control)
 
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
         return self.coupled.checkpoint(path, {**(progress or {}), "memory": self.memory})
@@ -173,21 +175,22 @@ class RobotRun:
         return defined_values(self.values)
 
 
-def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: str | os.PathLike[str] | None = None,
+def run_coupled(terrain: Terrain, t_end: float, *, output: str | os.PathLike[str] | None = None,
                 frame_interval: float = 0.05, series_interval: float = 0.01,
                 config: dict[str, Any] | None = None, control: Callable[[Any], None] | None = None,
                 progress: bool = False, memory: dict[str, Any] | None = None,
                 checkpoint_every: float | None = 600.0, resume: bool = False,
                 recorder: Recorder | None = None,
                 end_check: Callable[[], tuple[str, str] | None] | None = None) -> dict[str, dict[str, np.ndarray]]:
-    """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`RobotStepper`, e.g. the RFT terrain's
-    :class:`terrasph.terrain.rft_coupling.RFTCoupling`, or the 3D RFT terrain's
-    :class:`terrasph.terrain.rft3d_coupling.RFT3DCoupling` with its `recorder`) to `t_end` (s); writes frames (the grains and
+    """Runs `terrain` (a :class:`terrasph.terrain.Terrain` of :func:`terrasph.terrain.interface.couple`,
+    coupling a robot with the SPH, planar RFT or, with its `recorder`, 3D RFT) to `t_end` (s),
+    stepping it by :meth:`~terrasph.terrain.Terrain.advance`; writes frames (the grains and
     bodies; on the RFT terrain the bodies only) every `frame_interval` and robot samples every
     `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
     `memory` (plain data), which is checkpointed with the run. Returns the run's series by group
-    name (``robot/…``, ``diagnostics``, ``walls/…``; the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
+    name (``robot/…``, ``diagnostics``, ``walls/…``; the whole run's, when resumed). After
+    ``terrain.coupling.sim.track_wall_loads(...)`` (on the SPH) the load of
     the grains on each fixed wall (:meth:`terrasph.Simulation.wall_loads`) is sampled too, as
     ``walls/<name>`` (kept in checkpoints: track them again, about the same point, before resuming).
     `recorder` records the robot's series (default :class:`RobotLoads`, the planar robot's; the 3D
@@ -208,12 +211,13 @@ def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: 
     # the loop checks them too, under its own names: these are the caller's
     check_run_options({"frame_interval": frame_interval, "series_interval": series_interval}, checkpoint_every,
                       resume, output)
+    coupled = terrain.coupling
     walls = WallLoads(coupled.sim) if isinstance(coupled, CoupledSimulation) else None
     if not resume:  # the first sample's means start now
         coupled.reset_body_means()
         if walls:
             coupled.sim.reset_wall_load_means()
-    loop = RunLoop(ControlledRun(coupled, control, {} if memory is None else memory), output, frame_interval,
+    loop = RunLoop(ControlledRun(terrain, control, {} if memory is None else memory), output, frame_interval,
                    series_interval, [recorder or RobotLoads(coupled), *([walls] if walls and walls.groups else [])],
                    config or coupled.describe(), {**versions(), "mujoco": mujoco.__version__}, checkpoint_every,
                    progress, end_check=end_check)

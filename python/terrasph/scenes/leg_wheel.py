@@ -46,8 +46,8 @@ from terrasph.settle_cache import SettleCache, run_after_pause
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
 from terrasph.terrain import rft
-from terrasph.terrain.rft_coupling import RFTCoupling
-from terrasph.terrain.sph_coupling import BED_NUMERICS, CoupledSimulation
+from terrasph.terrain.interface import Terrain, couple
+from terrasph.terrain.sph_coupling import BED_NUMERICS, CoupledSimulation, RobotStepper
 
 __all__ = ["WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
 
@@ -228,9 +228,9 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 </mujoco>"""
 
 
-def build_leg_wheel(config: LegWheel) -> CoupledSimulation | RFTCoupling:
-    """Bed, container, robot and coupling, ready to run (on the RFT terrain: the robot on a flat
-    surface at z = 0, its wheel touching it)."""
+def build_leg_wheel(config: LegWheel) -> Terrain:
+    """Bed, container, robot and the terrain coupling them (:func:`terrasph.terrain.interface.couple`),
+    ready to run (on the RFT terrain: the robot on a flat surface at z = 0, its wheel touching it)."""
     if config.terrain == "rft":
         try:
             shape = wheel_shape(config)
@@ -239,16 +239,16 @@ def build_leg_wheel(config: LegWheel) -> CoupledSimulation | RFTCoupling:
         axle = (config.start_x, -shape.lowest_point())
         robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, GRAVITY), {"wheel": Coupling(shape, config.width)},
                             gravity=GRAVITY)
-        return RFTCoupling(robot, 0.0, config.rft_table)
+        return couple(robot, "rft", config.rft_table, surface=0.0)
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, scene.gravity), {"wheel": Coupling(shape, config.width)},
                         gravity=scene.gravity)
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, config.material(), numerics))
+    return couple(robot, "sph", simulation=Simulation(scene, config.material(), numerics))
 
 
-def wheel_bed_ends(config: WheelScene, coupled: CoupledSimulation | RFTCoupling, resume: bool) -> BedEnds:
+def wheel_bed_ends(config: WheelScene, coupled: RobotStepper, resume: bool) -> BedEnds:
     """Where a wheel scene's run ends (:class:`terrasph.robots.run.BedEnds`): the container's inner
     walls on the SPH, the same bed (0 to bed_width) on the RFT terrain, so both cover the same ground."""
     ends = coupled.sim.scene.bed_ends if isinstance(coupled, CoupledSimulation) else None
@@ -269,12 +269,13 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     bed, robot, numerics and code made it (terrasph.settle_cache; bit for bit the run that settles
     itself), and caches it otherwise: `cache` is the cache (True: the default one,
     :func:`terrasph.settle_cache.default_cache`; False: settle without it)."""
-    coupled = build_leg_wheel(config)
+    sand = build_leg_wheel(config)
+    coupled = sand.coupling
     bed = wheel_bed_ends(config, coupled, resume)
     # positive motor work since the pause (J) and the axle's x when the spin began (NaN before)
     work = {"motor": 0.0, "start_x": math.nan}
 
-    def motor(run: CoupledSimulation) -> None:
+    def motor(run: RobotStepper) -> None:
         data = run.robot.data
         data.ctrl[0] = float(config.commanded_omega(run.time))
         if run.time >= config.settle_time:
@@ -287,18 +288,19 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     run_config = {"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config), **coupled.describe()}
     t_end = config.t_end if until is None else until
 
-    def run(stepper: CoupledSimulation | RFTCoupling, end: float, out: str | os.PathLike[str] | None,
+    def run(terrain: Terrain, end: float, out: str | os.PathLike[str] | None,
             resumed: bool) -> dict[str, dict[str, np.ndarray]]:
-        bed.coupled = stepper  # the end check follows the stepper that runs (a cached pause continues on another)
-        return run_coupled(stepper, end, output=out, frame_interval=config.frame_interval,
+        bed.coupled = terrain.coupling  # the end check follows the terrain that runs (a cached pause continues on another)
+        return run_coupled(terrain, end, output=out, frame_interval=config.frame_interval,
                            series_interval=config.series_interval, control=motor, progress=progress, memory=work,
                            resume=resumed, end_check=bed, config=run_config)
 
     if cache is not False and not resume and config.terrain == "sph" and 0 < config.settle_time < t_end:
-        series, coupled, _ = run_after_pause(cache, "leg-wheel", config, coupled, lambda: build_leg_wheel(config),
-                                             run, output, run_config, config.settle_time, t_end)
+        series, sand, _ = run_after_pause(cache, "leg-wheel", config, sand, lambda: build_leg_wheel(config),
+                                          run, output, run_config, config.settle_time, t_end)
+        coupled = sand.coupling
     else:
-        series = run(coupled, t_end, output, resume)
+        series = run(sand, t_end, output, resume)
     wheel = series["robot/wheel"]
     # the driven phase: after the pause, once the servo has brought ω to half the command
     driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.commanded_omega(wheel["time"]))
@@ -327,7 +329,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     return RobotRun(summary, series, figure)
 
 
-def _cost_of_transport(work: float, coupled: CoupledSimulation | RFTCoupling, distance: float) -> float:
+def _cost_of_transport(work: float, coupled: RobotStepper, distance: float) -> float:
     """Motor work / (robot weight × distance travelled after the pause); inf if it did not move."""
     model = coupled.robot.model
     weight = float(model.body_subtreemass[1]) * -float(model.opt.gravity[2])

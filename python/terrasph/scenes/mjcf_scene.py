@@ -40,6 +40,7 @@ from terrasph.robots.plots import body_legend, plot_robot_3d
 from terrasph.robots.run import BedEnds, RobotRun, run_coupled
 from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.terrain import rft
+from terrasph.terrain.interface import Terrain, couple
 from terrasph.terrain.rft3d_coupling import (
     RFT3D_TIME_STEP,
     RFT3DCoupling,
@@ -48,9 +49,10 @@ from terrasph.terrain.rft3d_coupling import (
     rft_robot,
     wheel_radii,
 )
-from terrasph.terrain.sph_coupling import CoupledSimulation, sph_coupling
+from terrasph.terrain.sph_coupling import CoupledSimulation, planar_sph_bed
 
 __all__ = ["MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf"]
+
 
 def _body_width(text: str) -> tuple[str, float]:
     """argparse type of ``--width``: ``NAME=METRES`` with a finite width > 0."""
@@ -136,19 +138,22 @@ class MjcfScene(BeadBed):
         rft.check_terrain(self, self.SPH_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
 
 
-def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
-    """The model on its terrain, coupled; every check done before any step. On the SPH: the bed, its
+def build_mjcf(config: MjcfScene) -> Terrain:
+    """The model on its terrain, coupled (:func:`terrasph.terrain.interface.couple`); every check
+    done before any step. On the SPH: the bed, its
     container and the model standing on it (a planar model only). On RFT: the model in its own frame
     on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
     every step (a ``hold`` spec is a servo), as on the SPH."""
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
                           element_length=config.element_length)
-        return RFT3DCoupling(robot, config.rft_table, control_interval=RFT3D_TIME_STEP)
-    return sph_coupling(config.model, spacing=config.spacing, bed_width=config.bed_width, bed_depth=config.bed_depth,
-                        freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics,
-                        start_x=config.start_x, bodies=config.bodies, couple_below=config.couple_below,
-                        widths=config.widths, material=config.bed_material())
+        return couple(robot, "rft3d", config.rft_table, control_interval=RFT3D_TIME_STEP)
+    robot, simulation = planar_sph_bed(config.model, spacing=config.spacing, bed_width=config.bed_width,
+                                       bed_depth=config.bed_depth, freeboard=config.freeboard, fidelity=config.fidelity,
+                                       numerics=config.numerics, start_x=config.start_x, bodies=config.bodies,
+                                       couple_below=config.couple_below, widths=config.widths,
+                                       material=config.bed_material())
+    return couple(robot, "sph", simulation=simulation)
 
 
 def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
@@ -163,11 +168,12 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     :class:`terrasph.robots.run.BedEnds`) and the series; with `plot` and an
     `output`, the PNG beside it. ``resume`` and ``until`` as in
     :func:`terrasph.scenes.leg_wheel.run_leg_wheel`."""
-    coupled = build_mjcf(config)
-    model, data = coupled.robot.model, coupled.robot.data
+    sand = build_mjcf(config)
+    coupled = sand.coupling
+    model, data = sand.model, sand.data
     drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
     memory: dict[str, Any] = {}  # the run's checkpointed values: BedCrossings' record
-    on_rft = isinstance(coupled, RFT3DCoupling)
+    on_rft = sand.kind == "rft3d"
     surface = coupled.robot.surface if on_rft else float(coupled.sim.scene.surface_level)
     crossings = BedCrossings(coupled.robot, surface, memory)
     # the SPH bed ends at its container's walls; the 3D RFT terrain is a plane without ends
@@ -180,7 +186,7 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
         data.ctrl[:] = drive(run.time, model, data)
 
     terrain = coupled.describe() if on_rft else coupled.sim.describe()
-    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
+    series = run_coupled(sand, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
                          recorder=RobotLoads3D(coupled) if on_rft else None, end_check=bed,

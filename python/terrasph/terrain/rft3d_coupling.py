@@ -43,8 +43,7 @@ import mujoco
 import numpy as np
 
 from terrasph import _core
-from terrasph.config import ConfigError
-from terrasph.mjcf.model import body_name
+from terrasph.mjcf.model import body_name, check_body_masses
 from terrasph.mjcf.terrain_robot import COUPLE_BELOW, terrain_model
 from terrasph.robots.metrics import slip
 from terrasph.terrain import rft
@@ -111,15 +110,9 @@ def rft_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence
 def bodies_3d(model: mujoco.MjModel, chosen: Sequence[int], element_length: float | None = None) -> list[Body3D]:
     """The bodies `chosen` (ids) of the model, each with its collision geoms' surface as elements
     about `element_length` m across (:meth:`terrasph.terrain.rft3d.BodyElements.from_body`); ConfigError
-    naming a body without mass."""
-    coupled = []
-    for body in chosen:
-        name = body_name(model, body)
-        if not model.body_mass[body] > 0:
-            raise ConfigError(f"coupled body '{name}' has no mass in the MJCF model; give it geoms with mass or an "
-                              "<inertial>")
-        coupled.append(Body3D(name, body, BodyElements.from_body(model, body, element_length)))
-    return coupled
+    naming the world body or a body without mass (:func:`terrasph.mjcf.model.check_body_masses`)."""
+    check_body_masses(model, chosen)
+    return [Body3D(body_name(model, body), body, BodyElements.from_body(model, body, element_length)) for body in chosen]
 
 
 class RFT3DCoupling(NativeRFTStepper):

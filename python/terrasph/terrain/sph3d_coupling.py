@@ -22,7 +22,7 @@ The scheme is explicit (the load lags the body by one step) and deterministic.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -49,6 +49,7 @@ from terrasph.terrain.sph_coupling import (
     divergence_error,
     divergences,
     mujoco_step,
+    step_until,
     velocity_servos,
 )
 
@@ -224,13 +225,10 @@ class Coupled3D:
         self.check_sides()
         return dt
 
-    def advance(self, t_end: float) -> int:
-        """Steps until `t_end` (s) is reached or passed; returns the number taken."""
-        taken = 0
-        while self.time < t_end * (1 - 1e-14):
-            self.step()
-            taken += 1
-        return taken
+    def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
+        """Steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the number taken.
+        `control`, if given, is called with the coupling before each step."""
+        return step_until(self, t_end, max_steps, control)
 
     def check_sides(self) -> None:
         """:class:`terrasph.InstabilityError` naming the first coupled body with a particle within

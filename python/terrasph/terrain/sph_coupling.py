@@ -59,12 +59,27 @@ from terrasph.robots.metrics import free_surface
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "BED_NUMERICS", "KICK_HEIGHT", "MIN_MASS_RATIO", "SURFACE_MARGIN", "CoupledSimulation",
-           "RobotStepper",
-           "check_mass_ratio", "displaced_grain_mass", "divergences",
-           "mujoco_derived",
-           "mujoco_state", "mujoco_step", "restore_mujoco_state", "sph_coupling", "undisturbed_surface", "unwrapped",
-           "velocity_servos"]
+__all__ = [
+    "ACCURATE_MASS_RATIO",
+    "BED_NUMERICS",
+    "KICK_HEIGHT",
+    "MIN_MASS_RATIO",
+    "SURFACE_MARGIN",
+    "CoupledSimulation",
+    "RobotStepper",
+    "check_mass_ratio",
+    "displaced_grain_mass",
+    "divergences",
+    "mujoco_derived",
+    "mujoco_state",
+    "mujoco_step",
+    "planar_sph_bed",
+    "restore_mujoco_state",
+    "step_until",
+    "undisturbed_surface",
+    "unwrapped",
+    "velocity_servos",
+]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
 #: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/validation/bench_robot_coupling.py):
@@ -281,6 +296,19 @@ def velocity_servos(robot: PlanarRobot) -> list[_VelocityServo]:
     return _velocity_servos(robot.model, robot.data)
 
 
+def step_until(stepper: Any, t_end: float, max_steps: int, control: Callable[[Any], None] | None) -> int:
+    """Takes `stepper`'s ``step()`` until its ``time`` reaches or passes `t_end` (s), at most
+    `max_steps` steps, calling `control` (if given) with it before each; returns the number taken
+    (the last step may end past `t_end`): the explicit couplings' advance, planar and 3D."""
+    taken = 0
+    while taken < max_steps and stepper.time < t_end * (1 - 1e-14):
+        if control:
+            control(stepper)
+        stepper.step()
+        taken += 1
+    return taken
+
+
 class RobotStepper:
     """What every stepper of a robot on a terrain shares (:class:`CoupledSimulation`, the RFT terrain's
     :class:`terrasph.terrain.rft_coupling.RFTCoupling`): `robot`, `time`, `step_count`, `step()` and
@@ -314,13 +342,7 @@ class RobotStepper:
         """Steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the number
         taken (the last step may end past `t_end`). `control`, if given, is called with the stepper
         before each step (to set MuJoCo's ``data.ctrl``, say)."""
-        taken = 0
-        while taken < max_steps and self.time < t_end * (1 - 1e-14):
-            if control:
-                control(self)
-            self.step()
-            taken += 1
-        return taken
+        return step_until(self, t_end, max_steps, control)
 
     def angle(self, name: str) -> float:
         """Clockwise angle (rad) of a coupled body, continuous over turns."""
@@ -516,17 +538,18 @@ def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARG
     return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)
 
 
-def sph_coupling(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: float, bed_width: float,
-                 bed_depth: float, freeboard: float, fidelity: str, numerics: Mapping[str, Any] | None = None,
-                 start_x: float | None = None, bodies: tuple[str, ...] = (), couple_below: float | None = COUPLE_BELOW,
-                 widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None,
-                 material: Material | None = None) -> CoupledSimulation:
+def planar_sph_bed(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: float, bed_width: float,
+                   bed_depth: float, freeboard: float, fidelity: str, numerics: Mapping[str, Any] | None = None,
+                   start_x: float | None = None, bodies: tuple[str, ...] = (), couple_below: float | None = COUPLE_BELOW,
+                   widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None,
+                   material: Material | None = None) -> tuple[PlanarRobot, Simulation]:
     """A planar model standing on an SPH bed of glass beads (`bed_width` × `bed_depth` m in its
     container, `freeboard` m of wall above it, particle spacing `spacing` m, the tier `fidelity`
     with `numerics` overrides; the bed's `material`, glass beads by default), its centre of mass at `start_x` (default mid-bed), coupled as
     :func:`terrasph.mjcf.terrain_robot.terrain_robot` chooses; with `data`, the caller's data of
     the compiled model `mjcf` is the robot's. ConfigError naming the joint or body of a model that
-    is not planar."""
+    is not planar. Returns the robot, added to the bed's scene, and the bed's simulation, for
+    :func:`terrasph.terrain.interface.couple`."""
     _check_planar_model(mjcf, data)
     settings = scene_numerics("mjcf", fidelity, spacing, BED_NUMERICS, dict(numerics or {}))
     scene = Scene(spacing=spacing)
@@ -537,7 +560,7 @@ def sph_coupling(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: floa
     robot = terrain_robot(mjcf, spacing, surface, 0.5 * inner if start_x is None else start_x,
                           bodies=bodies, couple_below=couple_below, widths=widths, gravity=scene.gravity, data=data)
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, material or glass_beads(), settings))
+    return robot, Simulation(scene, material or glass_beads(), settings)
 
 
 def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: mujoco.MjData | None = None) -> None:
