@@ -138,3 +138,15 @@ def test_the_architecture_map_names_every_module_and_core_file() -> None:
     sources = [p for d in ("cpp/src", "cpp/plugin", "cpp/include/terrasph") for p in (root / d).glob("*.[ch]pp")]
     missing = [str(p.relative_to(root)) for p in [*modules, *sources] if p.name not in text and p.stem not in text]
     assert not missing, f"not on docs/architecture.md's map: {missing}"
+
+
+def test_the_terrain_wing_stands_below_the_robots_and_the_scenes() -> None:
+    """The layers of docs/architecture.md's terrain wing: the terrains (terrain/) and the MuJoCo
+    plumbing (mjcf/) import nothing of robots/ or scenes/, and robots/ nothing of scenes/, deferred
+    imports included: a scene uses a terrain, never the other way round."""
+    graph = import_graph(deferred=True)
+    above_the_wing = ("terrasph.robots", "terrasph.scenes")
+    below = {"terrasph.terrain": above_the_wing, "terrasph.mjcf": above_the_wing, "terrasph.robots": ("terrasph.scenes",)}
+    upward = sorted(f"{module} -> {other}" for module, edges in graph.items() for layer, above in below.items()
+                    if module.startswith(layer) for other in edges if other.startswith(above))
+    assert not upward, f"imports against the layers: {upward}"

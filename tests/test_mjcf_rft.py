@@ -15,9 +15,10 @@ import pytest
 from terrasph.cli import main
 from terrasph.io import read_run
 from terrasph.robots import ROVER4
+from terrasph.robots.run import wheel_radii
 from terrasph.scenes.mjcf_scene import MjcfScene, run_mjcf
 from terrasph.terrain import rft
-from terrasph.terrain.rft3d_coupling import rft_robot, wheel_radii
+from terrasph.terrain.rft3d_coupling import rft_robot
 
 WHEELS = ("front_left", "front_right", "rear_left", "rear_right")
 

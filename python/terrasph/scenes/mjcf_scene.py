@@ -37,7 +37,7 @@ from terrasph.options import option, shared
 from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controller
 from terrasph.robots.metrics import slip
 from terrasph.robots.plots import body_legend, plot_robot_3d
-from terrasph.robots.run import BedEnds, RobotRun, run_coupled
+from terrasph.robots.run import BedEnds, RobotLoads3D, RobotRun, run_coupled, wheel_radii
 from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.terrain import rft
 from terrasph.terrain.interface import Terrain, couple
@@ -45,9 +45,7 @@ from terrasph.terrain.rft3d_coupling import (
     RFT3D_TIME_STEP,
     RFT3DCoupling,
     Robot3D,
-    RobotLoads3D,
     rft_robot,
-    wheel_radii,
 )
 from terrasph.terrain.sph_coupling import CoupledSimulation, planar_sph_bed
 
@@ -218,7 +216,7 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
     the centre of mass's final position (x, y, z) m, the root body's final heading, pitch and roll
     (degrees, z–y–x angles of its frame), each coupled body's load (force, N, world axes) in the
     last fifth and each wheel's slip after the pause, Eq. 4.8 of its mean forward speed and mean spin
-    (:class:`terrasph.terrain.rft3d_coupling.RobotLoads3D`)."""
+    (:class:`terrasph.robots.run.RobotLoads3D`)."""
     on_rft = isinstance(coupled, RFT3DCoupling)
     model, data = coupled.robot.model, coupled.robot.data
     up = 2 if on_rft else 1  # the vertical component of the series' forces and centre of mass

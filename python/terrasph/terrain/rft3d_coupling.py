@@ -33,7 +33,6 @@ the robot) raises :class:`terrasph.InstabilityError`, checked after each such ca
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -45,7 +44,6 @@ import numpy as np
 from terrasph import _core
 from terrasph.mjcf.model import body_name, check_body_masses
 from terrasph.mjcf.terrain_robot import COUPLE_BELOW, terrain_model
-from terrasph.robots.metrics import slip
 from terrasph.terrain import rft
 from terrasph.terrain.rft3d import BodyElements, body_wrench
 from terrasph.terrain.rft_coupling import RFT_CONTROL_INTERVAL, NativeRFTStepper, mujoco_library
@@ -58,13 +56,10 @@ from terrasph.terrain.sph_coupling import (
 
 __all__ = [
     "RFT3D_TIME_STEP",
-    "WHEEL_BALANCE",
     "RFT3DCoupling",
     "Robot3D",
-    "RobotLoads3D",
     "bodies_3d",
     "rft_robot",
-    "wheel_radii",
 ]
 
 #: MuJoCo's step on the 3D RFT terrain (s): chosen when the numpy stepper read the rover's travel at 1e-3 s
@@ -207,79 +202,3 @@ class RFT3DCoupling(NativeRFTStepper):
         self._divergences = divergences(self.robot.data)
         self._native.load_sums = [float(v) for row in saved["sums"] for v in row]
         self._since = float(saved["since"])
-
-
-#: a body's centre of mass within this fraction of its rolling radius from its hinge's axis makes it a wheel
-WHEEL_BALANCE = 0.01
-
-
-def wheel_radii(robot: Robot3D) -> dict[int, tuple[int, float]]:
-    """The coupled bodies that are wheels — on one hinge joint of their own, with their centre of mass
-    on its axis (within :data:`WHEEL_BALANCE` of R: a wheel or a leg-wheel, not a leg swinging about
-    its hip) — by their index in ``robot.coupled``: the hinge's joint id and the rolling radius R (m),
-    the largest distance of the body's element centres from the axis."""
-    model, wheels = robot.model, {}
-    for k, body in enumerate(robot.coupled):
-        b = body.body_id
-        joint = int(model.body_jntadr[b])
-        if model.body_jntnum[b] != 1 or model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
-            continue
-        axis = model.jnt_axis[joint] / np.linalg.norm(model.jnt_axis[joint])  # all in the body's frame
-
-        def off_axis(points: np.ndarray) -> np.ndarray:  # uses this iteration's joint and axis; called within it
-            arm = np.atleast_2d(points) - model.jnt_pos[joint]  # noqa: B023
-            return np.linalg.norm(arm - np.outer(arm @ axis, axis), axis=1)  # noqa: B023
-
-        radius = float(off_axis(body.elements.centre).max())
-        if off_axis(model.body_ipos[b])[0] <= WHEEL_BALANCE * radius:
-            wheels[k] = (joint, radius)
-    return wheels
-
-
-class RobotLoads3D:
-    """Recorder of the run loop for :class:`RFT3DCoupling`: per coupled body ``robot/<body>`` (time,
-    position (3) m and quaternion (w, x, y, z) of its frame, velocity (3) m/s of its centre of mass
-    and angular velocity (3) rad/s, world frame; force (3) N and torque (3) N·m about its centre of
-    mass averaged over the sampling interval; lowest_z m, surface m, sinkage m = surface − lowest_z;
-    for a wheel (:func:`wheel_radii`) also spin rad/s, its angular velocity about the hinge's axis a,
-    forward_speed m/s, the velocity of the hinge's anchor along a × ẑ (where a positive spin rolls
-    it), and slip, Eq. 4.8 of the two with the wheel's R (:func:`terrasph.robots.metrics.slip`; NaN
-    while the axis is vertical)) and, for a robot with actuators, ``robot/actuators`` (time, qpos,
-    qvel, ctrl, the robot's centre of mass com (3) m, actuator_force, power W)."""
-
-    def __init__(self, coupled: RFT3DCoupling) -> None:
-        self.coupled = coupled
-        self.wheels = wheel_radii(coupled.robot)
-
-    def rows(self) -> dict[str, dict[str, Any]]:
-        coupled = self.coupled
-        model, data = coupled.robot.model, coupled.robot.data
-        mujoco.mj_forward(model, data)
-        surface = coupled.robot.surface
-        rows: dict[str, dict[str, Any]] = {}
-        for k, body in enumerate(coupled.robot.coupled):
-            b = body.body_id
-            sample = coupled.body_sample(k)
-            twist = np.zeros(6)  # [angular, linear] at the centre of mass, world axes
-            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, b, twist, 0)
-            rows[f"robot/{body.name}"] = row = {
-                "time": coupled.time, "position": data.xpos[b].copy(), "quaternion": data.xquat[b].copy(),
-                "velocity": twist[3:].copy(), "angular_velocity": twist[:3].copy(), "force": sample["force"],
-                "torque": sample["torque"], "lowest_z": sample["lowest_z"], "surface": surface,
-                "sinkage": surface - sample["lowest_z"]}
-            if k in self.wheels:
-                joint, radius = self.wheels[k]
-                axis = data.xaxis[joint]
-                forward = np.cross(axis, [0.0, 0.0, 1.0])
-                size = float(np.linalg.norm(forward))
-                anchor = twist[3:] + np.cross(twist[:3], data.xanchor[joint] - data.xipos[b])
-                speed = float(anchor @ forward) / size if size > 1e-9 else math.nan
-                spin = float(twist[:3] @ axis)
-                row.update({"spin": spin, "forward_speed": speed, "slip": float(slip(speed, spin, radius))})
-        if model.nu:
-            rows["robot/actuators"] = {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(),
-                                       "ctrl": data.ctrl.copy(), "com": data.subtree_com[0].copy(),
-                                       "actuator_force": data.actuator_force.copy(),
-                                       "power": float(np.dot(data.actuator_force, data.actuator_velocity))}
-        coupled.reset_body_means()
-        return rows

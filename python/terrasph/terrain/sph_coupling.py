@@ -55,7 +55,6 @@ from terrasph.fidelity import scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.mjcf.model import CoupledBody, PlanarRobot, check_planar, load_model
 from terrasph.mjcf.terrain_robot import COUPLE_BELOW, terrain_robot
-from terrasph.robots.metrics import free_surface
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
@@ -70,6 +69,7 @@ __all__ = [
     "check_mass_ratio",
     "displaced_grain_mass",
     "divergences",
+    "free_surface",
     "mujoco_derived",
     "mujoco_state",
     "mujoco_step",
@@ -523,8 +523,26 @@ class CoupledSimulation(RobotStepper):
 SURFACE_MARGIN = 0.02
 
 
+def free_surface(grains: np.ndarray, spacing: float, disturbed: list[tuple[float, float]],
+                 margin: float) -> float:
+    """Height (m) of the bed's undisturbed free surface: the grains (N × 2, x and z in m, on the
+    lattice of `spacing` Δx) are binned into columns Δx wide, each column's surface is the top of
+    its highest grain's cell (z + Δx/2), and the median is taken over the columns whose centre lies
+    farther than `margin` from every `disturbed` interval [x_lo, x_hi] (the robot's parts). The
+    median ignores a few grains thrown up above the bed. NaN if no column is left."""
+    column = np.floor(grains[:, 0] / spacing).astype(np.int64)
+    first = column.min()
+    tops = np.full(column.max() - first + 1, -np.inf)
+    np.maximum.at(tops, column - first, grains[:, 1] + 0.5 * spacing)
+    centres = (np.arange(len(tops)) + first + 0.5) * spacing
+    keep = np.isfinite(tops)
+    for low, high in disturbed:
+        keep &= (centres < low - margin) | (centres > high + margin)
+    return float(np.median(tops[keep])) if keep.any() else float("nan")
+
+
 def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARGIN) -> float:
-    """The bed's free surface now (m; :func:`terrasph.robots.metrics.free_surface`) away from every
+    """The bed's free surface now (m; :func:`free_surface`) away from every
     coupled body: columns within `margin` of a body's x extent are left out. Sinkage is measured
     from it, so the bed's own settling (it is built at its hydrostatic density and settles by
     less than Δx) is not counted as the robot sinking."""
