@@ -150,3 +150,15 @@ def test_the_terrain_wing_stands_below_the_robots_and_the_scenes() -> None:
     upward = sorted(f"{module} -> {other}" for module, edges in graph.items() for layer, above in below.items()
                     if module.startswith(layer) for other in edges if other.startswith(above))
     assert not upward, f"imports against the layers: {upward}"
+
+
+def test_the_plain_scenes_and_the_rft_laws_load_without_mujoco() -> None:
+    """terrasph.terrain's interface is imported on first use: the scene registry (whose SPH scenes
+    use the planar RFT laws, terrasph.terrain.rft) loads no MuJoCo, and asking for attach does."""
+    import subprocess
+    import sys
+
+    code = ("import sys, terrasph.scenes, terrasph.terrain.rft; print('mujoco' in sys.modules); "
+            "from terrasph.terrain import attach; print('mujoco' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.split()
+    assert out == ["False", "True"]

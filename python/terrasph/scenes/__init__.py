@@ -4,7 +4,8 @@ Every scene is a configuration dataclass and a ``run(config, *, output, progress
 (and ``resume`` and ``until``); :data:`SCENES` maps the scene's
 command-line name to both, so the command line, ``terrasph resume`` and sweeps find a scene by
 name and rebuild its configuration from a run file, and :func:`run_case` runs any of them.
-The robot scenes are imported on first use (they import the chapter-3 beads from this package).
+The robot scenes (leg_wheel, rover, mjcf_scene: on terrasph.terrain) and plate_drag are imported on
+first use, so importing the registry (and the plain SPH scenes) loads no MuJoCo.
 """
 
 from __future__ import annotations
