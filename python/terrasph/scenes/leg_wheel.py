@@ -6,7 +6,7 @@ z that carries the load (its mass is load/g: the dissertation's 4.9 N is 0.4995 
 and the *wheel* on a hinge about y, turned by a velocity servo (gain ``motor_gain`` N·m·s/rad,
 torque limit ``motor_torque`` N·m) that holds ω = 0 for the settling pause and then
 ``omega`` clockwise. The wheel's mass and inertia are those of its shape at ``wheel_density``
-(:func:`terrasph.robots.shape_inertial`). MuJoCo integrates with ``implicitfast`` so the stiff
+(:func:`terrasph.mjcf.model.shape_inertial`). MuJoCo integrates with ``implicitfast`` so the stiff
 servo is stable at the SPH step.
 
 Readings (the figure is not in the text): ``leg_length`` is the dissertation's "2R = 8 cm" read
