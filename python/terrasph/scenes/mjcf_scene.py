@@ -183,12 +183,12 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
         crossings.check(run.time)
         data.ctrl[:] = drive(run.time, model, data)
 
-    terrain = coupled.describe() if on_rft else coupled.sim.describe()
+    described = coupled.describe() if on_rft else coupled.sim.describe()
     series = run_coupled(sand, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
                          recorder=RobotLoads3D(coupled) if on_rft else None, end_check=bed,
-                         config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **terrain})
+                         config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **described})
     summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"]),
                "end_of_bed": bed.reason if bed else None}
     if output is not None:  # /results holds plain values: the bodies that went through, by name
