@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 from matplotlib.figure import Figure
 from terrasph.gym import OnSand
-from terrasph.robots.mjcf import body_name
+from terrasph.mjcf.model import body_name
 
 #: environment, the terrain for it, its feet (the bodies' names in terrasph: Ant's lower legs are
 #: unnamed bodies, named by their geoms)

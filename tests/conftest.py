@@ -26,7 +26,7 @@ pytest_plugins = ("pytester",)  # test_test_tiers.py runs the tier switches on a
 @pytest.fixture(scope="session", autouse=True)
 def no_mujoco_log_file():
     """MuJoCo's default warning handler appends to MUJOCO_LOG.TXT in the working directory; terrasph
-    passes MuJoCo's warnings on through Python's (terrasph.robots.mjcf.mujoco_warnings), so the suite
+    passes MuJoCo's warnings on through Python's (terrasph.mjcf.model.mujoco_warnings), so the suite
     (gymnasium's half cheetah with its deprecated attribute, diverging robots) must leave none."""
     log = Path.cwd() / "MUJOCO_LOG.TXT"
     existed = log.exists()

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from terrasph.config import Material, Numerics
+from terrasph.config import Material, Numerics, glass_beads
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots import CoupledSimulation, PlanarRobot
-from terrasph.robots.mjcf import Coupling
+from terrasph.mjcf.model import Coupling, PlanarRobot
 from terrasph.scene import Scene
-from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import Simulation
+from terrasph.terrain.interface import Terrain
+from terrasph.terrain.interface import couple as terrain_for
+from terrasph.terrain.sph_coupling import CoupledSimulation
 
 DX = 0.005
 #: glass beads of the robot scenes (3 mm, ρ_s = 2600 kg/m³, packing 0.63, μ1 = tan 23°, μ2 = tan 33°)
@@ -38,13 +39,19 @@ def far_grains_scene(x_body: float = 0.4) -> Scene:
     return scene
 
 
-def couple(xml: str, couplings: dict[str, object], scene: Scene, numerics: Numerics | None = None,
-           material: Material = BEADS) -> CoupledSimulation:
-    """Robot + scene + simulation, coupled."""
+def sph_terrain(xml: str, couplings: dict[str, object], scene: Scene, numerics: Numerics | None = None,
+                material: Material = BEADS) -> Terrain:
+    """Robot + scene + simulation, coupled: the terrain of :func:`terrasph.terrain.interface.couple`."""
     robot = PlanarRobot(xml, {k: v if v is None or isinstance(v, Coupling) else Coupling(v)
                               for k, v in couplings.items()})
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, material, numerics or Numerics(spacing=DX)))
+    return terrain_for(robot, "sph", simulation=Simulation(scene, material, numerics or Numerics(spacing=DX)))
+
+
+def couple(xml: str, couplings: dict[str, object], scene: Scene, numerics: Numerics | None = None,
+           material: Material = BEADS) -> CoupledSimulation:
+    """Robot + scene + simulation, coupled: the coupling of :func:`sph_terrain`."""
+    return sph_terrain(xml, couplings, scene, numerics, material).coupling
 
 
 def run_interrupted(monkeypatch, run: Callable[[], object], stop_at: int) -> None:

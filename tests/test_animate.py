@@ -106,7 +106,7 @@ def test_a_run_on_the_rft_terrain_shows_its_robot_over_the_flat_sand(tmp_path: P
     """An RFT run's frames hold the robot's bodies only: one picture per frame, the wheel in its body
     colour over the sand below the surface, and the wheel moves (its pixels differ between the first
     picture and the last)."""
-    from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+    from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 
     run = tmp_path / "lw.h5"
     run_leg_wheel(LegWheel(terrain="rft", settle_time=0.05, t_end=0.45, frame_interval=0.1), run, plot=False)
@@ -124,8 +124,8 @@ def test_a_run_on_the_rft_terrain_shows_its_robot_over_the_flat_sand(tmp_path: P
 def test_a_robot_on_the_3d_rft_terrain_is_drawn_from_the_side_over_the_sand(tmp_path: Path) -> None:
     """A non-planar robot on the 3D RFT terrain: its frames hold its bodies' surface points seen from
     the side (x–z); the movie draws the chassis (body 0) over the sand, and the rover falls onto it."""
-    from terrasph.robots.mjcf_scene import MjcfScene, run_mjcf
-    from terrasph.robots.rft3d_terrain import ROVER4
+    from terrasph.robots import ROVER4
+    from terrasph.scenes.mjcf_scene import MjcfScene, run_mjcf
 
     run = tmp_path / "rover.h5"
     run_mjcf(MjcfScene(model=str(ROVER4), terrain="rft", element_length=0.03, settle_time=0.0, t_end=0.06,

@@ -14,11 +14,11 @@ import pytest
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
-from terrasph.robots.leg_wheel import SPH_BED_WIDTH, LegWheel, run_leg_wheel
-from terrasph.robots.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
-from terrasph.robots.rover import Rover, run_rover
 from terrasph.robots.run import BED_END_MARGIN, BedEnds
 from terrasph.run_loop import FINISHED_STATUSES
+from terrasph.scenes.leg_wheel import SPH_BED_WIDTH, LegWheel, run_leg_wheel
+from terrasph.scenes.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
+from terrasph.scenes.rover import Rover, run_rover
 
 gymnasium = pytest.importorskip("gymnasium")
 HOPPER = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets", "hopper.xml")
@@ -104,7 +104,7 @@ def test_an_mjcf_robot_is_watched_against_its_bed_ends() -> None:
     mid-bed (its foot: in hopper.xml a capsule of radius 0.06 m and half-length 0.195 m lying along
     x) lies between the bed's ends, and the check stays silent there."""
     coupled = build_mjcf(MjcfScene(model=HOPPER, bed_width=0.8, bed_depth=0.06, spacing=0.02, settle_time=0.0,
-                                   t_end=0.1))
+                                   t_end=0.1)).coupling
     ends = BedEnds(coupled, coupled.sim.scene.bed_ends)
     extents = ends.extents()
     assert set(extents) == {"leg", "foot"} and ends() is None

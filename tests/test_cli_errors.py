@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from terrasph.cli import main
-from terrasph.robots.rft3d_terrain import ROVER4
+from terrasph.robots import ROVER4
 
 FEATURES = ["omega_cmd", "load", "soil_k", "mu"]
 TARGETS = ["slip", "sinkage"]

@@ -16,10 +16,10 @@ import warnings
 
 import pytest
 from terrasph.config import ConfigError
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.run_loop import FINISHED_STATUSES
 from terrasph.scenes.column_collapse import ColumnCollapse, run_column_collapse
 from terrasph.scenes.leg_rotation import LegRotation, run_leg_rotation
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 
 #: the README's coarse leg-wheel (Δx = 5 mm, legs 1.5 cm thick and 5 cm long, a 30 × 5 cm bed)
 README_WHEEL = dict(wheel="reversed-c-leg", spacing=0.005, thickness=0.015, leg_length=0.05, bed_width=0.3,

@@ -16,10 +16,10 @@ import json
 import pytest
 from terrasph.config import ConfigError
 from terrasph.fidelity import TIERS, scene_numerics, tier_help
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.scenes import SCENES, scene_entry
 from terrasph.scenes.column_collapse import ColumnCollapse
 from terrasph.scenes.leg_rotation import LegRotation
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.scenes.plate_intrusion import PlateIntrusion
 
 

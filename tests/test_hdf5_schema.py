@@ -121,7 +121,7 @@ def test_a_run_on_the_rft_terrain(tmp_path, scene: str) -> None:
     """The leg-wheel and the leg rotation on the RFT terrain: their /static and frame fields are the
     documented ones (the body, "wheel" or "leg", for <body>), no grains, and their diagnostics and
     the leg's series the ones the page names."""
-    from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+    from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 
     path = tmp_path / "run.h5"
     if scene == "leg-wheel":
@@ -146,8 +146,8 @@ def test_a_run_on_the_rft_terrain(tmp_path, scene: str) -> None:
 def test_a_robot_on_the_3d_rft_terrain(tmp_path) -> None:
     """The rover on the 3D RFT terrain: its /static and frame fields, and each coupled body's series
     (the wheels' with spin, forward speed and slip, the chassis' without), are the documented ones."""
-    from terrasph.robots.mjcf_scene import MjcfScene, run_mjcf
-    from terrasph.robots.rft3d_terrain import ROVER4
+    from terrasph.robots import ROVER4
+    from terrasph.scenes.mjcf_scene import MjcfScene, run_mjcf
 
     path = tmp_path / "rover.h5"
     run_mjcf(MjcfScene(model=str(ROVER4), terrain="rft", element_length=0.03, settle_time=0.0, t_end=0.02,

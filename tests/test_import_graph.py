@@ -1,8 +1,8 @@
 """The package's modules import each other without a circle (docs/architecture.md): the graph of
 module-level imports between terrasph's own modules, read from the source with ``ast`` (imports
 inside functions and under ``if TYPE_CHECKING:`` run later or never, so they are not edges), is
-acyclic; in robots/ and terrain/ the graph of every import, deferred ones too, is. A circle makes
-the import order matter and hides which module is the base of which."""
+acyclic, and so is the graph of every import, deferred ones too. A circle makes the import order
+matter and hides which module is the base of which."""
 
 from __future__ import annotations
 
@@ -111,21 +111,18 @@ def test_the_finder_sees_a_circle_and_a_package_edge() -> None:
     assert _module_level_imports(tree, "terrasph.v", False) == {"terrasph.x", "terrasph.x.y"}
 
 
-def test_the_robots_and_the_terrain_import_no_circle_even_in_deferred_imports() -> None:
-    """An import inside a function can hide a circle that a module-level one would show: in robots/
-    and terrain/ there is none of those either."""
+def test_the_package_imports_no_circle_even_in_deferred_imports() -> None:
+    """An import inside a function can hide a circle that a module-level one would show: there is
+    none of those either, anywhere in the package."""
     graph = import_graph(deferred=True)
-    for module in sorted(m for m in graph if m.startswith(("terrasph.robots", "terrasph.terrain"))):
-        seen, frontier = set(), set(graph[module])
-        while frontier:  # every module reachable from this one, through any package
-            seen |= frontier
-            frontier = {other for m in frontier for other in graph.get(m, ())} - seen
-        assert module not in seen, f"{module} imports itself through a circle of deferred imports"
+    assert {"terrasph.terrain.interface", "terrasph.mjcf.model", "terrasph.scenes.leg_wheel"} <= set(graph)
+    cycle = find_cycle(graph)
+    assert cycle is None, "import circle through deferred imports: " + " -> ".join(cycle or [])
 
 
 def test_the_package_has_no_import_circle() -> None:
     graph = import_graph()
-    assert "terrasph.robots.coupling" in graph and "terrasph.terrain.interface" in graph
+    assert {"terrasph.terrain.sph_coupling", "terrasph.terrain.interface", "terrasph.robots.run"} <= set(graph)
     cycle = find_cycle(graph)
     assert cycle is None, "import circle: " + " -> ".join(cycle or [])
 
@@ -141,3 +138,27 @@ def test_the_architecture_map_names_every_module_and_core_file() -> None:
     sources = [p for d in ("cpp/src", "cpp/plugin", "cpp/include/terrasph") for p in (root / d).glob("*.[ch]pp")]
     missing = [str(p.relative_to(root)) for p in [*modules, *sources] if p.name not in text and p.stem not in text]
     assert not missing, f"not on docs/architecture.md's map: {missing}"
+
+
+def test_the_terrain_wing_stands_below_the_robots_and_the_scenes() -> None:
+    """The layers of docs/architecture.md's terrain wing: the terrains (terrain/) and the MuJoCo
+    plumbing (mjcf/) import nothing of robots/ or scenes/, and robots/ nothing of scenes/, deferred
+    imports included: a scene uses a terrain, never the other way round."""
+    graph = import_graph(deferred=True)
+    above_the_wing = ("terrasph.robots", "terrasph.scenes")
+    below = {"terrasph.terrain": above_the_wing, "terrasph.mjcf": above_the_wing, "terrasph.robots": ("terrasph.scenes",)}
+    upward = sorted(f"{module} -> {other}" for module, edges in graph.items() for layer, above in below.items()
+                    if module.startswith(layer) for other in edges if other.startswith(above))
+    assert not upward, f"imports against the layers: {upward}"
+
+
+def test_the_plain_scenes_and_the_rft_laws_load_without_mujoco() -> None:
+    """terrasph.terrain's interface is imported on first use: the scene registry (whose SPH scenes
+    use the planar RFT laws, terrasph.terrain.rft) loads no MuJoCo, and asking for attach does."""
+    import subprocess
+    import sys
+
+    code = ("import sys, terrasph.scenes, terrasph.terrain.rft; print('mujoco' in sys.modules); "
+            "from terrasph.terrain import attach; print('mujoco' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.split()
+    assert out == ["False", "True"]

@@ -13,8 +13,8 @@ from robot_helpers import assert_same_series, run_interrupted
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
-from terrasph.robots import shape_inertial
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
+from terrasph.mjcf.model import shape_inertial
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
 from terrasph.simulation import checkpoint_path
 
 TINY = ["--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04", "--bed-width", "0.2",
@@ -63,7 +63,7 @@ def test_a_torque_limited_servo_stiffer_than_the_step_holds_its_command() -> Non
     """The wheel's servo (kv = 20 N·m·s/rad, 5 N·m) on a wheel of M = 2.9e-4 kg·m² has kv·dt/M = 6
     at the default step and 19 at C = 0.8 on the wave speed: held at its torque limit, MuJoCo's step
     of it is explicit and jumps ω by τ_max·dt/M = 4.6 rad/s. Measured before the coupling gave a
-    servo at its limit its force (robots/coupling.py): at C = 0.8 ω swung between −2.4 and +2.4 rad/s
+    servo at its limit its force (terrain/sph_coupling.py): at C = 0.8 ω swung between −2.4 and +2.4 rad/s
     every step and the slip was 0.99, against 0.45 at C = 0.25. Now ω holds the command and the slip
     is that of the 3.2× finer step within 2 % (measured within 0.4 % from C = 0.25 to 1)."""
     fine, _ = tiny_wheel_summary(0.25)
@@ -77,7 +77,7 @@ def test_the_rig_carries_the_load_and_the_wheel() -> None:
                       bed_depth=0.04, start_x=0.08, load=2.0)
     rig = build_leg_wheel(config)
     wheel_mass = shape_inertial(config.shape(), config.wheel_density, config.width).mass
-    assert rig.robot.model.body_subtreemass[1] * 9.81 == pytest.approx(2.0 + wheel_mass * 9.81, rel=1e-12)
+    assert rig.model.body_subtreemass[1] * 9.81 == pytest.approx(2.0 + wheel_mass * 9.81, rel=1e-12)
 
 
 @pytest.mark.parametrize(("key", "value"), [("wheel", "square"), ("legs", 0), ("omega", -1.0), ("start_x", 0.01)])

@@ -1,4 +1,4 @@
-"""MJCF geoms as terrain bodies (terrasph.robots.geoms) and actuator specs (terrasph.robots.control).
+"""MJCF geoms as terrain bodies (terrasph.mjcf.geoms) and actuator specs (terrasph.robots.control).
 
 References independent of the code: the areas and extents of the solids' projections from their
 closed forms (disc πr², stadium 4hr + πr², ellipse πac, rectangle), a box geom against the plate
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from terrasph.bodies import plate
 from terrasph.config import ConfigError
+from terrasph.mjcf.geoms import body_shape
 from terrasph.robots.control import parse_spec, spec_controller
-from terrasph.robots.geoms import body_shape
 
 DX = 0.01
 

@@ -12,11 +12,13 @@ import json
 import math
 
 import pytest
-from terrasph import rft
 from terrasph.cli import main
 from terrasph.io import read_run
-from terrasph.robots.mjcf_scene import MjcfScene, run_mjcf
-from terrasph.robots.rft3d_terrain import ROVER4, rft_robot, wheel_radii
+from terrasph.robots import ROVER4
+from terrasph.robots.run import wheel_radii
+from terrasph.scenes.mjcf_scene import MjcfScene, run_mjcf
+from terrasph.terrain import rft
+from terrasph.terrain.rft3d_coupling import rft_robot
 
 WHEELS = ("front_left", "front_right", "rear_left", "rear_right")
 

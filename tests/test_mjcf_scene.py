@@ -18,9 +18,9 @@ from robot_helpers import assert_same_series, run_interrupted
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
-from terrasph.robots.mjcf import load_model
-from terrasph.robots.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
-from terrasph.robots.terrain_robot import terrain_robot
+from terrasph.mjcf.model import load_model
+from terrasph.mjcf.terrain_robot import terrain_robot
+from terrasph.scenes.mjcf_scene import MjcfScene, build_mjcf, run_mjcf
 
 gymnasium = pytest.importorskip("gymnasium")
 ASSETS = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets")
@@ -123,7 +123,7 @@ def test_the_half_cheetah_is_slower_on_sand_than_on_the_rigid_floor() -> None:
     of mass advances at less than half the speed the same gait gives on MuJoCo's floor (measured
     0.089 of it here at Δx = 3 cm, 0.085 at 1.5 cm and 0.077 at 1 cm, docs/mjcf.md), and its feet
     sink in (18.9 and 18.5 cm here)."""
-    from terrasph.robots.mjcf_scene import rigid_floor_run
+    from terrasph.scenes.mjcf_scene import rigid_floor_run
 
     gait = tuple(f"{name}=sin:0.5,0.4,{phase}" for name, phase in
                  (("bthigh", 0), ("bshin", 0), ("bfoot", 0), ("fthigh", 180), ("fshin", 180), ("ffoot", 180)))
@@ -197,7 +197,7 @@ def test_mujoco_warnings_reach_python_and_no_log_file(tmp_path, monkeypatch) -> 
     """gymnasium's half cheetah uses the deprecated compiler attribute settotalmass: MuJoCo's warning
     about it is a Python warning, MuJoCo's own handler (a MUJOCO_LOG.TXT in the working directory)
     is not used, and the handler is MuJoCo's default again afterwards (no process-wide change)."""
-    from terrasph.robots.mjcf import MujocoWarning, load_model
+    from terrasph.mjcf.model import MujocoWarning, load_model
 
     monkeypatch.chdir(tmp_path)
     before = mujoco.get_mju_user_warning()

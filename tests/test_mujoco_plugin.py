@@ -1,8 +1,8 @@
 """The MuJoCo engine plugin ``terrasph.rft`` (terrasph.mujoco_plugin, cpp/plugin/rft_plugin.cpp): it
-loads and registers; its load on bodies of every solid geom kind is terrasph.rft3d's (the elements
-built in Python by terrasph.robots.geoms, the wrench assembled in numpy) and enters qfrc_passive as
+loads and registers; its load on bodies of every solid geom kind is terrasph.terrain.rft3d's (the elements
+built in Python by terrasph.mjcf.geoms, the wrench assembled in numpy) and enters qfrc_passive as
 Jᵀ W; a body resting on the sand carries its weight; its implicit correction steps as terrasph's 3D RFT
-stepper does (terrasph.robots.rft3d_terrain); runs and copies are deterministic; bad configuration
+stepper does (terrasph.terrain.rft3d_coupling); runs and copies are deterministic; bad configuration
 fails in one line naming the attribute; gymnasium's ant with the plugin stands and walks; the package's
 entry point registers the plugin when mujoco is imported; threads stepping their own data and a model
 saved to a binary file step alike."""
@@ -20,8 +20,9 @@ import sys
 import mujoco
 import numpy as np
 import pytest
-from terrasph import mujoco_plugin, rft, rft3d
-from terrasph.robots.rft3d_terrain import Body3D, RFT3DCoupling, Robot3D
+from terrasph import mujoco_plugin
+from terrasph.terrain import rft, rft3d
+from terrasph.terrain.rft3d_coupling import Body3D, RFT3DCoupling, Robot3D
 
 gymnasium = pytest.importorskip("gymnasium")
 
@@ -61,7 +62,7 @@ def scattered_bodies(config: dict[str, str] | None = None) -> str:
 
 def reference_wrench(model: mujoco.MjModel, data: mujoco.MjData, body: int, surface: float,
                      table: rft.RFTCoefficients, regularisation: float = rft.REGULARISATION_SPEED) -> np.ndarray:
-    """terrasph.rft3d's wrench (F, τ about the centre of mass) on `body` at the data's state: the
+    """terrasph.terrain.rft3d's wrench (F, τ about the centre of mass) on `body` at the data's state: the
     elements from the Python geoms (BodyElements.from_body), the assembly in numpy."""
     twist = np.zeros(6)
     mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, twist, 0)

@@ -66,13 +66,16 @@ def test_the_material_options_reach_the_bed(scene) -> None:
     (μ = tan of the angle, Eq. 2.31; wet density × (1 + w)), and without them the chapter 3 beads."""
     import math
 
-    from terrasph.scenes.leg_rotation import glass_beads
+    from terrasph.config import glass_beads
+    from terrasph.terrain import Terrain
 
     entry = SCENES[scene]
     build = getattr(__import__(entry.module, fromlist=["_"]), f"build_{entry.config_key}")
 
     def material(**changes):
         built = build(entry.config_from({**TINY_BEDS[scene], **changes}))
+        if isinstance(built, Terrain):  # a robot scene's terrain: its coupling holds the simulation
+            built = built.coupling
         sim = built[0] if isinstance(built, tuple) else built.sim  # (scene, material, numerics) or coupled
         return built[1] if isinstance(built, tuple) else sim.material
 

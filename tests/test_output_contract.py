@@ -33,13 +33,13 @@ import pytest
 from terrasph import InstabilityError, run_loop
 from terrasph.cli import main
 from terrasph.io import read_run
-from terrasph.robots.leg_wheel import LegWheel
-from terrasph.robots.mjcf_scene import MjcfScene
-from terrasph.robots.rft3d_terrain import ROVER4
-from terrasph.robots.rover import Rover
+from terrasph.robots import ROVER4
 from terrasph.run_loop import checkpoint_path, claimed_output
 from terrasph.scenes import SCENES, ColumnCollapse, LegRotation, PlateIntrusion
+from terrasph.scenes.leg_wheel import LegWheel
+from terrasph.scenes.mjcf_scene import MjcfScene
 from terrasph.scenes.plate_drag import PlateDrag
+from terrasph.scenes.rover import Rover
 
 #: Tiny versions of every registered scene (a few seconds each on one thread), the end time T1 of
 #: the first run, and the later end time T2 that the continued runs and the reference reach.
@@ -364,12 +364,12 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypa
     InstabilityError, which the run loop records as ``unstable`` with the frames so far (here the
     robot's speed is made non-finite after 0.01 s). MuJoCo's warning reaches the user as a Python
     warning, not as a MUJOCO_LOG.TXT in the working directory."""
-    from terrasph.robots.leg_wheel import build_leg_wheel
-    from terrasph.robots.mjcf import MujocoWarning
+    from terrasph.mjcf.model import MujocoWarning
     from terrasph.robots.run import run_coupled
+    from terrasph.scenes.leg_wheel import build_leg_wheel
 
     monkeypatch.chdir(tmp_path)  # where MuJoCo's own handler would write its log
-    coupled = build_leg_wheel(CASES[case][0])
+    sand = build_leg_wheel(CASES[case][0])
 
     def spoil(run) -> None:
         if run.time >= 0.01:
@@ -378,7 +378,7 @@ def test_a_coupled_run_whose_robot_diverges_is_unstable(case, tmp_path, monkeypa
     out = tmp_path / "run.h5"
     with pytest.raises(InstabilityError, match="MuJoCo could not integrate"), \
             pytest.warns(MujocoWarning, match="MuJoCo: Nan, Inf or huge value"):
-        run_coupled(coupled, 0.03, output=out, control=spoil)
+        run_coupled(sand, 0.03, output=out, control=spoil)
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
     data = read_run(out)
     status = data.group_attrs["/run"]

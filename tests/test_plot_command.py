@@ -93,7 +93,7 @@ def test_a_robot_run_gets_its_trajectory_slip_and_sinkage_figure(tmp_path, monke
 def test_a_robot_run_on_the_rft_terrain_is_plotted_without_grains(tmp_path) -> None:
     """A leg-wheel on the RFT terrain: its frames hold no grains, and `terrasph plot` redraws its
     figure from the series all the same."""
-    from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+    from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 
     path = tmp_path / "lw.h5"
     run_leg_wheel(LegWheel(terrain="rft", settle_time=0.02, t_end=0.1, frame_interval=0.05), path, plot=False)

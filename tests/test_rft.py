@@ -1,4 +1,4 @@
-"""Resistive force theory (terrasph.rft): the generic map's published properties, hand-computed plates,
+"""Resistive force theory (terrasph.terrain.rft): the generic map's published properties, hand-computed plates,
 the geometry read from a shape's outline, coefficient tables and bad input."""
 
 from __future__ import annotations
@@ -10,12 +10,12 @@ import math
 import numpy as np
 import pytest
 import robot_helpers
-from terrasph import bodies, rft
+from terrasph import bodies
 from terrasph.config import ConfigError
-from terrasph.robots import rft_terrain
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
-from terrasph.robots.mjcf import PlanarRobot
+from terrasph.mjcf.model import PlanarRobot
 from terrasph.scenes.leg_rotation import LegRotation, run_leg_rotation
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.terrain import rft, rft_coupling
 
 G = rft.GENERIC
 ZETA = G.zeta
@@ -298,13 +298,13 @@ def test_unknown_table_and_shape_without_outline_are_refused():
 
 # -- the RFT terrain for MuJoCo robots ---------------------------------------------------------------
 
-def _plate_on_sand(mass: float, time_step: float = rft_terrain.RFT_TIME_STEP) -> rft_terrain.RFTCoupling:
+def _plate_on_sand(mass: float, time_step: float = rft_coupling.RFT_TIME_STEP) -> rft_coupling.RFTCoupling:
     """A 4 cm plate of `mass` kg, free to slide vertically, its underside on the surface z = 0."""
     xml = robot_helpers.mjcf('<body name="foot" pos="0 0 0.00375">{joints}'
                              f'<inertial pos="0 0 0" mass="{mass}" diaginertia="1e-4 1e-4 1e-4"/></body>',
                              joints='<joint name="z" type="slide" axis="0 0 1"/>')
     robot = PlanarRobot(xml, {"foot": bodies.plate(0.04, 0.0075, WIDTH, 0.0025)})
-    return rft_terrain.RFTCoupling(robot, 0.0, G, time_step=time_step)
+    return rft_coupling.RFTCoupling(robot, 0.0, G, time_step=time_step)
 
 
 def test_plate_dropped_on_the_sand_stops_at_twice_the_bearing_depth():
@@ -488,10 +488,10 @@ def test_rft_terrain_calls_its_controller_at_the_control_rate():
     coupled = _plate_on_sand(0.3)
     calls = []
     taken = coupled.advance(0.1, control=lambda run: calls.append((run.time, run.control_span())))
-    interval = rft_terrain.RFT_CONTROL_INTERVAL
-    assert taken == coupled.step_count == round(0.1 / rft_terrain.RFT_TIME_STEP)
+    interval = rft_coupling.RFT_CONTROL_INTERVAL
+    assert taken == coupled.step_count == round(0.1 / rft_coupling.RFT_TIME_STEP)
     assert len(calls) == round(0.1 / interval)
     assert np.allclose([t for t, _ in calls], interval * np.arange(len(calls)), rtol=0, atol=1e-12)
     assert all(span == pytest.approx(interval) for _, span in calls)
     with pytest.raises(ConfigError, match="control_interval"):
-        rft_terrain.RFTCoupling(coupled.robot, 0.0, G, control_interval=1e-3)
+        rft_coupling.RFTCoupling(coupled.robot, 0.0, G, control_interval=1e-3)

@@ -1,4 +1,4 @@
-"""3D resistive force theory (terrasph.rft3d) and its MuJoCo stepper (terrasph.robots.rft3d_terrain):
+"""3D resistive force theory (terrasph.terrain.rft3d) and its MuJoCo stepper (terrasph.terrain.rft3d_coupling):
 the planar law recovered for motion in the x–z plane, invariance under a turn about the vertical,
 the geoms' surface areas, a plate's hand-computed load and a resting box's equilibrium depth; the
 compiled law's Jacobian, the native step's momentum balance, its checkpoint and its control rate."""
@@ -10,11 +10,11 @@ import mujoco
 import numpy as np
 import pytest
 import terrasph
-from terrasph import _core, rft, rft3d
+from terrasph import _core
 from terrasph.config import ConfigError
-from terrasph.robots import rft_terrain
-from terrasph.robots.geoms import body_shape, geom_surface
-from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, rft_robot
+from terrasph.mjcf.geoms import body_shape, geom_surface
+from terrasph.terrain import rft, rft3d, rft_coupling
+from terrasph.terrain.rft3d_coupling import RFT3D_TIME_STEP, RFT3DCoupling, rft_robot
 
 ROVER = Path(terrasph.__file__).parent / "robots" / "models" / "rover4.xml"
 
@@ -151,7 +151,7 @@ def _tumbling_box(element_length: float = 0.005):
 
 def test_native_step_is_backward_euler_in_the_rft_force():
     # one step of the native stepper: m (v_{n+1} − v_n) = dt (m g + F) with F the RFT force at the step's end
-    # velocities and its start pose, recomputed here by terrasph.rft3d.body_wrench (numpy sums of the law)
+    # velocities and its start pose, recomputed here by terrasph.terrain.rft3d.body_wrench (numpy sums of the law)
     robot, stepper = _tumbling_box()
     model, data = robot.model, robot.data
     mujoco.mj_forward(model, data)
@@ -198,7 +198,7 @@ def test_rft3d_stepper_calls_its_controller_at_the_control_rate():
     _, stepper = _tumbling_box(0.01)
     calls = []
     taken = stepper.advance(0.05, control=lambda run: calls.append((run.time, run.control_span())))
-    interval = rft_terrain.RFT_CONTROL_INTERVAL
+    interval = rft_coupling.RFT_CONTROL_INTERVAL
     assert taken == stepper.step_count == round(0.05 / RFT3D_TIME_STEP)
     assert np.allclose([t for t, _ in calls], interval * np.arange(round(0.05 / interval)), rtol=0, atol=1e-12)
     assert all(span == pytest.approx(interval) for _, span in calls)

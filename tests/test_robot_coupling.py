@@ -19,18 +19,19 @@ import warnings
 import mujoco
 import numpy as np
 import pytest
-from robot_helpers import BEADS, DX, couple, far_grains_scene, mjcf
+from robot_helpers import BEADS, DX, couple, far_grains_scene, mjcf, sph_terrain
 from terrasph import _core
 from terrasph.bodies import plate, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import read_run
+from terrasph.mjcf.model import PlanarRobot
 from terrasph.motion import Motion, Rotate
-from terrasph.robots import ROVER, CoupledSimulation, PlanarRobot
-from terrasph.robots.coupling import ACCURATE_MASS_RATIO, MIN_MASS_RATIO, undisturbed_surface
+from terrasph.robots import ROVER
 from terrasph.robots.run import run_coupled
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
+from terrasph.terrain.sph_coupling import ACCURATE_MASS_RATIO, MIN_MASS_RATIO, CoupledSimulation, undisturbed_surface
 
 G = 9.81
 PLATE = plate(0.04, 3 * DX, 0.05, DX)
@@ -90,10 +91,10 @@ SERVO = '<velocity name="spin" joint="pitch" kv="0.5" forcerange="-1 1"/>'
 
 def test_wheel_spinning_in_place_with_x_locked_has_slip_one(tmp_path) -> None:
     x_locked = '<joint name="z" type="slide" axis="0 0 1"/><joint name="pitch" type="hinge" axis="0 1 0"/>'
-    coupled = couple(mjcf(WHEEL, joints=x_locked, actuators=SERVO, floor=True), {"wheel": RIM}, far_grains_scene())
-    coupled.robot.data.ctrl[0] = 3.0
+    sand = sph_terrain(mjcf(WHEEL, joints=x_locked, actuators=SERVO, floor=True), {"wheel": RIM}, far_grains_scene())
+    sand.data.ctrl[0] = 3.0
     out = tmp_path / "spin.h5"
-    run_coupled(coupled, 0.1, output=out, series_interval=0.005, frame_interval=0.05)
+    run_coupled(sand, 0.1, output=out, series_interval=0.005, frame_interval=0.05)
     series = read_run(out).series
     body = series["robot/wheel"]
     turning = body["omega"] > 0
@@ -106,9 +107,9 @@ def test_wheel_spinning_in_place_with_x_locked_has_slip_one(tmp_path) -> None:
 
 
 def test_wheel_rolling_on_a_rigid_floor_has_no_slip() -> None:
-    coupled = couple(mjcf(WHEEL, actuators=SERVO, floor=True), {"wheel": RIM}, far_grains_scene(0.5))
-    coupled.robot.data.ctrl[0] = 3.0
-    series = run_coupled(coupled, 0.2, series_interval=0.01)["robot/wheel"]
+    sand = sph_terrain(mjcf(WHEEL, actuators=SERVO, floor=True), {"wheel": RIM}, far_grains_scene(0.5))
+    sand.data.ctrl[0] = 3.0
+    series = run_coupled(sand, 0.2, series_interval=0.01)["robot/wheel"]
     late = series["time"] >= 0.14
     assert series["omega"][late].min() > 2.9
     # MuJoCo's soft contact lets the rim sink ~0.14 mm into the floor, so it rolls on a radius a

@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 import pytest
-from terrasph.robots.mjcf import body_name, coupled_body_id, load_model
+from terrasph.mjcf.model import body_name, coupled_body_id, load_model
 from terrasph.robots.plots import plot_robot, plot_robot_3d
 
 SETTLE = 0.2

@@ -147,18 +147,18 @@ def test_an_interrupted_run_that_tracks_wall_loads_resumes_bitwise(tmp_path) -> 
 def test_a_coupled_run_samples_the_fixed_walls_loads(tmp_path) -> None:
     """run_coupled writes ``walls/<name>`` (and, for a robot without actuators, no actuator series): here the floor under a small far bed carries its weight
     (the bed is released at its hydrostatic density: within 2 % from the start, measured 0.3 %)."""
-    from robot_helpers import PLANAR_JOINTS, couple, far_grains_scene, mjcf
+    from robot_helpers import PLANAR_JOINTS, far_grains_scene, mjcf, sph_terrain
     from terrasph.robots.run import run_coupled
 
     body = '<body name="plate" pos="0.4 0 0.3">{joints}<geom type="box" size="0.02 0.025 0.0075" mass="0.5"/></body>'
-    coupled = couple(mjcf(body, joints=PLANAR_JOINTS), {"plate": plate(0.04, 3 * DX, 0.05, DX)}, far_grains_scene())
-    coupled.sim.track_wall_loads()
+    sand = sph_terrain(mjcf(body, joints=PLANAR_JOINTS), {"plate": plate(0.04, 3 * DX, 0.05, DX)}, far_grains_scene())
+    sand.coupling.sim.track_wall_loads()
     out = tmp_path / "robot.h5"
-    series = run_coupled(coupled, 0.03, output=out, series_interval=0.01)
+    series = run_coupled(sand, 0.03, output=out, series_interval=0.01)
     floor = read_run(out).series["walls/floor"]
     assert np.array_equal(floor["force"], series["walls/floor"]["force"])
     assert len(floor["time"]) == 4  # each row averages the load over the time since the previous one
     assert np.allclose(floor["averaged_over"][1:], np.diff(floor["time"]), rtol=0, atol=1e-12)
-    weight = float(coupled.sim.mass.sum()) * coupled.sim.width * G
+    weight = float(sand.coupling.sim.mass.sum()) * sand.coupling.sim.width * G
     assert floor["force"][1:, 1] == pytest.approx(-weight, rel=0.02)
     assert "robot/actuators" not in series

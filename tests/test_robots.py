@@ -17,10 +17,11 @@ from robot_helpers import BEADS, DX, mjcf
 from terrasph.bodies import plate, rotation_matrix, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots import PlanarRobot, shape_inertial, slip
-from terrasph.robots.metrics import free_surface
+from terrasph.mjcf.model import PlanarRobot, shape_inertial
+from terrasph.robots.metrics import slip
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
+from terrasph.terrain.sph_coupling import free_surface
 
 PLATE = plate(0.04, 3 * DX, 0.05, DX)
 ARM = '<body name="arm" pos="0.1 0 0.2">{joints}<geom type="box" size="0.02 0.01 0.005" mass="1"/>' \

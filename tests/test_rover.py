@@ -11,7 +11,7 @@ import pytest
 from terrasph.cli import main
 from terrasph.config import ConfigError
 from terrasph.io import read_run
-from terrasph.robots.rover import Rover
+from terrasph.scenes.rover import Rover
 
 TINY = ["--spacing", "0.005", "--thickness", "0.015", "--leg-length", "0.04", "--bed-width", "0.3",
         "--bed-depth", "0.04", "--start-x", "0.12", "--settle-time", "0.08", "--t-end", "0.2", "--omega", "2.0",

@@ -69,7 +69,7 @@ def test_a_signal_during_a_slow_build_stops_it_and_leaves_no_file(tmp_path, sign
 _GUARD = """
 import resource, sys
 from terrasph.config import ConfigError
-from terrasph.robots.leg_wheel import LegWheel
+from terrasph.scenes.leg_wheel import LegWheel
 from terrasph.size_guard import check_size
 if sys.argv[1] == "limited":
     with open("/proc/self/status") as status:

@@ -115,16 +115,16 @@ def test_old_field_names_still_read() -> None:
 
 def test_the_leg_shapes_have_one_set_of_names() -> None:
     """leg-rotation's flat leg is flat-leg as in leg-wheel; the old name reads as the new."""
-    from terrasph.robots.leg_wheel import WHEELS
     from terrasph.scenes.leg_rotation import LEGS, LegRotation
+    from terrasph.scenes.leg_wheel import WHEELS
 
     assert set(LEGS) <= set(WHEELS)
     assert LegRotation(leg="flat") == LegRotation(leg="flat-leg")
 
 
 def test_your_own_robot_reaches_the_rover_and_a_missing_file_is_refused(tmp_path, monkeypatch, capsys) -> None:
-    from terrasph.robots import rover
-    from terrasph.robots.mjcf import ROVER
+    from terrasph.robots import ROVER
+    from terrasph.scenes import rover
 
     seen = {}
 

@@ -20,8 +20,8 @@ import pytest
 from robot_helpers import assert_same_series
 from terrasph.cli import main
 from terrasph.io import read_run
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
-from terrasph.robots.rover import Rover, run_rover
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel, run_leg_wheel
+from terrasph.scenes.rover import Rover, run_rover
 from terrasph.settle_cache import (
     CACHE_ENV,
     SettleCache,
@@ -85,8 +85,8 @@ def test_a_run_with_another_omega_starts_from_the_same_pause_and_equals_its_own_
 
 def _key(config: LegWheel) -> str:
     built = build_leg_wheel(config)
-    return cache_key(key_text("leg-wheel", config, built.describe(), {**versions(), "mujoco": mujoco.__version__},
-                              model_digest(built.robot.model)))
+    return cache_key(key_text("leg-wheel", config, built.coupling.describe(),
+                              {**versions(), "mujoco": mujoco.__version__}, model_digest(built.model)))
 
 
 @pytest.mark.parametrize("change", [{"load": 2.5}, {"spacing": 0.0045}, {"settle_time": 0.12}, {"wheel": "wheel"},
@@ -119,7 +119,7 @@ def test_the_key_does_not_change_with_the_drive() -> None:
 
 RACER = """
 import json, sys
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.settle_cache import SettleCache
 config = LegWheel(**json.loads(sys.argv[1]))
 run = run_leg_wheel(config, sys.argv[2], plot=False, cache=SettleCache(sys.argv[3]))

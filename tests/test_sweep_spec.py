@@ -108,7 +108,7 @@ def test_schedules_step_ramp_and_hold() -> None:
 
 
 def test_leg_wheel_commands_its_schedule_after_the_pause() -> None:
-    from terrasph.robots.leg_wheel import LegWheel
+    from terrasph.scenes.leg_wheel import LegWheel
 
     config = LegWheel(**TINY_FIXED, omega_schedule=((0.0, 1.0), (0.2, 1.0), (0.2, 2.5)))
     assert config.commanded_omega(np.array([0.05, 0.15, 0.35])).tolist() == [0.0, 1.0, 2.5]

@@ -25,8 +25,8 @@ import pytest
 from terrasph import InstabilityError
 from terrasph.config import Material, Numerics
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.scene import Scene
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.simulation import Simulation
 
 DX = 0.004

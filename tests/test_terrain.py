@@ -157,3 +157,41 @@ def test_ant_at_the_default_substep_rests_where_the_converged_substep_puts_it() 
     assert lift == pytest.approx(1.0, abs=1e-3)
     assert abs(default - reference) < 3e-4
     assert abs(fine - reference) < 0.5 * abs(default - reference)
+
+
+@pytest.mark.parametrize("scene", ["leg-wheel", "mjcf"])
+def test_a_scene_of_terrasph_stands_on_the_same_terrain_as_attach_gives(scene: str) -> None:
+    """terrasph's own robot scenes build their terrain by the construction attach uses
+    (terrasph.terrain.interface.couple): the leg-wheel on planar RFT and the four-wheeled rover on 3D
+    RFT are Terrains a user's loop steps like attach's; at rest (1 s, motors idle) the sand carries
+    each robot's weight (Newton's first law; measured within 1e-6 for both)."""
+    from terrasph.robots import ROVER4
+    from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel
+    from terrasph.scenes.mjcf_scene import MjcfScene, build_mjcf
+    from terrasph.terrain.interface import RFTTerrain
+
+    if scene == "leg-wheel":
+        sand, kind, root = build_leg_wheel(LegWheel(terrain="rft")), "rft", 1  # the rig's chassis carries the load
+    else:
+        sand, kind, root = build_mjcf(MjcfScene(model=str(ROVER4), terrain="rft", element_length=0.03)), "rft3d", 0
+    assert isinstance(sand, RFTTerrain) and sand.kind == kind
+    sand.step(round(1.0 / sand.model.opt.timestep))
+    sand.step(5)
+    weight = float(sand.model.body_subtreemass[root]) * -float(sand.model.opt.gravity[2])
+    assert sum(load[2] for load in sand.loads().values()) == pytest.approx(weight, rel=1e-4)
+    assert np.abs(sand.data.qvel).max() < 0.01 and max(sand.sinkage().values()) > 0.0
+
+
+def test_a_run_and_a_loop_step_the_same_sph_terrain_in_turn() -> None:
+    """Terrain.advance (a run's stepping) and Terrain.step (a user's) on one SPH terrain of the
+    leg-wheel scene: after advancing to t the next step(1) ends one model step later, to within
+    one SPH step, as step alone would."""
+    from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel
+
+    sand = build_leg_wheel(LegWheel(wheel="c-leg", spacing=0.005, thickness=0.015, leg_length=0.04, bed_width=0.2,
+                                    bed_depth=0.04, start_x=0.08, load=2.0))
+    taken = sand.advance(0.004)
+    assert taken > 0 and sand.coupling.time >= 0.004
+    sand.step(1)
+    assert sand.coupling.time == pytest.approx(0.004 + sand.model.opt.timestep, abs=sand.time_step)
+    assert sand.leaked_grains == 0

@@ -51,9 +51,9 @@ def test_each_geom_is_a_shell_where_mujoco_places_it() -> None:
     data = mujoco.MjData(model)
     spacing = 0.01
     sand = attach(model, data, "sph3d", spacing=spacing, bed_depth=0.05)
-    core = sand._stepper.core
+    core = sand.coupling.core
     points = np.asarray(core.wall_position)[np.asarray(core.wall_body) == 0]
-    layers = wall_layers_needed(sand._stepper.numerics.h_factor) * spacing
+    layers = wall_layers_needed(sand.coupling.numerics.h_factor) * spacing
     ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name) for name in ("ball", "pill", "can", "brick")}
     size = {name: model.geom_size[g] for name, g in ids.items()}
     depth = {}
@@ -193,7 +193,7 @@ def test_a_saved_3d_state_continues_bit_for_bit(ant_at_rest: dict) -> None:
             data.ctrl[:] = action
             sand.step()
         loads = np.array(list(sand.loads().values()))
-        return data.qpos.copy(), np.array(sand._stepper.core.position), loads
+        return data.qpos.copy(), np.array(sand.coupling.core.position), loads
 
     first = run()
     sand.restore(saved)
@@ -217,7 +217,7 @@ def test_the_coupled_3d_run_is_the_same_on_one_two_and_three_threads(restore_thr
         for push in pushes:
             data.qfrc_applied[:] = push
             sand.step(5)
-        results.append((data.qpos.copy(), np.array(sand._stepper.core.position), sand.loads()["slab"]))
+        results.append((data.qpos.copy(), np.array(sand.coupling.core.position), sand.loads()["slab"]))
     assert results[0][2][2] > 0.0  # the slab is on the grains
     for other in results[1:]:
         for a, b in zip(results[0], other):
@@ -238,9 +238,9 @@ def test_a_body_reaching_the_beds_side_stops_the_run_by_name() -> None:
     data.qvel[0] = 1.0  # 1 m/s toward +x, the side 15 cm away
     with pytest.raises(InstabilityError, match="'slab' reached a side of the 3D bed"):
         sand.step(150)
-    core = sand._stepper.core
+    core = sand.coupling.core
     body_x = np.asarray(core.wall_position)[np.asarray(core.wall_body) == 0, 0]
-    assert body_x.max() < sand._stepper.sides[1][0]
+    assert body_x.max() < sand.coupling.sides[1][0]
 
 
 @pytest.mark.slow

@@ -21,8 +21,8 @@ import time
 
 from bench_levers import parse_variant
 from terrasph import _core
-from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel
+from terrasph.terrain.sph_coupling import CoupledSimulation
 
 
 def advance(coupled: CoupledSimulation, wheel: LegWheel, t_end: float) -> int:
@@ -50,7 +50,7 @@ def main() -> None:
     _core.set_num_threads(args.threads)
     variants = [parse_variant(text) for text in args.variant]
     wheels = {name: LegWheel(t_end=args.t_end, numerics=numerics) for name, numerics in variants}
-    runs = {name: build_leg_wheel(wheel) for name, wheel in wheels.items()}
+    runs = {name: build_leg_wheel(wheel).coupling for name, wheel in wheels.items()}
     names = [name for name, _ in variants]
     wall = {name: [] for name in names}  # wall s per simulated s, window by window
     steps = dict.fromkeys(names, 0)

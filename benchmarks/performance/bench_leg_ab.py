@@ -52,7 +52,7 @@ print(json.dumps({{"wall": wall, "cpu": cpu, "simulated": simulated, "steps": re
          "leg-wheel": """
 import json, time
 from terrasph import _core
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 _core.set_num_threads({threads})
 wheel = LegWheel(spacing=0.005, thickness=0.015, settle_time=1.0, t_end={until!r} or 3.0, numerics={numerics!r})
 start, cpu = time.perf_counter(), time.process_time()

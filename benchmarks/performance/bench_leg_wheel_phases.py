@@ -19,7 +19,7 @@ import time
 import numpy as np
 from bench_sph import parse_numerics
 from terrasph import _core
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel
 
 
 def main() -> None:
@@ -33,7 +33,7 @@ def main() -> None:
         parser.error("parameters '--threads' >= 1, '--rest' > 0 and '--driven' > 0 are required")
     _core.set_num_threads(args.threads)
     wheel = LegWheel(numerics=parse_numerics(args.numerics))
-    coupled = build_leg_wheel(wheel)
+    coupled = build_leg_wheel(wheel).coupling
     core = coupled.sim.core
     for label, spin, t_end in (("at rest", 0.0, args.rest), ("driven", wheel.omega, args.rest + args.driven)):
         coupled.robot.data.ctrl[0] = spin

@@ -24,11 +24,11 @@ import argparse
 import json
 import time
 
-from terrasph.cli_common import setting_value
 from terrasph import _core
+from terrasph.cli_common import setting_value
 from terrasph.scenes import ColumnCollapse, run_column_collapse
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.scenes.leg_rotation import LegRotation, run_leg_rotation
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 
 OUTCOMES = {"leg": ("peak_lift", "peak_thrust"), "column": ("runout_normalised", "final_height_normalised"),
             "leg-wheel": ("mean_slip", "mean_forward_speed", "mean_sinkage", "final_sinkage", "max_sinkage")}

@@ -15,7 +15,7 @@ import time
 
 import mujoco
 from terrasph import _core
-from terrasph.robots.leg_wheel import LegWheel, build_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, build_leg_wheel
 
 COARSE = LegWheel(wheel="reversed-c-leg", spacing=0.005, thickness=0.015, leg_length=0.05, bed_width=0.3,
                   bed_depth=0.05, start_x=0.1, settle_time=0.0, t_end=0.3)
@@ -26,7 +26,7 @@ DEFAULT = LegWheel(wheel="reversed-c-leg", settle_time=0.0)
 
 def shares(config: LegWheel, threads: int, t_end: float) -> dict[str, float]:
     _core.set_num_threads(threads)
-    coupled = build_leg_wheel(config)
+    coupled = build_leg_wheel(config).coupling
     coupled.robot.data.ctrl[0] = config.omega
     clock = {"sph": 0.0, "mujoco": 0.0}
     advance, step = coupled.sim.advance, mujoco.mj_step

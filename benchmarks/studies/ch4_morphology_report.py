@@ -21,7 +21,7 @@ from typing import Any
 import h5py
 import numpy as np
 from matplotlib.figure import Figure
-from terrasph.robots.leg_wheel import WHEELS, LegWheel, wheel_shape
+from terrasph.scenes.leg_wheel import WHEELS, LegWheel, wheel_shape
 from terrasph.sweeps.report import finished_cases
 
 #: summary key → (column title, scale to the printed unit)

@@ -18,7 +18,7 @@ import argparse
 import time
 
 from terrasph.cli_common import add_numerics_option, numerics_overrides
-from terrasph.robots.leg_wheel import WHEELS, LegWheel, run_leg_wheel
+from terrasph.scenes.leg_wheel import WHEELS, LegWheel, run_leg_wheel
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

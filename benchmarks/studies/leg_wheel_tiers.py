@@ -40,8 +40,7 @@ from typing import Any
 import h5py
 import numpy as np
 import yaml
-
-from terrasph.robots.leg_wheel import WHEELS, LegWheel, run_leg_wheel
+from terrasph.scenes.leg_wheel import WHEELS, LegWheel, run_leg_wheel
 from terrasph.surrogate.inference import read_inputs
 from terrasph.surrogate.registry import Pretrained, pretrained
 from terrasph.surrogate.robot_dataset import TARGETS, driven_phase_run

@@ -19,8 +19,7 @@ import time
 import gymnasium
 import mujoco
 import numpy as np
-
-from terrasph.robots.mjcf_scene import MjcfScene, rigid_floor_run, run_mjcf
+from terrasph.scenes.mjcf_scene import MjcfScene, rigid_floor_run, run_mjcf
 
 MODEL = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets", "hopper.xml")
 #: PD gains of the posture controller (N·m/rad, N·m·s/rad); the motors give at most 200 N·m

@@ -19,8 +19,7 @@ import time
 
 import gymnasium
 from matplotlib.figure import Figure
-
-from terrasph.robots.mjcf_scene import MjcfScene, rigid_floor_run, run_mjcf
+from terrasph.scenes.mjcf_scene import MjcfScene, rigid_floor_run, run_mjcf
 
 PERIOD = 0.4
 GAIT = tuple(f"{name}=sin:0.5,{PERIOD},{phase}" for name, phase in

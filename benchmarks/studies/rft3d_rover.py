@@ -13,9 +13,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 import terrasph
-from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, rft_robot
+from terrasph.terrain.rft3d_coupling import RFT3D_TIME_STEP, RFT3DCoupling, rft_robot
 
 ROVER = Path(terrasph.__file__).parent / "robots" / "models" / "rover4.xml"
 
@@ -24,7 +23,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--time-step", type=float, default=RFT3D_TIME_STEP, help="MuJoCo's step (s)")
     parser.add_argument("--element-length", type=float, default=None,
-                        help="surface elements about this long (m); default: terrasph.rft3d.ELEMENT_FRACTION")
+                        help="surface elements about this long (m); default: terrasph.terrain.rft3d.ELEMENT_FRACTION")
     parser.add_argument("--drop", type=float, default=0.5, help="time with the wheels held still (s)")
     parser.add_argument("--t-end", type=float, default=2.5, help="end of the run (s)")
     parser.add_argument("--omega", type=float, default=3.0, help="the wheels' commanded spin after the drop (rad/s)")

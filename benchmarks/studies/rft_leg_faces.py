@@ -18,10 +18,11 @@ import argparse
 
 import numpy as np
 from scipy.spatial import cKDTree
-
-from terrasph import bodies, rft
+from terrasph import bodies
+from terrasph.config import glass_beads
 from terrasph.io import read_run
-from terrasph.scenes.leg_rotation import LegRotation, glass_beads
+from terrasph.scenes.leg_rotation import LegRotation
+from terrasph.terrain import rft
 
 #: the grains' stress is read this many Δx outside each element, over the grains within 2h of it
 PROBE_OFFSET = 1.5

@@ -21,10 +21,9 @@ import math
 import pathlib
 
 import numpy as np
-
-from terrasph import rft
 from terrasph.io import read_run
 from terrasph.scenes.leg_rotation import LEGS, LegRotation
+from terrasph.terrain import rft
 
 TABLE = pathlib.Path(__file__).resolve().parents[1] / "results" / "rft_glass_beads_sph.json"
 

@@ -17,9 +17,9 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-
-from terrasph import bodies, rft
+from terrasph import bodies
 from terrasph.scenes.leg_rotation import LEGS, LegRotation
+from terrasph.terrain import rft
 
 
 def _ray_meets(start: np.ndarray, direction: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:

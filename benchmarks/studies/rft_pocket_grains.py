@@ -2,7 +2,7 @@
 
 For each frame of an SPH leg-rotation run (``terrasph run leg-rotation --leg reversed-c-leg --omega 0.2
 --bed-depth 0.08 --settle-time 0.3 --frame-interval 0.25 --out RUN.h5``), the grains inside the leg's
-pockets (terrasph.rft.SurfaceElements: between its outline and its convex hull) are counted, their
+pockets (terrasph.terrain.rft.SurfaceElements: between its outline and its convex hull) are counted, their
 mean speed relative to the leg's rigid motion at their places is given as a fraction of that motion's
 speed (0: carried as part of the leg), and their weight ρ0 Δx² w g:
 
@@ -14,11 +14,12 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-
-from terrasph import bodies, rft
+from terrasph import bodies
+from terrasph.config import glass_beads
 from terrasph.io import read_run
 from terrasph.scene import GRAVITY
-from terrasph.scenes.leg_rotation import LegRotation, glass_beads
+from terrasph.scenes.leg_rotation import LegRotation
+from terrasph.terrain import rft
 
 
 def main() -> None:

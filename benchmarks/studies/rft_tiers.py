@@ -1,5 +1,5 @@
 """The RFT tier of docs/rft.md: the chapter 3 leg rotations and the chapter 4 leg-wheels on the RFT
-terrain (terrasph.rft) with a coefficient map, and the cost of each run.
+terrain (terrasph.terrain.rft) with a coefficient map, and the cost of each run.
 
     OMP_NUM_THREADS=1 python benchmarks/studies/rft_tiers.py [--rft-table generic|TABLE.json] [--legs-only]
 
@@ -16,8 +16,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from terrasph.robots.leg_wheel import WHEELS, LegWheel, run_leg_wheel
 from terrasph.scenes.leg_rotation import LEGS, LegRotation, run_leg_rotation
+from terrasph.scenes.leg_wheel import WHEELS, LegWheel, run_leg_wheel
 
 
 def main() -> None:

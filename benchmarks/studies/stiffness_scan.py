@@ -41,9 +41,9 @@ from typing import Any, ClassVar
 import numpy as np
 from terrasph.config import Material, Numerics
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.scene import Scene
 from terrasph.scenes.column_collapse import ColumnCollapse, run_column_collapse
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 from terrasph.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]

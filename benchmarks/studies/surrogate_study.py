@@ -39,9 +39,8 @@ from terrasph.surrogate.evaluation import (
 )
 from terrasph.surrogate.export import FILE_SUFFIX, export_model
 from terrasph.surrogate.inference import load_model
-from terrasph.surrogate.robot_dataset import TARGETS, build_robot_dataset, split_held_out
+from terrasph.surrogate.robot_dataset import TARGETS, build_robot_dataset, dataset_validity, split_held_out
 from terrasph.surrogate.train import TrainConfig, TrainResult, train
-from terrasph.surrogate.validity import dataset_validity
 
 CELLS = ("standard", "peephole")
 REPOSITORY_MODELS = Path(__file__).resolve().parents[2] / "python" / "terrasph" / "surrogate" / "models"

@@ -22,12 +22,13 @@ import time
 
 from terrasph import InstabilityError
 from terrasph.bodies import plate
-from terrasph.config import Numerics
+from terrasph.config import Numerics, glass_beads
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots import CoupledSimulation, PlanarRobot, coupling
+from terrasph.mjcf.model import PlanarRobot
 from terrasph.scene import Scene
-from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import Simulation
+from terrasph.terrain import sph_coupling as coupling
+from terrasph.terrain.sph_coupling import CoupledSimulation
 
 BEADS = glass_beads()
 THICKNESS = 0.015  #: plate thickness (m): 3 particle rows at Δx = 5 mm, 6 at 2.5 mm

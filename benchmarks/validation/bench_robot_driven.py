@@ -1,7 +1,7 @@
 """Stability of the explicit MuJoCo–SPH coupling for a driven leg-wheel against its mass.
 
 The plate of bench_robot_coupling.py measures the limit for a body at rest; this is the driven
-case. The leg-wheel rig of the scene ``leg-wheel`` (terrasph.robots.leg_wheel) at the README's
+case. The leg-wheel rig of the scene ``leg-wheel`` (terrasph.scenes.leg_wheel) at the README's
 coarse size: Δx = 5 mm (or ``--spacing=DX``), a C-leg with 3 legs 1.5 cm thick and 5 cm long,
 10 cm wide, on a 30 × 5 cm bed of 3 mm glass beads; a 0.1 s pause, then ω = 1.5 rad/s clockwise
 until 0.5 s (``--t-end``). What isolates the coupling from MuJoCo's own dynamics:
@@ -42,16 +42,14 @@ import time
 
 import mujoco
 import numpy as np
-
 from terrasph import InstabilityError
-from terrasph.robots import coupling
-from terrasph.robots import CoupledSimulation, PlanarRobot
-from terrasph.robots.leg_wheel import LegWheel, bed_and_wheel, leg_wheel_mjcf
-from terrasph.robots.mjcf import Coupling
+from terrasph.config import glass_beads
+from terrasph.mjcf.model import Coupling, PlanarRobot
 from terrasph.robots.metrics import slip
-from terrasph.robots.coupling import undisturbed_surface
-from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.scenes.leg_wheel import LegWheel, bed_and_wheel, leg_wheel_mjcf
 from terrasph.simulation import Simulation
+from terrasph.terrain import sph_coupling as coupling
+from terrasph.terrain.sph_coupling import CoupledSimulation, undisturbed_surface
 
 MAX_SPEED = 0.5  #: m/s: faster than this, the wheel has been thrown (rim speed ωR = 0.075 m/s)
 MAX_RISE = 0.05  #: m: higher than this above its start, the wheel has left the bed
@@ -75,7 +73,7 @@ def rig(ratio: float, dx: float, t_end: float, load: float) -> LegWheel:
 
 
 def build(config: LegWheel, torque: float | None) -> CoupledSimulation:
-    """terrasph.robots.leg_wheel.build_leg_wheel, with a constant-torque motor if `torque` is given."""
+    """terrasph.scenes.leg_wheel.build_leg_wheel, with a constant-torque motor if `torque` is given."""
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     xml = leg_wheel_mjcf(config, shape, axle, scene.gravity)

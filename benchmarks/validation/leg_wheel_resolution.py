@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from terrasph.robots.leg_wheel import LegWheel, run_leg_wheel
+from terrasph.scenes.leg_wheel import LegWheel, run_leg_wheel
 
 KEYS = ("mean_slip", "mean_forward_speed", "final_sinkage", "max_sinkage")
 

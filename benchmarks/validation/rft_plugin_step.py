@@ -16,7 +16,7 @@ and is driven for 1 s (phase ``walk``) by uniform random actions in [−1, 1], e
 * ``rk4-explicit``: the file as it is (integrator RK4); the plugin's load is explicit there;
 * ``euler-explicit``: integrator Euler, the plugin's correction switched off (``implicit=false``);
 * ``euler-implicit``: integrator Euler, the plugin's default: the backward-Euler correction;
-* ``reference``: terrasph's implicit stepper (terrasph.robots.rft3d_terrain.RFT3DCoupling) on the same
+* ``reference``: terrasph's implicit stepper (terrasph.terrain.rft3d_coupling.RFT3DCoupling) on the same
   bodies and elements, integrator Euler, at the same dt;
 
 and the converged reference: the implicit stepper at ``--reference-step`` (default 2.5e-4 s) with the
@@ -52,8 +52,8 @@ import mujoco
 import numpy as np
 import terrasph
 from terrasph import mujoco_plugin
-from terrasph.rft3d import BodyElements
-from terrasph.robots.rft3d_terrain import Body3D, RFT3DCoupling, Robot3D
+from terrasph.terrain.rft3d import BodyElements
+from terrasph.terrain.rft3d_coupling import Body3D, RFT3DCoupling, Robot3D
 
 #: gymnasium's ant model file
 ANT = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "ant.xml"

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from terrasph.robots.leg_wheel import WHEELS, LegWheel, build_leg_wheel
+from terrasph.scenes.leg_wheel import WHEELS, LegWheel, build_leg_wheel
 
 
 def main() -> None:
@@ -27,7 +27,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|")
     for wheel in args.wheels:
         config = LegWheel(wheel=wheel, terrain="rft", t_end=args.t_end, rft_table=args.rft_table)
-        coupled = build_leg_wheel(config)
+        coupled = build_leg_wheel(config).coupling
 
         def motor(run: object, config: LegWheel = config) -> None:
             coupled.robot.data.ctrl[0] = float(config.commanded_omega(coupled.time))

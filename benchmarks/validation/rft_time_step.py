@@ -14,8 +14,9 @@ from __future__ import annotations
 import argparse
 import time
 
-from terrasph.robots import leg_wheel
-from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, RFTCoupling
+from terrasph.scenes import leg_wheel
+from terrasph.terrain.interface import Terrain, couple
+from terrasph.terrain.rft_coupling import RFT_CONTROL_INTERVAL
 
 
 def main() -> None:
@@ -29,10 +30,10 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|")
     for wheel in args.wheels:
         for dt in args.steps:
-            def at_step(config: leg_wheel.LegWheel, dt: float = dt) -> RFTCoupling:
-                built = build(config)
-                return RFTCoupling(built.robot, built.surface_level, config.rft_table, time_step=dt,
-                                   control_interval=max(dt, args.control_interval))
+            def at_step(config: leg_wheel.LegWheel, dt: float = dt) -> Terrain:
+                built = build(config).coupling
+                return couple(built.robot, "rft", config.rft_table, surface=built.surface_level, time_step=dt,
+                              control_interval=max(dt, args.control_interval))
 
             leg_wheel.build_leg_wheel = at_step  # run_leg_wheel builds through the module's name
             start = time.process_time()

@@ -22,7 +22,7 @@ import numpy as np
 from terrasph import _core
 
 __all__ = ["PARAMETERS", "ConfigError", "Material", "Numerics", "Parameter", "as_dict", "check_settle_time",
-           "from_mapping", "parameter", "parameter_units"]
+           "from_mapping", "glass_beads", "parameter", "parameter_units"]
 
 
 class ConfigError(ValueError):
@@ -221,6 +221,14 @@ class Numerics(_ParameterGroup):
     def smoothing_length(self) -> float:
         """h = h_factor·Δx (m)."""
         return self.h_factor * self.spacing
+
+
+def glass_beads() -> Material:
+    """3 mm glass beads of chapter 3: ρ_s = 2600 kg/m³ at packing 0.63 (ρ0 = 1638 kg/m³),
+    μ1 = tan 23°, μ2 = tan 33°, κ = 30 000 Pa."""
+    return Material(grain_density=2600.0, reference_density=2600.0 * 0.63, grain_diameter=0.003,
+                    mu1=math.tan(math.radians(23.0)), mu2=math.tan(math.radians(33.0)),
+                    bulk_stiffness=30000.0, packing_fraction=0.63)
 
 
 T = TypeVar("T", Material, Numerics)

@@ -70,7 +70,7 @@ SHARED: dict[str, Option] = {
     "mu1_deg": Option("the bed's quasi-static friction angle atan mu1 (Eq. 2.31)", "degrees"),
     "mu2_deg": Option("the bed's dynamic friction angle atan mu2, >= mu1-deg", "degrees"),
     "water_content": Option("the bed's water content w; > 0: wet beads with cohesion (Table 2.1)", "kg/kg"),
-    "terrain": Option("the SPH bed, or resistive force theory on a flat surface (terrasph.rft, docs/rft.md)",
+    "terrain": Option("the SPH bed, or resistive force theory on a flat surface (terrasph.terrain.rft, docs/rft.md)",
                       choices=("sph", "rft")),
     "rft_table": Option('terrain rft: the coefficient map, "generic" or a JSON table (terrasph rft-calibrate)'),
 }

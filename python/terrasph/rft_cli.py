@@ -39,9 +39,9 @@ def calibrate(sweep: str | os.PathLike[str], out: str | os.PathLike[str],
     :data:`ORDERS` with the least leave-one-out error that the cases determine) and writes the table
     to `out`; returns what was written besides the coefficients (order, quality, correlation with
     the generic map)."""
-    from terrasph import rft
     from terrasph.config import ConfigError
     from terrasph.sweeps.report import finished_cases
+    from terrasph.terrain import rft
 
     if not str(out).endswith(".json"):
         raise ConfigError(f"parameter '--out' = {out!r} is invalid: allowed a .json file")
@@ -96,7 +96,7 @@ def plot_maps(tables: dict[str, Any], path: str | os.PathLike[str]) -> None:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from terrasph import rft
+    from terrasph.terrain import rft
 
     extra = calibrate(args.sweep, args.out, None if args.order is None else tuple(args.order))
     if args.plot:

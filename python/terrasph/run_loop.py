@@ -3,7 +3,7 @@ run's status and the final write; the physics of a step comes from a *stepper*.
 
 The stepper protocol (:class:`Stepper`) is what a terrain model gives the loop — the plain SPH
 :class:`terrasph.Simulation` and the MuJoCo-coupled
-:class:`terrasph.robots.coupling.CoupledSimulation` provide it:
+:class:`terrasph.terrain.sph_coupling.CoupledSimulation` provide it:
 
 * ``time`` (s) and ``step_count``;
 * ``advance(t_end, max_steps) -> int``: at most `max_steps` steps toward `t_end` (the loop calls

@@ -4,7 +4,7 @@ that would settle the same bed under the same robot at rest.
 What happens before the drive depends on the bed, the robot at rest on it, the numerics and the code,
 not on the drive that follows. A configuration class declares its drive-only fields once, in its
 ``DRIVE_FIELDS`` (the leg-wheel's ω, ω(t) schedule and end time); every other field, the resolved
-material, numerics, bodies and walls (the stepper's ``describe()``), the versions and the compiled robot
+material, numerics, bodies and walls (the terrain coupling's ``describe()``), the versions and the compiled robot
 model (its MJB bytes) and the identity of the code (a SHA-256 of the package's Python sources and of
 its compiled core) make the **key**, a
 SHA-256 of their canonical JSON. A field added later is part of the key unless it is declared a drive
@@ -96,7 +96,7 @@ def model_digest(model: Any) -> str:
 def key_text(scene: str, config: Any, description: Mapping[str, Any], versions: Mapping[str, str],
              robot: str) -> str:
     """The canonical JSON of everything that determines the state at the end of `scene`'s pause:
-    `config`'s pre-drive fields, the stepper's `description` (material, numerics, bodies, walls),
+    `config`'s pre-drive fields, the coupling's `description` (material, numerics, bodies, walls),
     the `versions`, the `robot` (:func:`model_digest`: a model file edited under the same name
     changes it) and the code's identity."""
     content = {"scene": scene, "config_type": type(config).__qualname__, "config": pre_drive_fields(config),
@@ -257,16 +257,16 @@ def copy_start(source: str | os.PathLike[str], target: str | os.PathLike[str]) -
             temporary.unlink(missing_ok=True)
 
 
-def run_after_pause(cache: SettleCache | bool, scene: str, config: Any, stepper: Any, build: Callable[[], Any],
+def run_after_pause(cache: SettleCache | bool, scene: str, config: Any, terrain: Any, build: Callable[[], Any],
                     run: Callable[[Any, float, pathlib.Path | None, bool], Any], output: str | os.PathLike[str] | None,
                     run_config: Mapping[str, Any], settle_time: float, t_end: float) -> tuple[Any, Any, SettledStart]:
     """Runs a robot scene to `t_end` from the cached state at the end of its pause (`settle_time`),
-    settling it into `output` first and caching it if it is not cached: ``run(stepper, t_end, output,
-    resume)`` is the scene's run (returning its series), `stepper` the scene built (it runs the pause
-    on a miss), `build` builds another (the run continues on a fresh one from the pause's
+    settling it into `output` first and caching it if it is not cached: ``run(terrain, t_end, output,
+    resume)`` is the scene's run (returning its series), `terrain` the scene built (a
+    :class:`terrasph.terrain.Terrain`; it runs the pause on a miss), `build` builds another (the run continues on a fresh one from the pause's
     checkpoint). `cache`: a SettleCache, True for :func:`default_cache`. `output` None: the run goes
     into a temporary file, removed after.
-    Returns the run's series, the stepper that ran to `t_end` and the start."""
+    Returns the run's series, the terrain that ran to `t_end` and the start."""
     import mujoco
 
     from terrasph.simulation import versions
@@ -274,13 +274,13 @@ def run_after_pause(cache: SettleCache | bool, scene: str, config: Any, stepper:
     store = default_cache() if cache is True else cache
     if not isinstance(store, SettleCache):
         raise TypeError(f"parameter 'cache' = {cache!r}: allowed True (the default cache) or a SettleCache")
-    text = key_text(scene, config, stepper.describe(), {**versions(), "mujoco": mujoco.__version__},
-                    model_digest(stepper.robot.model))
+    text = key_text(scene, config, terrain.coupling.describe(), {**versions(), "mujoco": mujoco.__version__},
+                    model_digest(terrain.model))
     key = cache_key(text)
     with contextlib.ExitStack() as stack:
         if output is None:
             output = pathlib.Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="terrasph-run-"))) / "run.h5"
-        start = store.start(key, text, output, lambda: run(stepper, settle_time, pathlib.Path(output), False))
+        start = store.start(key, text, output, lambda: run(terrain, settle_time, pathlib.Path(output), False))
         record_start(output, start, run_config)
         continued = build()
         return run(continued, t_end, pathlib.Path(output), True), continued, start

@@ -1,9 +1,18 @@
-"""Dynamic robots on the SPH terrain: planar MJCF robots simulated by MuJoCo, two-way coupled
-with the granular bodies (docs/design.md §3.6). See docs/robots.md."""
+"""What is robot-specific: the actuator controls and ``--ctrl`` specs (control.py), slip and sinkage
+(metrics.py), the robot figures (plots.py), a coupled robot's run in the run loop (run.py) and the
+example models shipped with the package (``models/``). The terrains they stand on are in
+terrasph.terrain, the MuJoCo plumbing in terrasph.mjcf, the robot scenes in terrasph.scenes
+(docs/architecture.md, docs/robots.md)."""
 
-from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.metrics import sinkage, slip
-from terrasph.robots.mjcf import ROVER, CoupledBody, Coupling, Inertial, PlanarRobot, shape_inertial
+import pathlib
 
-__all__ = ["ROVER", "CoupledBody", "CoupledSimulation", "Coupling", "Inertial", "PlanarRobot", "shape_inertial",
-           "sinkage", "slip"]
+__all__ = ["MODELS", "ROVER", "ROVER4"]
+
+#: the folder of the example MJCF models
+MODELS = pathlib.Path(__file__).with_name("models")
+
+#: the example planar rover shipped with the package (a chassis and two driven wheels; see the file)
+ROVER = MODELS / "rover.xml"
+
+#: the example non-planar robot shipped with the package: a four-wheeled rover on a free joint (see the file)
+ROVER4 = MODELS / "rover4.xml"

@@ -1,11 +1,11 @@
-"""Robot metrics (docs/design.md §3.8): slip (dissertation Eq. 4.8), the bed's undisturbed free surface
-and sinkage below it."""
+"""Robot metrics (docs/design.md §3.8): slip (dissertation Eq. 4.8) and sinkage below the bed's free
+surface (terrasph.terrain.sph_coupling.free_surface on the SPH)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["free_surface", "sinkage", "slip"]
+__all__ = ["sinkage", "slip"]
 
 
 def slip(forward_speed: np.ndarray | float, omega: np.ndarray | float, radius: float) -> np.ndarray:
@@ -34,21 +34,3 @@ def sinkage(lowest_z: np.ndarray | float, surface_level: float) -> np.ndarray:
     """Depth (m) of a body's lowest point below the undisturbed free surface z = `surface_level`
     (measured on the settled bed); negative while the body is above it."""
     return surface_level - np.asarray(lowest_z, dtype=float)
-
-
-def free_surface(grains: np.ndarray, spacing: float, disturbed: list[tuple[float, float]],
-                 margin: float) -> float:
-    """Height (m) of the bed's undisturbed free surface: the grains (N × 2, x and z in m, on the
-    lattice of `spacing` Δx) are binned into columns Δx wide, each column's surface is the top of
-    its highest grain's cell (z + Δx/2), and the median is taken over the columns whose centre lies
-    farther than `margin` from every `disturbed` interval [x_lo, x_hi] (the robot's parts). The
-    median ignores a few grains thrown up above the bed. NaN if no column is left."""
-    column = np.floor(grains[:, 0] / spacing).astype(np.int64)
-    first = column.min()
-    tops = np.full(column.max() - first + 1, -np.inf)
-    np.maximum.at(tops, column - first, grains[:, 1] + 0.5 * spacing)
-    centres = (np.arange(len(tops)) + first + 0.5) * spacing
-    keep = np.isfinite(tops)
-    for low, high in disturbed:
-        keep &= (centres < low - margin) | (centres > high + margin)
-    return float(np.median(tops[keep])) if keep.any() else float("nan")

@@ -78,7 +78,7 @@ def plot_robot_3d(series: dict[str, dict[str, np.ndarray]], bodies: Sequence[str
                   path: str | os.PathLike[str] | None = None, *, settle_time: float | None = None,
                   title: str = "", weight: float | None = None) -> Figure:
     """Six panels for the coupled `bodies` of a run on the 3D RFT terrain
-    (:class:`terrasph.robots.rft3d_terrain.RobotLoads3D`'s series): the track seen from above (each
+    (:class:`terrasph.robots.run.RobotLoads3D`'s series): the track seen from above (each
     body's frame origin and, with actuators, the robot's centre of mass, dashed), their heights,
     each body's sinkage, the terrain's total vertical load (with the robot's `weight`, N, dashed if
     given), its total horizontal load, and each wheel's slip (Eq. 4.8, where defined:

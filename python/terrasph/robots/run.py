@@ -1,5 +1,6 @@
-"""A coupled robot's run: the run loop (terrasph.run_loop) with the coupled step as its stepper
-(:class:`ControlledRun`) and the robot's series as a recorder (:class:`RobotLoads`).
+"""A coupled robot's run: the run loop (terrasph.run_loop) stepping a :class:`terrasph.terrain.Terrain`
+(:class:`ControlledRun`: the terrain's coupling with the scene's control) and the robot's series as a
+recorder (:class:`RobotLoads`).
 
 Layout of the file (terrasph.io.RunWriter, docs/hdf5_schema.md): frames, ``/static``,
 ``/series/diagnostics`` and ``/run`` as for any run, the frames with ``wall_position`` added (on the
@@ -8,13 +9,14 @@ RFT terrain, which has no grains, the frames hold the coupled bodies only);
 reference (x, z) m, angle rad and omega rad/s clockwise, velocity (v_x, v_z) m/s, force (F_x, F_z)
 N and torque N·m clockwise about the body origin, both for the body's real width and averaged over
 the sampling interval, lowest_z m, surface m (the bed's undisturbed free surface at that time,
-:func:`terrasph.robots.coupling.undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8
+:func:`terrasph.terrain.sph_coupling.undisturbed_surface`), sinkage m = surface − lowest_z, slip (Eq. 4.8
 with the shape's radius)); ``/series/robot/actuators`` (time, qpos, qvel, ctrl, the whole robot's centre of mass
 com (x, z) m, actuator force — a motor's torque in N·m for a hinge — and the total actuator power in W).
 """
 
 from __future__ import annotations
 
+import math
 import os
 import pathlib
 from collections.abc import Callable
@@ -26,13 +28,15 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.io import defined_values
-from terrasph.robots.coupling import SURFACE_MARGIN, CoupledSimulation, RobotStepper
+from terrasph.mjcf.model import mujoco_warnings
 from terrasph.robots.metrics import sinkage, slip
-from terrasph.robots.mjcf import mujoco_warnings
-from terrasph.robots.rft3d_terrain import RFT3DCoupling
 from terrasph.run_loop import END_OF_BED, Recorder
+from terrasph.terrain.interface import Terrain
+from terrasph.terrain.rft3d_coupling import RFT3DCoupling, Robot3D
+from terrasph.terrain.sph_coupling import SURFACE_MARGIN, CoupledSimulation, RobotStepper
 
-__all__ = ["BED_END_MARGIN", "BedEnds", "ControlledRun", "RobotLoads", "RobotRun", "body_row", "run_coupled"]
+__all__ = ["BED_END_MARGIN", "WHEEL_BALANCE", "BedEnds", "ControlledRun", "RobotLoads", "RobotLoads3D", "RobotRun",
+           "body_row", "run_coupled", "wheel_radii"]
 
 #: a coupled body that comes this close (m) to an end of its bed has reached it: the grains between
 #: it and the end wall are those it disturbs (SURFACE_MARGIN), so from there on the wall is part of
@@ -117,13 +121,14 @@ class RobotLoads:
 
 
 class ControlledRun:
-    """A coupled simulation as the run loop's stepper (terrasph.run_loop.Stepper) with the caller's
-    `control`, called before each step, and its running values `memory` (plain data), kept in the
+    """A terrain as the run loop's stepper (terrasph.run_loop.Stepper): :meth:`Terrain.advance` with the
+    caller's `control` (called with the terrain's coupling, before each step or control interval),
+    the rest read from its coupling; the caller's running values `memory` (plain data) are kept in the
     checkpoints with MuJoCo's state."""
 
-    def __init__(self, coupled: RobotStepper | RFT3DCoupling, control: Callable[[Any], None] | None,
-                 memory: dict[str, Any]) -> None:
-        self.coupled = coupled
+    def __init__(self, terrain: Terrain, control: Callable[[Any], None] | None, memory: dict[str, Any]) -> None:
+        self.terrain = terrain
+        self.coupled = terrain.coupling
         self.control = control
         self.memory = memory
 
@@ -136,7 +141,7 @@ class ControlledRun:
         return self.coupled.step_count
 
     def advance(self, t_end: float, max_steps: int) -> int:
-        return self.coupled.advance(t_end, max_steps, self.control)
+        return self.terrain.advance(t_end, max_steps, self.control)
 
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
         return self.coupled.checkpoint(path, {**(progress or {}), "memory": self.memory})
@@ -173,25 +178,26 @@ class RobotRun:
         return defined_values(self.values)
 
 
-def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: str | os.PathLike[str] | None = None,
+def run_coupled(terrain: Terrain, t_end: float, *, output: str | os.PathLike[str] | None = None,
                 frame_interval: float = 0.05, series_interval: float = 0.01,
                 config: dict[str, Any] | None = None, control: Callable[[Any], None] | None = None,
                 progress: bool = False, memory: dict[str, Any] | None = None,
                 checkpoint_every: float | None = 600.0, resume: bool = False,
                 recorder: Recorder | None = None,
                 end_check: Callable[[], tuple[str, str] | None] | None = None) -> dict[str, dict[str, np.ndarray]]:
-    """Runs `coupled` (a :class:`CoupledSimulation` or any :class:`RobotStepper`, e.g. the RFT terrain's
-    :class:`terrasph.robots.rft_terrain.RFTCoupling`, or the 3D RFT terrain's
-    :class:`terrasph.robots.rft3d_terrain.RFT3DCoupling` with its `recorder`) to `t_end` (s); writes frames (the grains and
+    """Runs `terrain` (a :class:`terrasph.terrain.Terrain` of :func:`terrasph.terrain.interface.couple`,
+    coupling a robot with the SPH, planar RFT or, with its `recorder`, 3D RFT) to `t_end` (s),
+    stepping it by :meth:`~terrasph.terrain.Terrain.advance`; writes frames (the grains and
     bodies; on the RFT terrain the bodies only) every `frame_interval` and robot samples every
     `series_interval` (s) to `output` (HDF5) if given. `control`, if given, is called before each
     step (to set MuJoCo's ``data.ctrl`` from the time, say); its own running values belong in
     `memory` (plain data), which is checkpointed with the run. Returns the run's series by group
-    name (``robot/…``, ``diagnostics``, ``walls/…``; the whole run's, when resumed). After ``coupled.sim.track_wall_loads(...)`` the load of
+    name (``robot/…``, ``diagnostics``, ``walls/…``; the whole run's, when resumed). After
+    ``terrain.coupling.sim.track_wall_loads(...)`` (on the SPH) the load of
     the grains on each fixed wall (:meth:`terrasph.Simulation.wall_loads`) is sampled too, as
     ``walls/<name>`` (kept in checkpoints: track them again, about the same point, before resuming).
     `recorder` records the robot's series (default :class:`RobotLoads`, the planar robot's; the 3D
-    RFT terrain's is :class:`terrasph.robots.rft3d_terrain.RobotLoads3D`). `end_check`, asked on each
+    RFT terrain's is :class:`RobotLoads3D`). `end_check`, asked on each
     frame (a :class:`BedEnds`, say), ends the run early when it returns (status, reason).
 
     As :meth:`terrasph.Simulation.run` (the same loop, terrasph.run_loop.RunLoop): with an `output`,
@@ -208,14 +214,91 @@ def run_coupled(coupled: RobotStepper | RFT3DCoupling, t_end: float, *, output: 
     # the loop checks them too, under its own names: these are the caller's
     check_run_options({"frame_interval": frame_interval, "series_interval": series_interval}, checkpoint_every,
                       resume, output)
+    coupled = terrain.coupling
     walls = WallLoads(coupled.sim) if isinstance(coupled, CoupledSimulation) else None
     if not resume:  # the first sample's means start now
         coupled.reset_body_means()
         if walls:
             coupled.sim.reset_wall_load_means()
-    loop = RunLoop(ControlledRun(coupled, control, {} if memory is None else memory), output, frame_interval,
+    loop = RunLoop(ControlledRun(terrain, control, {} if memory is None else memory), output, frame_interval,
                    series_interval, [recorder or RobotLoads(coupled), *([walls] if walls and walls.groups else [])],
                    config or coupled.describe(), {**versions(), "mujoco": mujoco.__version__}, checkpoint_every,
                    progress, end_check=end_check)
     with mujoco_warnings():  # MuJoCo's warnings as Python's, not into MUJOCO_LOG.TXT in the working directory
         return loop.run(t_end, resume).series
+
+
+#: a body's centre of mass within this fraction of its rolling radius from its hinge's axis makes it a wheel
+WHEEL_BALANCE = 0.01
+
+
+def wheel_radii(robot: Robot3D) -> dict[int, tuple[int, float]]:
+    """The coupled bodies that are wheels — on one hinge joint of their own, with their centre of mass
+    on its axis (within :data:`WHEEL_BALANCE` of R: a wheel or a leg-wheel, not a leg swinging about
+    its hip) — by their index in ``robot.coupled``: the hinge's joint id and the rolling radius R (m),
+    the largest distance of the body's element centres from the axis."""
+    model, wheels = robot.model, {}
+    for k, body in enumerate(robot.coupled):
+        b = body.body_id
+        joint = int(model.body_jntadr[b])
+        if model.body_jntnum[b] != 1 or model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
+            continue
+        axis = model.jnt_axis[joint] / np.linalg.norm(model.jnt_axis[joint])  # all in the body's frame
+
+        def off_axis(points: np.ndarray) -> np.ndarray:  # uses this iteration's joint and axis; called within it
+            arm = np.atleast_2d(points) - model.jnt_pos[joint]  # noqa: B023
+            return np.linalg.norm(arm - np.outer(arm @ axis, axis), axis=1)  # noqa: B023
+
+        radius = float(off_axis(body.elements.centre).max())
+        if off_axis(model.body_ipos[b])[0] <= WHEEL_BALANCE * radius:
+            wheels[k] = (joint, radius)
+    return wheels
+
+
+class RobotLoads3D:
+    """Recorder of the run loop for :class:`RFT3DCoupling`: per coupled body ``robot/<body>`` (time,
+    position (3) m and quaternion (w, x, y, z) of its frame, velocity (3) m/s of its centre of mass
+    and angular velocity (3) rad/s, world frame; force (3) N and torque (3) N·m about its centre of
+    mass averaged over the sampling interval; lowest_z m, surface m, sinkage m = surface − lowest_z;
+    for a wheel (:func:`wheel_radii`) also spin rad/s, its angular velocity about the hinge's axis a,
+    forward_speed m/s, the velocity of the hinge's anchor along a × ẑ (where a positive spin rolls
+    it), and slip, Eq. 4.8 of the two with the wheel's R (:func:`terrasph.robots.metrics.slip`; NaN
+    while the axis is vertical)) and, for a robot with actuators, ``robot/actuators`` (time, qpos,
+    qvel, ctrl, the robot's centre of mass com (3) m, actuator_force, power W)."""
+
+    def __init__(self, coupled: RFT3DCoupling) -> None:
+        self.coupled = coupled
+        self.wheels = wheel_radii(coupled.robot)
+
+    def rows(self) -> dict[str, dict[str, Any]]:
+        coupled = self.coupled
+        model, data = coupled.robot.model, coupled.robot.data
+        mujoco.mj_forward(model, data)
+        surface = coupled.robot.surface
+        rows: dict[str, dict[str, Any]] = {}
+        for k, body in enumerate(coupled.robot.coupled):
+            b = body.body_id
+            sample = coupled.body_sample(k)
+            twist = np.zeros(6)  # [angular, linear] at the centre of mass, world axes
+            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, b, twist, 0)
+            rows[f"robot/{body.name}"] = row = {
+                "time": coupled.time, "position": data.xpos[b].copy(), "quaternion": data.xquat[b].copy(),
+                "velocity": twist[3:].copy(), "angular_velocity": twist[:3].copy(), "force": sample["force"],
+                "torque": sample["torque"], "lowest_z": sample["lowest_z"], "surface": surface,
+                "sinkage": surface - sample["lowest_z"]}
+            if k in self.wheels:
+                joint, radius = self.wheels[k]
+                axis = data.xaxis[joint]
+                forward = np.cross(axis, [0.0, 0.0, 1.0])
+                size = float(np.linalg.norm(forward))
+                anchor = twist[3:] + np.cross(twist[:3], data.xanchor[joint] - data.xipos[b])
+                speed = float(anchor @ forward) / size if size > 1e-9 else math.nan
+                spin = float(twist[:3] @ axis)
+                row.update({"spin": spin, "forward_speed": speed, "slip": float(slip(speed, spin, radius))})
+        if model.nu:
+            rows["robot/actuators"] = {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(),
+                                       "ctrl": data.ctrl.copy(), "com": data.subtree_com[0].copy(),
+                                       "actuator_force": data.actuator_force.copy(),
+                                       "power": float(np.dot(data.actuator_force, data.actuator_velocity))}
+        coupled.reset_body_means()
+        return rows

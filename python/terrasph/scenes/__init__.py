@@ -4,7 +4,8 @@ Every scene is a configuration dataclass and a ``run(config, *, output, progress
 (and ``resume`` and ``until``); :data:`SCENES` maps the scene's
 command-line name to both, so the command line, ``terrasph resume`` and sweeps find a scene by
 name and rebuild its configuration from a run file, and :func:`run_case` runs any of them.
-The robot scenes are imported on first use (they import the chapter-3 beads from this package).
+The robot scenes (leg_wheel, rover, mjcf_scene: on terrasph.terrain) and plate_drag are imported on
+first use, so importing the registry (and the plain SPH scenes) loads no MuJoCo.
 """
 
 from __future__ import annotations
@@ -100,16 +101,16 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
                "A plate at attack angle beta moved in direction gamma at constant speed through a settled bed of "
                "glass beads; the stress per unit depth alpha_x, alpha_z that calibrates resistive force theory "
                "(docs/rft.md)."),
-    SceneEntry("leg-wheel", "leg_wheel", "terrasph.robots.leg_wheel", "LegWheel", "run_leg_wheel",
+    SceneEntry("leg-wheel", "leg_wheel", "terrasph.scenes.leg_wheel", "LegWheel", "run_leg_wheel",
                "hybrid leg-wheel driven through glass beads (dissertation ch. 4)",
                "One leg-wheel, free in x and z, carrying a load, paused and then driven clockwise by a motor "
                "through a bed of 3 mm glass beads (MuJoCo coupled with the SPH terrain; docs/robots.md)."),
-    SceneEntry("rover", "rover", "terrasph.robots.rover", "Rover", "run_rover",
+    SceneEntry("rover", "rover", "terrasph.scenes.rover", "Rover", "run_rover",
                "planar rover with two driven leg-wheels crossing a bed",
                "The example MJCF rover (terrasph.robots.ROVER), or your own planar MJCF (--model): a chassis and "
                "two leg-wheels on driven hinges, paused and then driven clockwise across a bed of 3 mm glass "
                "beads (docs/robots.md)."),
-    SceneEntry("mjcf", "mjcf", "terrasph.robots.mjcf_scene", "MjcfScene", "run_mjcf",
+    SceneEntry("mjcf", "mjcf", "terrasph.scenes.mjcf_scene", "MjcfScene", "run_mjcf",
                "any planar MJCF model on a bed of glass beads, any MJCF model on the 3D RFT terrain",
                "A planar MuJoCo model (slides in x and z, hinges about y) on a bed of 3 mm glass beads, or any "
                "MuJoCo model (free joints, hinges about any axis) on the 3D resistive-force-theory terrain "

@@ -18,8 +18,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from terrasph import bodies, rft
-from terrasph.config import ConfigError, Material, Numerics, check_settle_time
+from terrasph import bodies
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time, glass_beads
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
@@ -28,9 +28,10 @@ from terrasph.options import option, shared
 from terrasph.scene import Scene, flung_height
 from terrasph.simulation import RunResult, Simulation
 from terrasph.size_guard import Footprint
+from terrasph.terrain import rft
 
 __all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "BeadBed", "LegResult", "LegRotation", "RFTLegSweep",
-           "build_leg_rotation", "glass_beads", "run_leg_rotation"]
+           "build_leg_rotation", "run_leg_rotation"]
 
 #: Leg shapes by name (bodies.py documents each reading of the dissertation's figures).
 LEGS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
@@ -48,14 +49,6 @@ RESOLUTIONS: dict[str, int] = {"coarse": 3, "fine": 4, "finer": 5}
 #: free surface of the heap the leg pushes up, the cavity behind it) dilated below 0.5ρ0 and
 #: stopped 0.2 and 0.8 rad/s sweeps of the flat leg (docs/design_decisions.md).
 SCENE_NUMERICS: dict[str, Any] = {"shepard_interval": 100, "density_floor": 1.0}
-
-
-def glass_beads() -> Material:
-    """3 mm glass beads of chapter 3: ρ_s = 2600 kg/m³ at packing 0.63 (ρ0 = 1638 kg/m³),
-    μ1 = tan 23°, μ2 = tan 33°, κ = 30 000 Pa."""
-    return Material(grain_density=2600.0, reference_density=2600.0 * 0.63, grain_diameter=0.003,
-                    mu1=math.tan(math.radians(23.0)), mu2=math.tan(math.radians(33.0)),
-                    bulk_stiffness=30000.0, packing_fraction=0.63)
 
 
 @dataclass(frozen=True)
@@ -313,7 +306,7 @@ def _finish(result: LegResult, output: str | os.PathLike | None, plot: bool, tit
 
 def _run_rft_leg_rotation(config: LegRotation, output: str | os.PathLike | None, plot: bool, progress: bool,
                           resume: bool, until: float | None) -> LegResult:
-    """The sweep on the RFT terrain (terrasph.rft; :class:`RFTLegSweep`) through the run loop, sampled as
+    """The sweep on the RFT terrain (terrasph.terrain.rft; :class:`RFTLegSweep`) through the run loop, sampled as
     the SPH's; the run file holds the same ``/series/bodies/leg`` (time, angle, force, torque) and
     frames of the leg."""
     from terrasph.run_loop import RunLoop

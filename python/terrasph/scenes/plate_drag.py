@@ -1,7 +1,7 @@
 """Plate drag: Li, Zhang & Goldman's (2013) RFT experiment in the SPH, one (β, γ) per run.
 
 A plate 5 cm long, ``thickness`` thick and 2.54 cm wide, at attack angle β (its tangent (cos β, sin β),
-counter-clockwise from the horizontal, terrasph.rft's convention) is placed in a settled bed of the
+counter-clockwise from the horizontal, terrasph.terrain.rft's convention) is placed in a settled bed of the
 chapter 3 glass beads with its centre ``start_depth`` below the free surface (the grains on it removed,
 as the buried plate of plate-intrusion), held for ``settle_time``, then moved at constant ``speed``
 in the direction γ (velocity ∥ (cos γ, −sin γ): γ = π/2 straight down, −π/2 straight up) by
@@ -9,7 +9,7 @@ in the direction γ (velocity ∥ (cos γ, −sin γ): γ = π/2 straight down, 
 
     α_x = −F_x / (A d),   α_z = F_z / (A d)          (A = plate length × width, d = centre depth),
 
-is RFT's α(β, γ) (terrasph.rft, Li et al. 2013 Eq. 1 with the sign of F_x for v_x ≥ 0); the summary
+is RFT's α(β, γ) (terrasph.terrain.rft, Li et al. 2013 Eq. 1 with the sign of F_x for v_x ≥ 0); the summary
 gives their means over the last ``measure_fraction`` of the travel, where the load has built up.
 A sweep over (β, γ) (benchmarks/studies/sweep_rft_calibration.yaml) gives the map that ``terrasph
 rft-calibrate`` fits. Li et al. pushed a thin plate in from the surface; here the plate starts buried
@@ -44,11 +44,11 @@ __all__ = ["PlateDrag", "PlateDragResult", "build_plate_drag", "run_plate_drag"]
 
 @dataclass(frozen=True)
 class PlateDrag(PlateConfig):
-    """Configuration of a plate drag. Lengths in m, times in s, angles in rad (terrasph.rft's β, γ)."""
+    """Configuration of a plate drag. Lengths in m, times in s, angles in rad (terrasph.terrain.rft's β, γ)."""
 
     SCENE: ClassVar[str] = "plate-drag"
 
-    attack_angle: float = option(0.0, help="attack angle beta of the plate, in [-pi/2, pi/2] (terrasph.rft)",
+    attack_angle: float = option(0.0, help="attack angle beta of the plate, in [-pi/2, pi/2] (terrasph.terrain.rft)",
                                  unit="rad")
     direction: float = option(math.pi / 2, help="direction gamma of its motion, in [-pi/2, pi/2]", unit="rad")
     speed: float = option(0.02, help="plate speed", unit="m/s")

@@ -24,11 +24,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from terrasph.analysis import fit_line
-from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.config import ConfigError, Material, Numerics, glass_beads, parameter
 from terrasph.io import write_results
 from terrasph.options import option
 from terrasph.scene import GRAVITY
-from terrasph.scenes.leg_rotation import glass_beads
 from terrasph.simulation import RunResult
 from terrasph.sph3d import box, geostatic_bed
 from terrasph.sph3d_run import Body3D, Simulation3D

@@ -29,9 +29,9 @@ import numpy as np
 
 from terrasph.schedules import evaluate
 from terrasph.surrogate.dataset import Run, split_runs, write_run
-from terrasph.surrogate.validity import PHASE_FEATURES
+from terrasph.surrogate.validity import PHASE_FEATURES, Validity, training_validity
 
-__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "commanded_phase", "driven_phase_run", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
+__all__ = ["BED_PARAMETERS", "TARGETS", "build_robot_dataset", "commanded_phase", "dataset_validity", "driven_phase_run", "features_of", "is_leg_wheel_run", "leg_wheel_fields",
            "robot_run", "split_by_range", "split_held_out"]
 
 TARGETS = ("slip", "sinkage", "forward_speed")
@@ -57,7 +57,7 @@ def commanded_phase(omega_cmd: np.ndarray, dt: float, legs: int) -> dict[str, np
 
 def _bed_value(config: dict[str, Any], name: str) -> float:
     """A bed parameter of a leg-wheel configuration (its default in runs made before it existed)."""
-    from terrasph.robots.leg_wheel import LegWheel
+    from terrasph.scenes.leg_wheel import LegWheel
 
     return float(config.get(name, LegWheel.__dataclass_fields__[name].default))
 
@@ -127,9 +127,9 @@ def robot_run(path: str | Path, dt: float, wheels: Sequence[str], bed: Sequence[
 def driven_phase_run(name: str, config: dict[str, Any], wheel: dict[str, np.ndarray], dt: float,
                      wheels: Sequence[str], bed: Sequence[str] = (), where: str | Path = "the run") -> Run:
     """The driven phase of a leg-wheel run resampled to `dt` (module docstring): `config` its
-    configuration (a saved one or ``dataclasses.asdict`` of a :class:`terrasph.robots.leg_wheel.LegWheel`),
+    configuration (a saved one or ``dataclasses.asdict`` of a :class:`terrasph.scenes.leg_wheel.LegWheel`),
     `wheel` its ``robot/wheel`` series (at least time, slip, sinkage, velocity; a run file's or
-    :func:`terrasph.robots.leg_wheel.run_leg_wheel`'s), `where` named in the message of a bad `dt`."""
+    :func:`terrasph.scenes.leg_wheel.run_leg_wheel`'s), `where` named in the message of a bad `dt`."""
     settle, duration = float(config["settle_time"]), float(config["t_end"])
     _check_dt(dt, duration - settle, where)
     grid = np.arange(0.0, duration - settle + 1e-9 * dt, dt)
@@ -213,3 +213,9 @@ def split_by_range(runs: Sequence[Run], parameter: str, low: float, high: float,
     splits = split_held_out(runs, {parameter: (low, high)}, seed, fractions)
     splits["extrapolation"] = splits.pop(f"extrapolation: {parameter}")
     return splits
+
+
+def dataset_validity(dataset_dir: str | Path, runs: Sequence[Run], features: Sequence[str]) -> Validity:
+    """:func:`terrasph.surrogate.validity.training_validity` of `runs` of the robot dataset in
+    `dataset_dir` (written by ``terrasph dataset``), their configurations read from its files."""
+    return training_validity(runs, features, [leg_wheel_fields(Path(dataset_dir) / f"{run.name}.h5") for run in runs])

@@ -252,7 +252,7 @@ def train_directory(dataset_dir: str | Path, out: str | Path, config: TrainConfi
     dataset of leg-wheel runs (with its dataset.json) records the training runs' validity range
     (terrasph.surrogate.validity) in the metadata."""
     from terrasph.surrogate.export import export_model
-    from terrasph.surrogate.validity import dataset_validity
+    from terrasph.surrogate.robot_dataset import dataset_validity
 
     runs = load_runs(dataset_dir, body=body)
     result = train(runs, config, progress=progress)

@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,7 +28,7 @@ import numpy as np
 from terrasph.config import ConfigError
 from terrasph.surrogate.dataset import Run, common_time_step
 
-__all__ = ["CONDITION_FIELDS", "MORPHOLOGY_PREFIX", "PHASE_FEATURES", "Validity", "dataset_validity", "run_conditions", "training_validity"]
+__all__ = ["CONDITION_FIELDS", "MORPHOLOGY_PREFIX", "PHASE_FEATURES", "Validity", "run_conditions", "training_validity"]
 
 #: the leg-wheel configuration fields that set a run's physics besides the model's inputs (the load,
 #: the commanded ω(t), the morphology): geometry, resolution, fidelity, the bed, the motor and the pause
@@ -206,11 +205,3 @@ def training_validity(runs: Sequence[Run], features: Sequence[str],
     return Validity(dt=common_time_step(runs), duration=max(c["duration"] for c in each), ranges=ranges,
                     morphologies=tuple(sorted({c["wheel"] for c in each})), fixed=fixed, choices=choices,
                     runs=len(runs))
-
-
-def dataset_validity(dataset_dir: str | Path, runs: Sequence[Run], features: Sequence[str]) -> Validity:
-    """:func:`training_validity` of `runs` of the robot dataset in `dataset_dir` (written by
-    ``terrasph dataset``), their configurations read from its files."""
-    from terrasph.surrogate.robot_dataset import leg_wheel_fields
-
-    return training_validity(runs, features, [leg_wheel_fields(Path(dataset_dir) / f"{run.name}.h5") for run in runs])

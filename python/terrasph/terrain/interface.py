@@ -8,19 +8,19 @@ model's ``opt.timestep``, with the terrain's loads on the coupled bodies. What t
 ``data`` as usual. The terrains are the package's steppers, each behind the same methods
 (:class:`Terrain`: what they share; :class:`RFTTerrain`, :class:`SPHTerrain`: what each says):
 
-* ``"rft3d"``: 3D resistive force theory (:class:`terrasph.robots.rft3d_terrain.RFT3DCoupling`), any
+* ``"rft3d"``: 3D resistive force theory (:class:`terrasph.terrain.rft3d_coupling.RFT3DCoupling`), any
   model (free joints, hinges about any axis);
-* ``"rft"``: planar resistive force theory (:class:`terrasph.robots.rft_terrain.RFTCoupling`), a
+* ``"rft"``: planar resistive force theory (:class:`terrasph.terrain.rft_coupling.RFTCoupling`), a
   model moving in the x–z plane (slides along x and z, hinges about y);
 * ``"sph"``: a planar model on an SPH bed of glass beads
-  (:class:`terrasph.robots.coupling.CoupledSimulation`, built by
-  :func:`terrasph.robots.mjcf_scene.sph_coupling`), the model shifted into the bed's frame;
+  (:class:`terrasph.terrain.sph_coupling.CoupledSimulation`, built by
+  :func:`terrasph.terrain.sph_coupling.planar_sph_bed`), the model shifted into the bed's frame;
 * ``"sph3d"``: any model on a 3D SPH bed of glass beads
   (:class:`terrasph.terrain.sph3d_coupling.Coupled3D`), the bed laid in the model's frame.
 
 The RFT terrains are implicit in the load (docs/rft.md): the stepper takes MuJoCo's step itself,
 the load entering as ``xfrc_applied`` on the coupled bodies, and steps at most the terrain's
-measured step (``time_step``, default :data:`~terrasph.robots.rft_terrain.RFT_TIME_STEP` planar,
+measured step (``time_step``, default :data:`~terrasph.terrain.rft_coupling.RFT_TIME_STEP` planar,
 :data:`RFT3D_SUBSTEP` 3D): the model's step is cut into equal
 substeps no longer than that, all taken in one call of the compiled stepper. The SPH coupling is
 explicit at the SPH's step bound (both SPH terrains). ``opt.timestep`` is the model's own again when
@@ -31,9 +31,14 @@ gentle open-loop gait closer to the travel at half the step than RK4 substeps di
 (benchmarks/results/sand_substeps.json, docs/terrain.md). The terrain owns the coupled bodies'
 ``xfrc_applied`` (the 3D stepper every body's): a perturbation there is not applied.
 
+Every terrain is built by :func:`couple` from a robot whose coupled bodies are chosen: :func:`attach`
+prepares the user's model and calls it, and terrasph's own robot scenes call it with their robots'
+shapes; their runs step the same :class:`Terrain` (:meth:`Terrain.advance`,
+:func:`terrasph.robots.run.run_coupled`).
+
 The floor: the model's horizontal planes (and the world's collision geoms whose top is at their
 height) have their contacts switched off, one log line says so, and the sand's free surface lies
-at the floor's height (terrasph.robots.terrain_robot). Coupled bodies: every body with a collision
+at the floor's height (terrasph.mjcf.terrain_robot). Coupled bodies: every body with a collision
 geom, or those named (``bodies``), or those lower than ``couple_below`` above the floor now. A body
 not coupled passes through the sand.
 """
@@ -42,38 +47,38 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from terrasph import rft
-from terrasph.config import ConfigError
-from terrasph.fidelity import DEFAULT_TIER
-from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.geoms import body_shape
-from terrasph.robots.mjcf import Coupling, PlanarRobot, body_name, check_planar
-from terrasph.robots.mjcf_scene import sph_coupling
-from terrasph.robots.rft3d_terrain import RFT3DCoupling, Robot3D, bodies_3d
-from terrasph.robots.rft_terrain import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
-from terrasph.robots.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
+from terrasph.config import ConfigError, glass_beads
+from terrasph.fidelity import DEFAULT_TIER, scene_numerics
+from terrasph.mjcf.geoms import body_shape
+from terrasph.mjcf.model import Coupling, PlanarRobot, body_name, check_body_masses, check_planar
+from terrasph.mjcf.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
+from terrasph.simulation import Simulation
+from terrasph.terrain import rft
+from terrasph.terrain.rft3d_coupling import RFT3DCoupling, Robot3D, bodies_3d
+from terrasph.terrain.rft_coupling import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
 from terrasph.terrain.sph3d_coupling import Coupled3D, CoupledBody3D, bed_under, body_shape_3d
+from terrasph.terrain.sph_coupling import BED_NUMERICS, KICK_HEIGHT, CoupledSimulation, planar_sph_bed
 
-__all__ = ["INTEGRATORS", "PLANAR_SPACING", "RFT3D_SUBSTEP", "SPH3D_BED", "SPH_BED", "TERRAINS", "RFTTerrain", "SPH3DTerrain",
-           "SPHTerrain", "Terrain", "attach"]
+__all__ = ["INTEGRATORS", "PLANAR_SPACING", "RFT3D_SUBSTEP", "SPH3D_BED", "SPH_BED", "TERRAINS", "RFTTerrain",
+           "SPH3DTerrain", "SPHTerrain", "Terrain", "attach", "couple"]
 
 #: the terrains :func:`attach` offers
 TERRAINS = ("rft3d", "rft", "sph", "sph3d")
 
 #: the particle spacing (m) of a planar body's shape (its drawing and lowest point; the RFT elements
-#: follow the geoms' outline, :class:`terrasph.rft.SurfaceElements`), the scenes' Δx
+#: follow the geoms' outline, :class:`terrasph.terrain.rft.SurfaceElements`), the scenes' Δx
 PLANAR_SPACING = 0.005
 
 #: the 3D RFT terrain's longest substep (s) here: gymnasium's Ant-v5 at 5 ms came within the seed scatter of
 #: a 0.25 ms reference in travel and within 9 % in its feet's deepest sinkage, standing 0.1 mm off its sinkage,
 #: at 0.55× the rigid environment's steps per second (1 ms: 0.18×); benchmarks/results/sand_substeps.json and
-#: gym_sand_speed.json, docs/terrain.md. The run loop's scenes keep RFT3D_TIME_STEP (the rover's travel, docs/rft.md)
+#: gym_sand_speed.json, docs/terrain.md. The run loop's scenes keep rft3d_coupling.RFT3D_TIME_STEP (the rover's travel, docs/rft.md)
 RFT3D_SUBSTEP = 5e-3
 
 #: the options of each terrain beyond `table` and `bodies` (:func:`attach`)
@@ -145,7 +150,7 @@ class Terrain:
         ``mj_rnePostConstraint`` reports in ``cfrc_ext`` and a viewer draws; the next step replaces it."""
         if isinstance(nstep, bool) or not isinstance(nstep, (int, np.integer)) or nstep < 1:
             raise ConfigError(f"parameter 'nstep' = {nstep!r} is invalid: allowed an integer >= 1")
-        self._stepper.reset_body_means()
+        self.coupling.reset_body_means()
         own_integrator = self.model.opt.integrator
         if self._integrator is not None:
             self.model.opt.integrator = self._integrator
@@ -213,8 +218,18 @@ class Terrain:
             loads[body.name] = np.array([fx, 0.0, fz, 0.0, torque + offset[2] * fx - offset[0] * fz, 0.0])
         return loads
 
+    # -- what a run of terrasph's own asks of it (terrasph.robots.run.run_coupled) -----------------
+    def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
+        """Steps the coupling at its own step until `t_end` (s) is reached or passed, at most
+        `max_steps` steps; returns the number taken. `control`, if given, is called with the coupling
+        before each step or each control interval (the coupling's ``advance`` says which); the loads
+        of :meth:`loads` and ``xfrc_applied`` are the coupling's, not replaced here (a run records
+        them itself)."""
+        return int(self.coupling.advance(t_end, max_steps, control))
+
     # -- what each terrain says ------------------------------------------------------------------
-    _stepper: Any
+    #: the coupling beneath: the stepper that advances the model and the sand (its type is the terrain's)
+    coupling: Any
 
     def _advance(self, nstep: int) -> None:
         raise NotImplementedError
@@ -242,38 +257,39 @@ class RFTTerrain(Terrain):
     """The planar or 3D RFT terrain (:class:`NativeRFTStepper`): `substeps` steps of the compiled
     stepper per model step, all of a call's in one call into it."""
 
-    def __init__(self, kind: str, model: mujoco.MjModel, data: mujoco.MjData, stepper: NativeRFTStepper,
-                 surface: float, substeps: int, model_step: float, integrator: int | None) -> None:
-        self._stepper = stepper
+    def __init__(self, kind: str, coupling: NativeRFTStepper, surface: float, substeps: int, model_step: float,
+                 integrator: int | None) -> None:
+        self.coupling = coupling
         self._substeps = substeps
-        super().__init__(kind, model, data, stepper.robot.coupled, surface, model_step, integrator)
+        super().__init__(kind, coupling.robot.model, coupling.robot.data, coupling.robot.coupled, surface, model_step,
+                         integrator)
 
     @property
     def time_step(self) -> float:
         """The terrain's step (s): the model's ``opt.timestep`` cut into equal substeps."""
-        return self._stepper.time_step()
+        return self.coupling.time_step()
 
     def _advance(self, nstep: int) -> None:
-        self._stepper.steps(nstep * self._substeps)
+        self.coupling.steps(nstep * self._substeps)
 
     def _mean_loads(self) -> dict[str, np.ndarray]:
-        means = self._stepper.load_means()
+        means = self.coupling.load_means()
         if self.kind == "rft3d":
             return {name: row.copy() for name, row in zip(self._names, means)}
         return self._planar_loads(means)
 
     def _lowest(self, k: int) -> float:
-        return self._stepper.lowest_z(k)
+        return self.coupling.lowest_z(k)
 
     def _memory(self) -> dict[str, Any]:
-        return {"stepper": self._stepper.state(), "step_count": self._stepper.step_count}
+        return {"stepper": self.coupling.state(), "step_count": self.coupling.step_count}
 
     def _put_memory(self, memory: dict[str, Any]) -> None:
-        self._stepper.restore_state(memory["stepper"])
-        self._stepper.step_count = int(memory["step_count"])
+        self.coupling.restore_state(memory["stepper"])
+        self.coupling.step_count = int(memory["step_count"])
 
     def _restart(self) -> None:
-        self._stepper.restart()
+        self.coupling.restart()
 
 
 class _SPHBedTerrain(Terrain):
@@ -282,73 +298,78 @@ class _SPHBedTerrain(Terrain):
     that end past it do not add up); the undisturbed bed is the one built by :func:`attach`; the
     memory is the SPH's whole state with the coupling's own."""
 
-    def __init__(self, kind: str, model: mujoco.MjModel, data: mujoco.MjData, stepper: Any, core: Any,
+    def __init__(self, kind: str, model: mujoco.MjModel, data: mujoco.MjData, coupling: Any, core: Any,
                  coupled: Sequence[Any], surface: float, model_step: float, integrator: int | None) -> None:
-        self._stepper, self._core = stepper, core
-        self._target = stepper.time
+        self.coupling, self._core = coupling, core
+        self._target = coupling.time
         self._bed = copy.deepcopy(core.state())
         super().__init__(kind, model, data, coupled, surface, model_step, integrator)
 
     @property
     def time_step(self) -> float:
         """The SPH's step (s) now: its stable bound."""
-        return float(self._stepper.time_step())
+        return float(self.coupling.time_step())
 
     @property
     def leaked_grains(self) -> int:
         """Grains that have been inside a wall or body at any step (the leak counter)."""
         return int(self._core.penetrated_particles)
 
+    def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
+        """As :meth:`Terrain.advance`; the model's time :meth:`step` counts from is then `t_end`
+        (or as far as the steps got)."""
+        taken = super().advance(t_end, max_steps, control)
+        self._target = max(self._target, min(float(t_end), self.coupling.time))
+        return taken
+
     def _advance(self, nstep: int) -> None:
         self._target += nstep * self._model_step
-        self._stepper.advance(self._target)
+        self.coupling.advance(self._target)
 
     def _memory(self) -> dict[str, Any]:
-        return {"sph": self._core.state(), "coupling": self._stepper.state(), "target": self._target}
+        return {"sph": self._core.state(), "coupling": self.coupling.state(), "target": self._target}
 
     def _put_memory(self, memory: dict[str, Any]) -> None:
         self._core.restore(memory["sph"])
-        self._stepper.restore_state(memory["coupling"])
+        self.coupling.restore_state(memory["coupling"])
         self._target = float(memory["target"])
 
     def _restart(self) -> None:
         self._core.restore(copy.deepcopy(self._bed))
-        self._stepper.restart()
-        self._target = self._stepper.time
+        self.coupling.restart()
+        self._target = self.coupling.time
 
 
 class SPHTerrain(_SPHBedTerrain):
-    """A planar model on the SPH bed (:class:`terrasph.robots.coupling.CoupledSimulation`)."""
+    """A planar model on the SPH bed (:class:`terrasph.terrain.sph_coupling.CoupledSimulation`)."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: CoupledSimulation,
-                 model_step: float, integrator: int | None) -> None:
-        super().__init__("sph", model, data, coupled, coupled.sim.core, coupled.robot.coupled, coupled.surface(),
-                         model_step, integrator)
+    def __init__(self, coupled: CoupledSimulation, model_step: float, integrator: int | None) -> None:
+        super().__init__("sph", coupled.robot.model, coupled.robot.data, coupled, coupled.sim.core, coupled.robot.coupled,
+                         coupled.surface(), model_step, integrator)
 
     def _mean_loads(self) -> dict[str, np.ndarray]:
-        samples = [self._stepper.body_sample(name) for name in self._names]
+        samples = [self.coupling.body_sample(name) for name in self._names]
         return self._planar_loads(np.array([(s["force"][0], s["force"][1], s["torque"]) for s in samples]))
 
     def _lowest(self, k: int) -> float:
-        return float(self._stepper.body_sample(self._names[k])["lowest_z"])
+        return float(self.coupling.body_sample(self._names[k])["lowest_z"])
 
     def _surface_now(self) -> float:
-        return self._stepper.surface()
+        return self.coupling.surface()
 
 
 class SPH3DTerrain(_SPHBedTerrain):
     """A 3D model on a 3D SPH bed (:class:`terrasph.terrain.sph3d_coupling.Coupled3D`)."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: Coupled3D, model_step: float,
-                 integrator: int | None) -> None:
-        super().__init__("sph3d", model, data, coupled, coupled.core, coupled.coupled, coupled.surface, model_step,
-                         integrator)
+    def __init__(self, coupled: Coupled3D, model_step: float, integrator: int | None) -> None:
+        super().__init__("sph3d", coupled.model, coupled.data, coupled, coupled.core, coupled.coupled, coupled.surface,
+                         model_step, integrator)
 
     def _mean_loads(self) -> dict[str, np.ndarray]:
-        return {name: self._stepper.mean_load(k) for k, name in enumerate(self._names)}
+        return {name: self.coupling.mean_load(k) for k, name in enumerate(self._names)}
 
     def _lowest(self, k: int) -> float:
-        return self._stepper.lowest_z(k)
+        return self.coupling.lowest_z(k)
 
     def _put_memory(self, memory: dict[str, Any]) -> None:
         super()._put_memory(memory)
@@ -358,11 +379,6 @@ class SPH3DTerrain(_SPHBedTerrain):
 def _sph3d_terrain(model: mujoco.MjModel, data: mujoco.MjData, bodies: Sequence[str], couple_below: float | None,
                    options: dict[str, Any], model_step: float, integrator: int | None) -> SPH3DTerrain:
     """The 3D SPH terrain of :func:`attach` (its options checked before the model's floor is switched off)."""
-    from terrasph.fidelity import scene_numerics
-    from terrasph.robots.leg_wheel import BED_NUMERICS
-    from terrasph.robots.mjcf_scene import KICK_HEIGHT
-    from terrasph.scenes.leg_rotation import glass_beads  # the scene registry imports the robots' modules
-
     settings = {**SPH3D_BED, **{k: v for k, v in options.items() if k not in ("integrator", "couple_below")}}
     for name in ("spacing", "bed_depth"):
         _check_number(name, settings[name], positive=True)
@@ -378,16 +394,9 @@ def _sph3d_terrain(model: mujoco.MjModel, data: mujoco.MjData, bodies: Sequence[
                               dict(settings["numerics"] or {}))
     floor, level = floor_geoms(model, data)
     chosen = coupled_body_ids(model, data, level, tuple(bodies), couple_below)
-    if 0 in chosen:
-        raise ConfigError("coupled body 'world' cannot move; couple a body of the robot")
-    coupled = []
-    for body in chosen:
-        name = body_name(model, body)
-        if not model.body_mass[body] > 0:
-            raise ConfigError(f"coupled body '{name}' has no mass in the MJCF model; give it geoms with mass or an "
-                              "<inertial>")
-        coupled.append(CoupledBody3D(name, body, body_shape_3d(model, body, name, numerics.spacing,
-                                                                numerics.h_factor)))
+    check_body_masses(model, chosen)
+    coupled = [CoupledBody3D(name, body, body_shape_3d(model, body, name, numerics.spacing, numerics.h_factor))
+               for body, name in ((b, body_name(model, b)) for b in chosen)]
     points = np.concatenate([b.shape.position @ data.xmat[b.body_id].reshape(3, 3).T + data.xpos[b.body_id]
                              for b in coupled])
     material = glass_beads()
@@ -398,7 +407,7 @@ def _sph3d_terrain(model: mujoco.MjModel, data: mujoco.MjData, bodies: Sequence[
     switch_off_floor(model, floor)
     model.opt.timestep = model_step
     mujoco.mj_forward(model, data)
-    return SPH3DTerrain(model, data, stepper, model_step, integrator)
+    return SPH3DTerrain(stepper, model_step, integrator)
 
 
 def _check_number(name: str, value: Any, positive: bool) -> None:
@@ -412,7 +421,7 @@ def _check_number(name: str, value: Any, positive: bool) -> None:
 def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", table: rft.RFTCoefficients | str = "generic",
            bodies: Sequence[str] | None = None, **options: Any) -> Terrain:
     """Puts the compiled `model` and its `data` on `terrain` (one of :data:`TERRAINS`) with the RFT
-    coefficient map `table` (a name of :func:`terrasph.rft.coefficient_table` or a map) and returns
+    coefficient map `table` (a name of :func:`terrasph.terrain.rft.coefficient_table` or a map) and returns
     the :class:`Terrain` that steps them (module docstring). `bodies`: the names of the bodies that
     meet the sand (default: every body with a collision geom). Options (each terrain's list:
     ``couple_below`` (m): couple only the bodies lower than this above the floor now; ``time_step``
@@ -456,39 +465,69 @@ def attach(model: mujoco.MjModel, data: mujoco.MjData, terrain: str = "rft3d", t
     mujoco.mj_forward(model, data)
     if terrain == "sph":
         _check_planar(model, data, "sph")
-        coupled_sph = sph_coupling(model, data=data, bodies=tuple(bodies or ()), couple_below=couple_below,
-                                   **{**SPH_BED, **{k: v for k, v in options.items() if k != "integrator"}})
+        planar, simulation = planar_sph_bed(model, data=data, bodies=tuple(bodies or ()), couple_below=couple_below,
+                                            **{**SPH_BED, **{k: v for k, v in options.items() if k != "integrator"}})
+        sand = couple(planar, "sph", simulation=simulation, model_step=model_step, integrator=INTEGRATORS[integrator])
         model.opt.timestep = model_step
         mujoco.mj_forward(model, data)
-        return SPHTerrain(model, data, coupled_sph, model_step, INTEGRATORS[integrator])
+        return sand
     if terrain == "sph3d":
         return _sph3d_terrain(model, data, tuple(bodies or ()), couple_below, options, model_step,
                               INTEGRATORS[integrator])
     floor, level = floor_geoms(model, data)
     chosen = coupled_body_ids(model, data, level, tuple(bodies or ()), couple_below)
-    if 0 in chosen:
-        raise ConfigError("coupled body 'world' cannot move; couple a body of the robot")
-    element_length = options.get("element_length")
+    check_body_masses(model, chosen)
+    steps: dict[str, Any] = {"time_step": model_step / substeps, "control_interval": model_step}
     if terrain == "rft3d":
-        coupled = bodies_3d(model, chosen, element_length)
+        coupled = bodies_3d(model, chosen, options.get("element_length"))
         switch_off_floor(model, floor)
-        stepper: NativeRFTStepper = RFT3DCoupling(Robot3D(model, data, coupled, level), table,
-                                                 time_step=model_step / substeps, control_interval=model_step)
+        sand = couple(Robot3D(model, data, coupled, level), "rft3d", table, substeps=substeps, model_step=model_step,
+                      integrator=INTEGRATORS[integrator], **steps)
     else:
         _check_planar(model, data, "rft")
         spacing = options.get("spacing", PLANAR_SPACING)
-        couplings = {_body_name(model, b): Coupling(body_shape(model, b, spacing)) for b in chosen}
-        robot = PlanarRobot(model, couplings, gravity=gravity, data=data)
-        stepper = RFTCoupling(robot, level, table, time_step=model_step / substeps, element_length=element_length,
-                              control_interval=model_step)
+        couplings = {body_name(model, b): Coupling(body_shape(model, b, spacing)) for b in chosen}
+        sand = couple(PlanarRobot(model, couplings, gravity=gravity, data=data), "rft", table, surface=level,
+                      substeps=substeps, model_step=model_step, integrator=INTEGRATORS[integrator],
+                      element_length=options.get("element_length"), **steps)
         switch_off_floor(model, floor)
     model.opt.timestep = model_step
     mujoco.mj_forward(model, data)
-    return RFTTerrain(terrain, model, data, stepper, level, substeps, model_step, INTEGRATORS[integrator])
+    return sand
 
 
-def _body_name(model: mujoco.MjModel, body: int) -> str:
-    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
+def couple(robot: PlanarRobot | Robot3D, terrain: str, table: rft.RFTCoefficients | str = "generic", *,
+           surface: float | None = None, simulation: Simulation | None = None, substeps: int = 1,
+           model_step: float | None = None, integrator: int | None = None, **coupling_options: Any) -> Terrain:
+    """The one construction of a terrain for a robot whose coupled bodies are chosen: :func:`attach`'s,
+    once it has prepared the user's model, and terrasph's own scenes', whose bodies carry shapes of
+    their own. Builds the coupling of `terrain` on `robot` and returns the :class:`Terrain` over it:
+
+    * ``"rft"``: a :class:`~terrasph.mjcf.model.PlanarRobot` on planar RFT (:class:`RFTCoupling`)
+      with the map `table` and its free surface at z = `surface` (m);
+    * ``"rft3d"``: a :class:`~terrasph.terrain.rft3d_coupling.Robot3D` on 3D RFT
+      (:class:`RFT3DCoupling`), its surface the robot's;
+    * ``"sph"``: a PlanarRobot already added to the scene of `simulation` (a
+      :class:`terrasph.Simulation`), coupled with it (:class:`CoupledSimulation`).
+
+    `coupling_options` go to the RFT coupling (``time_step``, ``control_interval``, planar
+    ``element_length``; their defaults are the coupling's). :meth:`Terrain.step` then advances
+    `model_step` (s; default `substeps` of the RFT coupling's steps, the model's ``opt.timestep`` on
+    the SPH) per model step, in `substeps` RFT steps, with MuJoCo's `integrator` (None: the model's);
+    :meth:`Terrain.advance` steps the coupling at its own step, as a run does."""
+    if terrain == "rft":
+        planar = RFTCoupling(robot, surface, table, **coupling_options)  # type: ignore[arg-type]
+        step = planar.time_step() * substeps if model_step is None else model_step
+        return RFTTerrain("rft", planar, planar.surface_level, substeps, step, integrator)
+    if terrain == "rft3d":
+        spatial = RFT3DCoupling(robot, table, **coupling_options)  # type: ignore[arg-type]
+        step = spatial.time_step() * substeps if model_step is None else model_step
+        return RFTTerrain("rft3d", spatial, spatial.robot.surface, substeps, step, integrator)
+    if terrain == "sph" and isinstance(simulation, Simulation):
+        step = float(robot.model.opt.timestep) if model_step is None else model_step
+        return SPHTerrain(CoupledSimulation(robot, simulation), step, integrator)  # type: ignore[arg-type]
+    raise ConfigError(f"parameter 'terrain' = {terrain!r} is invalid for couple(): allowed 'rft', 'rft3d' or 'sph' "
+                      "with its simulation")
 
 
 def _downward_gravity(model: mujoco.MjModel) -> float:

@@ -3,13 +3,13 @@
 Each coupled body's collision geoms (sphere, capsule, cylinder, ellipsoid, box) are filled with particles
 (:mod:`terrasph.sph3d`'s shells) in the body's frame and made one driven body of a
 :func:`terrasph.sph3d.geostatic_bed` of glass beads whose free surface lies at the model's floor.
-The coupled step is the planar coupling's (:mod:`terrasph.robots.coupling`), in 3D:
+The coupled step is the planar coupling's (:mod:`terrasph.terrain.sph_coupling`), in 3D:
 
 1. dt is the SPH step bound at t_n (``numerics.fixed_dt`` if set): both sides take the same dt.
 2. Each coupled body's wrench from the grains at t_n (the rate evaluation that ended the previous
    SPH step; force and torque about the body's frame origin) is moved to its centre of mass,
    τ_com = τ_ref + (x_ref − x_com) × F, and put in MuJoCo's ``xfrc_applied`` (world axes).
-3. MuJoCo takes a step of dt (:func:`terrasph.robots.coupling.mujoco_step`, its velocity servos
+3. MuJoCo takes a step of dt (:func:`terrasph.terrain.sph_coupling.mujoco_step`, its velocity servos
    handled as there).
 4. Each body's frame pose (``xpos``, ``xquat``), its velocity and angular velocity at the frame
    origin (``mj_objectVelocity`` of the body frame, mjOBJ_XBODY; mjOBJ_BODY is the centre of mass's) at t_{n+1} and their change over the step / dt are
@@ -22,7 +22,7 @@ The scheme is explicit (the load lags the body by one step) and deterministic.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -32,14 +32,7 @@ import numpy as np
 from terrasph import InstabilityError
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
-from terrasph.robots.coupling import (
-    check_mass_ratio,
-    divergence_error,
-    divergences,
-    mujoco_step,
-    velocity_servos,
-)
-from terrasph.robots.geoms import is_collision_geom
+from terrasph.mjcf.geoms import is_collision_geom
 from terrasph.sph3d import (
     Bed3D,
     BodyShape3D,
@@ -50,6 +43,14 @@ from terrasph.sph3d import (
     ellipsoid,
     geostatic_bed,
     sphere,
+)
+from terrasph.terrain.sph_coupling import (
+    check_mass_ratio,
+    divergence_error,
+    divergences,
+    mujoco_step,
+    step_until,
+    velocity_servos,
 )
 
 __all__ = ["Coupled3D", "CoupledBody3D", "bed_under", "body_shape_3d"]
@@ -124,7 +125,7 @@ class CoupledBody3D:
 
 
 class _Robot:
-    """The model and data a MuJoCo step of :func:`terrasph.robots.coupling.mujoco_step` moves."""
+    """The model and data a MuJoCo step of :func:`terrasph.terrain.sph_coupling.mujoco_step` moves."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.model, self.data = model, data
@@ -224,13 +225,10 @@ class Coupled3D:
         self.check_sides()
         return dt
 
-    def advance(self, t_end: float) -> int:
-        """Steps until `t_end` (s) is reached or passed; returns the number taken."""
-        taken = 0
-        while self.time < t_end * (1 - 1e-14):
-            self.step()
-            taken += 1
-        return taken
+    def advance(self, t_end: float, max_steps: int = 2**62, control: Callable[[Any], None] | None = None) -> int:
+        """Steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the number taken.
+        `control`, if given, is called with the coupling before each step."""
+        return step_until(self, t_end, max_steps, control)
 
     def check_sides(self) -> None:
         """:class:`terrasph.InstabilityError` naming the first coupled body with a particle within

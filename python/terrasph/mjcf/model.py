@@ -15,7 +15,7 @@ import math
 import os
 import pathlib
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 import mujoco
@@ -25,7 +25,8 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.scene import Scene
 
-__all__ = ["ROVER", "CoupledBody", "Coupling", "Inertial", "MujocoWarning", "PlanarRobot", "body_name", "check_planar",
+__all__ = ["CoupledBody", "Coupling", "Inertial", "MujocoWarning", "PlanarRobot", "body_name", "check_body_masses",
+           "check_planar",
            "load_model", "mujoco_warnings", "shape_inertial"]
 
 
@@ -51,9 +52,6 @@ def mujoco_warnings() -> Iterator[None]:
         yield
     finally:
         mujoco.set_mju_user_warning(previous)
-
-#: the example planar rover shipped with the package (a chassis and two driven wheels; see the file)
-ROVER = pathlib.Path(__file__).with_name("models") / "rover.xml"
 
 #: tolerance of the planar checks on unit axes and rotation matrices
 _PLANAR_TOLERANCE = 1e-9
@@ -173,6 +171,17 @@ def coupled_body_id(model: mujoco.MjModel, name: str) -> int:
     return body_id
 
 
+def check_body_masses(model: mujoco.MjModel, bodies: Sequence[int]) -> None:
+    """ConfigError naming the first of the coupled `bodies` (ids) that cannot carry the terrain's
+    load: the world body, which does not move, or a body without mass in the model."""
+    for body in bodies:
+        if body == 0:
+            raise ConfigError("coupled body 'world' cannot move; couple a body of the robot")
+        if not model.body_mass[body] > 0:
+            raise ConfigError(f"coupled body '{body_name(model, body)}' has no mass in the MJCF model; give it geoms "
+                              "with mass or an <inertial> (terrasph.mjcf.model.shape_inertial gives a shape's)")
+
+
 def check_planar(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     """Every body turned about y only, every joint a slide in the x–z plane or a hinge about ±y, at
     the pose of `data`; ConfigError naming the first body or joint that is not."""
@@ -243,8 +252,7 @@ class PlanarRobot:
 
     def _pair(self, name: str, value: BodyShape | Coupling | None) -> CoupledBody:
         body_id = coupled_body_id(self.model, name)
-        if body_id == 0:
-            raise ConfigError("coupled body 'world' cannot move; couple a body of the robot")
+        check_body_masses(self.model, [body_id])
         if isinstance(value, BodyShape):
             value = Coupling(value)
         if not isinstance(value, Coupling) or not isinstance(value.shape, BodyShape):
@@ -253,9 +261,6 @@ class PlanarRobot:
         width = value.shape.width if value.width is None else value.width
         if not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
             raise ConfigError(f"parameter 'width' of coupled body '{name}' = {width!r} is invalid: allowed > 0 (m)")
-        if not self.model.body_mass[body_id] > 0:
-            raise ConfigError(f"coupled body '{name}' has no mass in the MJCF model; give it geoms with mass "
-                              "or an <inertial> (see terrasph.robots.shape_inertial)")
         return CoupledBody(name, body_id, value.shape, float(width))
 
     # -- kinematics of a body, in terrasph's terms ----------------------------------------

@@ -7,7 +7,7 @@ the terrain chosen and given their geoms' shapes, the model placed on the bed's 
   and the bed's free surface takes the floor's place.
 * **Coupled bodies.** By default every body with a collision geom whose lowest point at the start
   pose lies less than ``couple_below`` above the floor; or the bodies named. Each becomes a terrain
-  body whose shape is its collision geoms (:func:`terrasph.robots.geoms.body_shape`). Bodies not
+  body whose shape is its collision geoms (:func:`terrasph.mjcf.geoms.body_shape`). Bodies not
   coupled do not feel the grains (nor, the floor being off, the ground): give every part that may
   touch the bed a place among the coupled bodies.
 * **Placement.** Every child of the world body is shifted so the floor's height becomes the bed's
@@ -25,8 +25,8 @@ import mujoco
 import numpy as np
 
 from terrasph.config import ConfigError
-from terrasph.robots.geoms import body_shape, geom_support, is_collision_geom
-from terrasph.robots.mjcf import Coupling, PlanarRobot, body_name, coupled_body_id, load_model
+from terrasph.mjcf.geoms import body_shape, geom_support, is_collision_geom
+from terrasph.mjcf.model import Coupling, PlanarRobot, body_name, coupled_body_id, load_model
 
 __all__ = ["COUPLE_BELOW", "FLOOR_TOLERANCE", "check_couple_below", "coupled_body_ids", "floor_geoms",
            "lowest_points", "switch_off_floor", "terrain_model", "terrain_robot", "world_support"]
@@ -98,7 +98,7 @@ def terrain_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequ
     `data`, the caller's of the compiled model given, at its pose), the floor's height (m) and the
     ids of the bodies that meet the terrain (:func:`coupled_body_ids`; `couple_below` None: every
     body with a collision geom). Both terrains of the scenes start here: the SPH's
-    :func:`terrain_robot` and the 3D RFT's (:func:`terrasph.robots.rft3d_terrain.rft_robot`)."""
+    :func:`terrain_robot` and the 3D RFT's (:func:`terrasph.terrain.rft3d_coupling.rft_robot`)."""
     if couple_below is not None:
         check_couple_below(couple_below)
     model = load_model(mjcf)

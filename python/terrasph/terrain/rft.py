@@ -210,7 +210,7 @@ class RFTCoefficients:
 def _alpha_hat(table: RFTCoefficients, cos2b: np.ndarray, sin2b: np.ndarray, cosg: np.ndarray,
                sing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """α̂_x and α̂_z of `table` from the trigonometric values of 2β and γ (for the 3D law,
-    terrasph.rft3d; the loads of the planar law: cpp/src/rft.cpp)."""
+    terrasph.terrain.rft3d; the loads of the planar law: cpp/src/rft.cpp)."""
     beta, gamma = 0.5 * np.arctan2(sin2b, cos2b), np.arctan2(sing, cosg)
     basis_x, basis_z = fourier_basis(beta, gamma, table.names)
     return basis_x @ table.vector, basis_z @ table.vector
@@ -509,7 +509,7 @@ class SurfaceElements:
 #: Speed (m/s) below which a leading face's load fades linearly to zero with its normal speed n·v: the
 #: one regularisation of the rate-independent map, so that the load is continuous in the velocity
 #: (a face turning from leading to trailing, a body coming to rest) and a robot's step can treat it
-#: implicitly (terrasph.robots.rft_terrain). 0.1 mm/s is far below the speeds of the scenes (cm/s); a body
+#: implicitly (terrasph.terrain.rft_coupling). 0.1 mm/s is far below the speeds of the scenes (cm/s); a body
 #: resting on the sand creeps at most this fast.
 REGULARISATION_SPEED = 1e-4
 
@@ -535,7 +535,7 @@ def body_load(elements: SurfaceElements, angle: float, origin: tuple[float, floa
     takes σ ℓ w with σ of the module docstring, times min(1, n·v / `regularisation`) for n·v > 0 (0
     for a trailing face; `regularisation` = 0: the bare map); each pocket adds the weight of the grains
     it carries (the module docstring; ``table.density`` 0: none). The torque is Σ (r × F)_y = r_z F_x −
-    r_x F_z (terrasph.robots.mjcf's convention). With `jacobian`, also the load's derivative in the
+    r_x F_z (terrasph.mjcf.model's convention). With `jacobian`, also the load's derivative in the
     body's velocity: through γ (∂γ/∂v = s (v_z, −v_x)/|v|², γ = atan2(−v_z, s v_x)) and through the
     regularisation (∂/∂v (n·v/v_ε) = n/v_ε).
     """

@@ -1,6 +1,6 @@
-"""Resistive force theory in 3D, built from the planar maps of :mod:`terrasph.rft`.
+"""Resistive force theory in 3D, built from the planar maps of :mod:`terrasph.terrain.rft`.
 
-Li et al.'s map α(β, γ) (terrasph.rft) gives the stress on a plate whose normal and velocity lie in
+Li et al.'s map α(β, γ) (terrasph.terrain.rft) gives the stress on a plate whose normal and velocity lie in
 one vertical plane. A 3D body's surface element generally has neither in the x–z plane. Following
 the idea of Treers, Cao & Stuart (2021, IEEE RA-L 6:1887, "Granular resistive force theory
 implementation for three-dimensional trajectories") — reduce each element's motion to a vertical
@@ -17,7 +17,7 @@ this code has no data for):
   projection A·|(n_r, n_z)| (a plate yawed by ψ against its motion pushes grains with A cos ψ of
   its face; n_t carries no load of its own);
 * **the stress** is the 2D map's there, F = (−α_x r̂ + α_z ẑ)·d·A·|(n_r, n_z)|, for a leading face
-  (n·v > 0) only, times min(1, n·v / v_ε) with v_ε = :data:`terrasph.rft.REGULARISATION_SPEED`
+  (n·v > 0) only, times min(1, n·v / v_ε) with v_ε = :data:`terrasph.terrain.rft.REGULARISATION_SPEED`
   (as in 2D, so the load is continuous in the velocity);
 * **near-vertical motion**: r̂ is undefined when v_h → 0, and the plane would jump with the
   direction of a vanishing horizontal velocity. Below |v_h| = v_ε the load is blended linearly
@@ -26,12 +26,12 @@ this code has no data for):
   vertical intrusion (α_z even, α_x odd in β at γ = ±π/2) makes independent of the sign of r̂.
 
 For motion in the x–z plane and a face whose normal lies in it, this is the planar law exactly
-(tests/test_rft3d.py compares an extruded box with :func:`terrasph.rft.body_load`), and the load is
+(tests/test_rft3d.py compares an extruded box with :func:`terrasph.terrain.rft.body_load`), and the load is
 invariant under a rotation of body and motion about the vertical (it is built from ẑ and the two
 vectors only).
 
 The law has one definition, in the compiled core (cpp/src/rft3d.cpp, ``element_force``), which
-:func:`element_forces` calls and the native 3D stepper (terrasph.robots.rft3d_terrain) uses with the
+:func:`element_forces` calls and the native 3D stepper (terrasph.terrain.rft3d_coupling) uses with the
 law's analytic velocity Jacobian.
 """
 
@@ -45,8 +45,8 @@ import numpy as np
 
 from terrasph import _core
 from terrasph.config import ConfigError
-from terrasph.rft import REGULARISATION_SPEED, RFTCoefficients
-from terrasph.robots.geoms import body_surface
+from terrasph.mjcf.geoms import body_surface
+from terrasph.terrain.rft import REGULARISATION_SPEED, RFTCoefficients
 
 __all__ = ["ELEMENT_FRACTION", "BodyElements", "body_wrench", "element_forces"]
 
@@ -66,7 +66,7 @@ class BodyElements:
 
     @classmethod
     def from_body(cls, model: mujoco.MjModel, body: int, element_length: float | None = None) -> BodyElements:
-        """Elements of MuJoCo body `body` from its collision geoms (terrasph.robots.geoms.body_surface,
+        """Elements of MuJoCo body `body` from its collision geoms (terrasph.mjcf.geoms.body_surface,
         the geoms the SPH terrain reads), about `element_length` m across (default
         :data:`ELEMENT_FRACTION` of its largest geom's bounding radius)."""
         geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body]

@@ -1,16 +1,16 @@
-"""A MuJoCo robot on the resistive-force-theory terrain (terrasph.rft): the SPH coupling's interface
+"""A MuJoCo robot on the resistive-force-theory terrain (terrasph.terrain.rft): the SPH coupling's interface
 without the SPH.
 
-:class:`RFTCoupling` is a stepper like :class:`terrasph.robots.coupling.CoupledSimulation` (the same
+:class:`RFTCoupling` is a stepper like :class:`terrasph.terrain.sph_coupling.CoupledSimulation` (the same
 methods, driven by :func:`terrasph.robots.run.run_coupled`). The terrain is a flat free surface at
 z = ``surface`` and keeps no state. Each step of dt:
 
-1. takes the RFT load of each coupled body (:func:`terrasph.rft.body_load`'s) and the force of each
+1. takes the RFT load of each coupled body (:func:`terrasph.terrain.rft.body_load`'s) and the force of each
    torque-limited velocity servo at the state of t_n, puts them in MuJoCo's ``xfrc_applied`` and the
    actuators (each servo a plain force for the step), and lets MuJoCo advance by dt: velocities q̇*;
 2. makes the step backward Euler in those forces: M (q̇ − q̇*) = dt (G(q̇) − G(q̇_n)), G the
    generalised RFT loads and servo forces at the step's poses, solved by Newton's method with their
-   Jacobian (:attr:`terrasph.rft.BodyLoad.jacobian`) from the linearly implicit step (G linearised
+   Jacobian (:attr:`terrasph.terrain.rft.BodyLoad.jacobian`) from the linearly implicit step (G linearised
    at q̇_n: (M − dt K_n)(q̇ − q̇*) = dt K_n (q̇* − q̇_n), K_n = ∂G/∂q̇ there; one load evaluation
    fewer per step than starting from q̇*, docs/rft.md "Cost"), and moves the positions by dt (q̇ − q̇*).
 
@@ -18,7 +18,7 @@ Why implicit: RFT's stress depends on the direction of motion only (a body at re
 wheel's legs reversing), so held over a step it flips sign step by step — a wheel of 3·10⁻⁴ kg·m²
 chattered at ±14 rad/s with an explicit 2 ms step — and a servo given its limit as a plain force
 (the SPH coupling's rule) jumps past its command. Solved with the step's end velocities, a resting
-body rests (creeping below :data:`terrasph.rft.REGULARISATION_SPEED`) and a stalled wheel turns once
+body rests (creeping below :data:`terrasph.terrain.rft.REGULARISATION_SPEED`) and a stalled wheel turns once
 its motor beats the sand. The loads are taken at the step's start pose (first order in dt).
 :data:`RFT_TIME_STEP` is the measured step (docs/rft.md). A state MuJoCo cannot integrate (it then
 resets the robot) raises :class:`terrasph.InstabilityError`, as on the SPH terrain, so the run
@@ -43,9 +43,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph import _core, rft
+from terrasph import _core
 from terrasph.config import ConfigError
-from terrasph.robots.coupling import (
+from terrasph.mjcf.model import CoupledBody, PlanarRobot
+from terrasph.terrain import rft
+from terrasph.terrain.sph_coupling import (
     RobotStepper,
     divergence_error,
     divergences,
@@ -53,7 +55,6 @@ from terrasph.robots.coupling import (
     restore_mujoco_state,
     velocity_servos,
 )
-from terrasph.robots.mjcf import CoupledBody, PlanarRobot
 
 __all__ = ["RFT_CONTROL_INTERVAL", "RFT_TIME_STEP", "NativeRFTStepper", "RFTCoupling", "check_step_options",
            "mujoco_library"]
@@ -100,7 +101,7 @@ def check_step_options(time_step: float, control_interval: float) -> None:
 
 class NativeRFTStepper:
     """What the planar and 3D RFT steppers share (:class:`RFTCoupling`,
-    terrasph.robots.rft3d_terrain.RFT3DCoupling): a compiled stepper ``_native`` that advances MuJoCo's
+    terrasph.terrain.rft3d_coupling.RFT3DCoupling): a compiled stepper ``_native`` that advances MuJoCo's
     ``robot.model`` and ``robot.data`` by dt ``_dt`` per step and sums each coupled body's load times
     dt (``LOAD_SIZE`` numbers per body) since :meth:`reset_body_means`; the subclass sets them, and
     its :meth:`state` and :meth:`restore_state` hold its memory."""
@@ -239,7 +240,7 @@ class NativeRFTStepper:
 class RFTCoupling(NativeRFTStepper, RobotStepper):
     """A :class:`PlanarRobot` on the RFT terrain: a flat granular surface at z = `surface` (m) with the
     coefficient map `table`; `time_step` (s) is MuJoCo's step, `element_length` (m) that of the RFT
-    surface elements (default: :class:`terrasph.rft.SurfaceElements`'s), `control_interval` (s) how
+    surface elements (default: :class:`terrasph.terrain.rft.SurfaceElements`'s), `control_interval` (s) how
     often :meth:`advance` calls a controller (a multiple of `time_step`; module docstring)."""
 
     LOAD_SIZE = 3  # F_x, F_z (N) and the clockwise torque about the body origin (N·m)

@@ -1,6 +1,6 @@
-"""Any MuJoCo robot — hinges about any axis, free joints — on a flat 3D RFT terrain (terrasph.rft3d).
+"""Any MuJoCo robot — hinges about any axis, free joints — on a flat 3D RFT terrain (terrasph.terrain.rft3d).
 
-:func:`rft_robot` reads the MJCF model as the SPH terrain does (:func:`terrasph.robots.terrain_robot.
+:func:`rft_robot` reads the MJCF model as the SPH terrain does (:func:`terrasph.mjcf.terrain_robot.
 terrain_model`: the floor switched off, the bodies near it coupled) and gives each coupled body its
 collision geoms' surface as 3D RFT elements; the free surface is the floor's height, the model's
 frame is kept. :class:`RFT3DCoupling` is the run loop's stepper (terrasph.run_loop.Stepper, driven by
@@ -18,7 +18,7 @@ frame is kept. :class:`RFT3DCoupling` is the run loop's stepper (terrasph.run_lo
    best velocities so far: in a drop onto the sand a good share of the impact's steps end so, and the
    settled sinkage depends on those stops at the level of a few per cent (docs/rft.md, "3D RFT").
 
-Why implicit, as in the planar stepper (terrasph.robots.rft_terrain): the regularised load's
+Why implicit, as in the planar stepper (terrasph.terrain.rft_coupling): the regularised load's
 derivative in the normal speed is F / v_ε with v_ε = 0.1 mm/s, a damping that an explicit step
 of dt cannot carry unless dt < 2 m v_ε / F, i.e. microseconds for a robot resting on the sand
 (docs/rft.md, "3D RFT"). The loads are taken at the step's start pose.
@@ -26,16 +26,14 @@ MuJoCo's other actuators act inside its step as usual.
 
 The step runs in the compiled core (``terrasph._core.Robot3DStepper``, cpp/src/rft3d_robot.cpp),
 which calls the MuJoCo library of the ``mujoco`` package on the robot's own ``model`` and ``data``,
-as the planar stepper (terrasph.robots.rft_terrain) does: :meth:`RFT3DCoupling.advance` takes the
+as the planar stepper (terrasph.terrain.rft_coupling) does: :meth:`RFT3DCoupling.advance` takes the
 steps of a whole control interval per Python call. A state MuJoCo cannot integrate (it then resets
 the robot) raises :class:`terrasph.InstabilityError`, checked after each such call.
 """
 
 from __future__ import annotations
 
-import math
 import os
-import pathlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -43,34 +41,26 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from terrasph import _core, rft
-from terrasph.config import ConfigError
-from terrasph.rft3d import BodyElements, body_wrench
-from terrasph.robots.coupling import (
+from terrasph import _core
+from terrasph.mjcf.model import body_name, check_body_masses
+from terrasph.mjcf.terrain_robot import COUPLE_BELOW, terrain_model
+from terrasph.terrain import rft
+from terrasph.terrain.rft3d import BodyElements, body_wrench
+from terrasph.terrain.rft_coupling import RFT_CONTROL_INTERVAL, NativeRFTStepper, mujoco_library
+from terrasph.terrain.sph_coupling import (
     _velocity_servos,
     divergences,
     mujoco_state,
     restore_mujoco_state,
 )
-from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import body_name
-from terrasph.robots.rft_terrain import RFT_CONTROL_INTERVAL, NativeRFTStepper, mujoco_library
-from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_model
 
 __all__ = [
     "RFT3D_TIME_STEP",
-    "ROVER4",
-    "WHEEL_BALANCE",
     "RFT3DCoupling",
     "Robot3D",
-    "RobotLoads3D",
     "bodies_3d",
     "rft_robot",
-    "wheel_radii",
 ]
-
-#: the example non-planar robot shipped with the package: a four-wheeled rover on a free joint (see the file)
-ROVER4 = pathlib.Path(__file__).with_name("models") / "rover4.xml"
 
 #: MuJoCo's step on the 3D RFT terrain (s): chosen when the numpy stepper read the rover's travel at 1e-3 s
 #: within 0.3 % of that at 5e-4 s (2e-3 s 12 % short); the native one reads 5 % apart, within the spread
@@ -108,25 +98,19 @@ class Robot3D:
 def rft_robot(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, bodies: Sequence[str] = (),
               couple_below: float = COUPLE_BELOW, element_length: float | None = None) -> Robot3D:
     """The MJCF model on the 3D RFT terrain: the floor switched off and the coupled bodies chosen as
-    on the SPH terrain (:func:`terrasph.robots.terrain_robot.terrain_model`), each with its collision
+    on the SPH terrain (:func:`terrasph.mjcf.terrain_robot.terrain_model`), each with its collision
     geoms' surface as elements about `element_length` m across
-    (:meth:`terrasph.rft3d.BodyElements.from_body`); the free surface at the floor's height."""
+    (:meth:`terrasph.terrain.rft3d.BodyElements.from_body`); the free surface at the floor's height."""
     model, data, level, chosen = terrain_model(mjcf, bodies=bodies, couple_below=couple_below)
     return Robot3D(model, data, bodies_3d(model, chosen, element_length), level)
 
 
 def bodies_3d(model: mujoco.MjModel, chosen: Sequence[int], element_length: float | None = None) -> list[Body3D]:
     """The bodies `chosen` (ids) of the model, each with its collision geoms' surface as elements
-    about `element_length` m across (:meth:`terrasph.rft3d.BodyElements.from_body`); ConfigError
-    naming a body without mass."""
-    coupled = []
-    for body in chosen:
-        name = body_name(model, body)
-        if not model.body_mass[body] > 0:
-            raise ConfigError(f"coupled body '{name}' has no mass in the MJCF model; give it geoms with mass or an "
-                              "<inertial>")
-        coupled.append(Body3D(name, body, BodyElements.from_body(model, body, element_length)))
-    return coupled
+    about `element_length` m across (:meth:`terrasph.terrain.rft3d.BodyElements.from_body`); ConfigError
+    naming the world body or a body without mass (:func:`terrasph.mjcf.model.check_body_masses`)."""
+    check_body_masses(model, chosen)
+    return [Body3D(body_name(model, body), body, BodyElements.from_body(model, body, element_length)) for body in chosen]
 
 
 class RFT3DCoupling(NativeRFTStepper):
@@ -221,79 +205,3 @@ class RFT3DCoupling(NativeRFTStepper):
         self._divergences = divergences(self.robot.data)
         self._native.load_sums = [float(v) for row in saved["sums"] for v in row]
         self._since = float(saved["since"])
-
-
-#: a body's centre of mass within this fraction of its rolling radius from its hinge's axis makes it a wheel
-WHEEL_BALANCE = 0.01
-
-
-def wheel_radii(robot: Robot3D) -> dict[int, tuple[int, float]]:
-    """The coupled bodies that are wheels — on one hinge joint of their own, with their centre of mass
-    on its axis (within :data:`WHEEL_BALANCE` of R: a wheel or a leg-wheel, not a leg swinging about
-    its hip) — by their index in ``robot.coupled``: the hinge's joint id and the rolling radius R (m),
-    the largest distance of the body's element centres from the axis."""
-    model, wheels = robot.model, {}
-    for k, body in enumerate(robot.coupled):
-        b = body.body_id
-        joint = int(model.body_jntadr[b])
-        if model.body_jntnum[b] != 1 or model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
-            continue
-        axis = model.jnt_axis[joint] / np.linalg.norm(model.jnt_axis[joint])  # all in the body's frame
-
-        def off_axis(points: np.ndarray) -> np.ndarray:  # uses this iteration's joint and axis; called within it
-            arm = np.atleast_2d(points) - model.jnt_pos[joint]  # noqa: B023
-            return np.linalg.norm(arm - np.outer(arm @ axis, axis), axis=1)  # noqa: B023
-
-        radius = float(off_axis(body.elements.centre).max())
-        if off_axis(model.body_ipos[b])[0] <= WHEEL_BALANCE * radius:
-            wheels[k] = (joint, radius)
-    return wheels
-
-
-class RobotLoads3D:
-    """Recorder of the run loop for :class:`RFT3DCoupling`: per coupled body ``robot/<body>`` (time,
-    position (3) m and quaternion (w, x, y, z) of its frame, velocity (3) m/s of its centre of mass
-    and angular velocity (3) rad/s, world frame; force (3) N and torque (3) N·m about its centre of
-    mass averaged over the sampling interval; lowest_z m, surface m, sinkage m = surface − lowest_z;
-    for a wheel (:func:`wheel_radii`) also spin rad/s, its angular velocity about the hinge's axis a,
-    forward_speed m/s, the velocity of the hinge's anchor along a × ẑ (where a positive spin rolls
-    it), and slip, Eq. 4.8 of the two with the wheel's R (:func:`terrasph.robots.metrics.slip`; NaN
-    while the axis is vertical)) and, for a robot with actuators, ``robot/actuators`` (time, qpos,
-    qvel, ctrl, the robot's centre of mass com (3) m, actuator_force, power W)."""
-
-    def __init__(self, coupled: RFT3DCoupling) -> None:
-        self.coupled = coupled
-        self.wheels = wheel_radii(coupled.robot)
-
-    def rows(self) -> dict[str, dict[str, Any]]:
-        coupled = self.coupled
-        model, data = coupled.robot.model, coupled.robot.data
-        mujoco.mj_forward(model, data)
-        surface = coupled.robot.surface
-        rows: dict[str, dict[str, Any]] = {}
-        for k, body in enumerate(coupled.robot.coupled):
-            b = body.body_id
-            sample = coupled.body_sample(k)
-            twist = np.zeros(6)  # [angular, linear] at the centre of mass, world axes
-            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, b, twist, 0)
-            rows[f"robot/{body.name}"] = row = {
-                "time": coupled.time, "position": data.xpos[b].copy(), "quaternion": data.xquat[b].copy(),
-                "velocity": twist[3:].copy(), "angular_velocity": twist[:3].copy(), "force": sample["force"],
-                "torque": sample["torque"], "lowest_z": sample["lowest_z"], "surface": surface,
-                "sinkage": surface - sample["lowest_z"]}
-            if k in self.wheels:
-                joint, radius = self.wheels[k]
-                axis = data.xaxis[joint]
-                forward = np.cross(axis, [0.0, 0.0, 1.0])
-                size = float(np.linalg.norm(forward))
-                anchor = twist[3:] + np.cross(twist[:3], data.xanchor[joint] - data.xipos[b])
-                speed = float(anchor @ forward) / size if size > 1e-9 else math.nan
-                spin = float(twist[:3] @ axis)
-                row.update({"spin": spin, "forward_speed": speed, "slip": float(slip(speed, spin, radius))})
-        if model.nu:
-            rows["robot/actuators"] = {"time": coupled.time, "qpos": data.qpos.copy(), "qvel": data.qvel.copy(),
-                                       "ctrl": data.ctrl.copy(), "com": data.subtree_com[0].copy(),
-                                       "actuator_force": data.actuator_force.copy(),
-                                       "power": float(np.dot(data.actuator_force, data.actuator_velocity))}
-        coupled.reset_body_means()
-        return rows

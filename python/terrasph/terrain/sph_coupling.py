@@ -43,22 +43,43 @@ import math
 import os
 import pathlib
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import mujoco
 import numpy as np
 
 from terrasph import InstabilityError
-from terrasph.config import ConfigError
-from terrasph.robots.metrics import free_surface
-from terrasph.robots.mjcf import CoupledBody, PlanarRobot
+from terrasph.config import ConfigError, Material, glass_beads
+from terrasph.fidelity import scene_numerics
+from terrasph.geometry import wall_layers_needed
+from terrasph.mjcf.model import CoupledBody, PlanarRobot, check_planar, load_model
+from terrasph.mjcf.terrain_robot import COUPLE_BELOW, terrain_robot
+from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 
-__all__ = ["ACCURATE_MASS_RATIO", "MIN_MASS_RATIO", "SURFACE_MARGIN", "CoupledSimulation", "RobotStepper",
-           "check_mass_ratio", "displaced_grain_mass", "divergences",
-           "mujoco_derived",
-           "mujoco_state", "mujoco_step", "restore_mujoco_state", "undisturbed_surface", "unwrapped", "velocity_servos"]
+__all__ = [
+    "ACCURATE_MASS_RATIO",
+    "BED_NUMERICS",
+    "KICK_HEIGHT",
+    "MIN_MASS_RATIO",
+    "SURFACE_MARGIN",
+    "CoupledSimulation",
+    "RobotStepper",
+    "check_mass_ratio",
+    "displaced_grain_mass",
+    "divergences",
+    "free_surface",
+    "mujoco_derived",
+    "mujoco_state",
+    "mujoco_step",
+    "planar_sph_bed",
+    "restore_mujoco_state",
+    "step_until",
+    "undisturbed_surface",
+    "unwrapped",
+    "velocity_servos",
+]
 
 #: Smallest mass of a coupled body over the mass of the grains its shape displaces that the
 #: explicit scheme accepts. Measured limit (docs/robots.md, benchmarks/validation/bench_robot_coupling.py):
@@ -70,6 +91,15 @@ MIN_MASS_RATIO = 1e-3
 #: spin departs from that of heavier wheels below 1e-2 (x5 at 1e-3; docs/robots.md,
 #: benchmarks/validation/bench_robot_driven.py). A wheel whose spin a velocity servo holds is not affected.
 ACCURATE_MASS_RATIO = 1e-2
+
+
+#: What the bed needs at every fidelity: the Shepard filter every 100 steps and the density floor
+#: ρ ≥ ρ0, as the chapter 3 legs (terrasph.scenes.leg_rotation.SCENE_NUMERICS).
+BED_NUMERICS: dict[str, Any] = {"shepard_interval": 100, "density_floor": 1.0}
+
+#: height (m) of the domain box above the container's walls: a grain kicked up at 3 m/s rises
+#: v²/2g = 0.46 m
+KICK_HEIGHT = 1.0
 
 
 #: MuJoCo's warnings of a state it cannot integrate (non-finite or huge qacc, qpos, qvel): mj_step
@@ -266,9 +296,22 @@ def velocity_servos(robot: PlanarRobot) -> list[_VelocityServo]:
     return _velocity_servos(robot.model, robot.data)
 
 
+def step_until(stepper: Any, t_end: float, max_steps: int, control: Callable[[Any], None] | None) -> int:
+    """Takes `stepper`'s ``step()`` until its ``time`` reaches or passes `t_end` (s), at most
+    `max_steps` steps, calling `control` (if given) with it before each; returns the number taken
+    (the last step may end past `t_end`): the explicit couplings' advance, planar and 3D."""
+    taken = 0
+    while taken < max_steps and stepper.time < t_end * (1 - 1e-14):
+        if control:
+            control(stepper)
+        stepper.step()
+        taken += 1
+    return taken
+
+
 class RobotStepper:
     """What every stepper of a robot on a terrain shares (:class:`CoupledSimulation`, the RFT terrain's
-    :class:`terrasph.robots.rft_terrain.RFTCoupling`): `robot`, `time`, `step_count`, `step()` and
+    :class:`terrasph.terrain.rft_coupling.RFTCoupling`): `robot`, `time`, `step_count`, `step()` and
     the continuous angle of each coupled body in ``_angle``, set by the subclass. The run loop
     (terrasph.robots.run.run_coupled) reads the rest: describe, body_sample, surface,
     reset_body_means, frame_fields, static_arrays, diagnostics, run_attributes, checkpoint and restore."""
@@ -299,13 +342,7 @@ class RobotStepper:
         """Steps until `t_end` (s) is reached or passed, at most `max_steps`; returns the number
         taken (the last step may end past `t_end`). `control`, if given, is called with the stepper
         before each step (to set MuJoCo's ``data.ctrl``, say)."""
-        taken = 0
-        while taken < max_steps and self.time < t_end * (1 - 1e-14):
-            if control:
-                control(self)
-            self.step()
-            taken += 1
-        return taken
+        return step_until(self, t_end, max_steps, control)
 
     def angle(self, name: str) -> float:
         """Clockwise angle (rad) of a coupled body, continuous over turns."""
@@ -486,8 +523,26 @@ class CoupledSimulation(RobotStepper):
 SURFACE_MARGIN = 0.02
 
 
+def free_surface(grains: np.ndarray, spacing: float, disturbed: list[tuple[float, float]],
+                 margin: float) -> float:
+    """Height (m) of the bed's undisturbed free surface: the grains (N × 2, x and z in m, on the
+    lattice of `spacing` Δx) are binned into columns Δx wide, each column's surface is the top of
+    its highest grain's cell (z + Δx/2), and the median is taken over the columns whose centre lies
+    farther than `margin` from every `disturbed` interval [x_lo, x_hi] (the robot's parts). The
+    median ignores a few grains thrown up above the bed. NaN if no column is left."""
+    column = np.floor(grains[:, 0] / spacing).astype(np.int64)
+    first = column.min()
+    tops = np.full(column.max() - first + 1, -np.inf)
+    np.maximum.at(tops, column - first, grains[:, 1] + 0.5 * spacing)
+    centres = (np.arange(len(tops)) + first + 0.5) * spacing
+    keep = np.isfinite(tops)
+    for low, high in disturbed:
+        keep &= (centres < low - margin) | (centres > high + margin)
+    return float(np.median(tops[keep])) if keep.any() else float("nan")
+
+
 def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARGIN) -> float:
-    """The bed's free surface now (m; :func:`terrasph.robots.metrics.free_surface`) away from every
+    """The bed's free surface now (m; :func:`free_surface`) away from every
     coupled body: columns within `margin` of a body's x extent are left out. Sinkage is measured
     from it, so the bed's own settling (it is built at its hydrostatic density and settles by
     less than Δx) is not counted as the robot sinking."""
@@ -499,3 +554,41 @@ def undisturbed_surface(coupled: CoupledSimulation, margin: float = SURFACE_MARG
         x = walls[owner == names.index(body.name), 0]
         extents.append((float(x.min()), float(x.max())))
     return free_surface(np.asarray(sim.core.position), sim.scene.spacing, extents, margin)
+
+
+def planar_sph_bed(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: float, bed_width: float,
+                   bed_depth: float, freeboard: float, fidelity: str, numerics: Mapping[str, Any] | None = None,
+                   start_x: float | None = None, bodies: tuple[str, ...] = (), couple_below: float | None = COUPLE_BELOW,
+                   widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None,
+                   material: Material | None = None) -> tuple[PlanarRobot, Simulation]:
+    """A planar model standing on an SPH bed of glass beads (`bed_width` × `bed_depth` m in its
+    container, `freeboard` m of wall above it, particle spacing `spacing` m, the tier `fidelity`
+    with `numerics` overrides; the bed's `material`, glass beads by default), its centre of mass at `start_x` (default mid-bed), coupled as
+    :func:`terrasph.mjcf.terrain_robot.terrain_robot` chooses; with `data`, the caller's data of
+    the compiled model `mjcf` is the robot's. ConfigError naming the joint or body of a model that
+    is not planar. Returns the robot, added to the bed's scene, and the bed's simulation, for
+    :func:`terrasph.terrain.interface.couple`."""
+    _check_planar_model(mjcf, data)
+    settings = scene_numerics("mjcf", fidelity, spacing, BED_NUMERICS, dict(numerics or {}))
+    scene = Scene(spacing=spacing)
+    surface, inner = scene.add_bed_in_container(bed_width, bed_depth, freeboard,
+                                                layers=wall_layers_needed(settings.h_factor))
+    # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
+    scene.domain_upper = (scene.domain_upper[0], surface + freeboard + KICK_HEIGHT)
+    robot = terrain_robot(mjcf, spacing, surface, 0.5 * inner if start_x is None else start_x,
+                          bodies=bodies, couple_below=couple_below, widths=widths, gravity=scene.gravity, data=data)
+    robot.add_to_scene(scene)
+    return robot, Simulation(scene, material or glass_beads(), settings)
+
+
+def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: mujoco.MjData | None = None) -> None:
+    """ConfigError naming the first joint or body of the MJCF model (at the pose of `data`, if given)
+    that is not planar, with the terrain that takes any model."""
+    model = load_model(mjcf)
+    data = mujoco.MjData(model) if data is None else data
+    mujoco.mj_forward(model, data)
+    try:
+        check_planar(model, data)
+    except ConfigError as error:
+        raise ConfigError(f"{error}; the SPH terrain takes planar robots only: run this one on the 3D RFT "
+                          "terrain, terrain 'rft' (--terrain rft)") from None

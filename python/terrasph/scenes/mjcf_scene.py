@@ -2,9 +2,9 @@
 hinges about any axis, free joints — on the 3D resistive-force-theory terrain (docs/mjcf.md).
 
 The model's floor is replaced by the terrain and the bodies near the floor meet it with their
-collision geoms: on the SPH bed as planar terrain bodies (:mod:`terrasph.robots.terrain_robot`),
+collision geoms: on the SPH bed as planar terrain bodies (:mod:`terrasph.mjcf.terrain_robot`),
 on the RFT terrain (``terrain = "rft"``) as 3D RFT surface elements
-(:mod:`terrasph.robots.rft3d_terrain`). Its actuators follow the ``ctrl`` specs
+(:mod:`terrasph.terrain.rft3d_coupling`). Its actuators follow the ``ctrl`` specs
 (:mod:`terrasph.robots.control`) or, from Python, any controller ``(time, model, data) -> ctrl``.
 :func:`rigid_floor_run` runs the same model and controller on MuJoCo's own floor, for comparison.
 """
@@ -26,32 +26,30 @@ import mujoco
 import numpy as np
 from matplotlib.figure import Figure
 
-from terrasph import rft
 from terrasph.cli_common import positive_float
-from terrasph.config import ConfigError, Material, check_settle_time
-from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
-from terrasph.geometry import wall_layers_needed
+from terrasph.config import ConfigError, check_settle_time
+from terrasph.fidelity import check_tier, fidelity_option
 from terrasph.io import write_results
+from terrasph.mjcf.geoms import is_collision_geom
+from terrasph.mjcf.model import PlanarRobot, body_name, load_model, mujoco_warnings
+from terrasph.mjcf.terrain_robot import COUPLE_BELOW, world_support
 from terrasph.options import option, shared
 from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controller
-from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.geoms import is_collision_geom
-from terrasph.robots.leg_wheel import BED_NUMERICS
 from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import PlanarRobot, body_name, check_planar, load_model, mujoco_warnings
 from terrasph.robots.plots import body_legend, plot_robot_3d
-from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, RobotLoads3D, rft_robot, wheel_radii
-from terrasph.robots.run import BedEnds, RobotRun, run_coupled
-from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot, world_support
-from terrasph.scene import Scene
+from terrasph.robots.run import BedEnds, RobotLoads3D, RobotRun, run_coupled, wheel_radii
 from terrasph.scenes.leg_rotation import BeadBed
-from terrasph.simulation import Simulation
+from terrasph.terrain import rft
+from terrasph.terrain.interface import Terrain, couple
+from terrasph.terrain.rft3d_coupling import (
+    RFT3D_TIME_STEP,
+    RFT3DCoupling,
+    Robot3D,
+    rft_robot,
+)
+from terrasph.terrain.sph_coupling import CoupledSimulation, planar_sph_bed
 
-__all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf", "sph_coupling"]
-
-#: height (m) of the domain box above the container's walls: a grain kicked up at 3 m/s rises
-#: v²/2g = 0.46 m
-KICK_HEIGHT = 1.0
+__all__ = ["MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf"]
 
 
 def _body_width(text: str) -> tuple[str, float]:
@@ -138,58 +136,22 @@ class MjcfScene(BeadBed):
         rft.check_terrain(self, self.SPH_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
 
 
-def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
-    """The model on its terrain, coupled; every check done before any step. On the SPH: the bed, its
+def build_mjcf(config: MjcfScene) -> Terrain:
+    """The model on its terrain, coupled (:func:`terrasph.terrain.interface.couple`); every check
+    done before any step. On the SPH: the bed, its
     container and the model standing on it (a planar model only). On RFT: the model in its own frame
     on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
     every step (a ``hold`` spec is a servo), as on the SPH."""
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
                           element_length=config.element_length)
-        return RFT3DCoupling(robot, config.rft_table, control_interval=RFT3D_TIME_STEP)
-    return sph_coupling(config.model, spacing=config.spacing, bed_width=config.bed_width, bed_depth=config.bed_depth,
-                        freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics,
-                        start_x=config.start_x, bodies=config.bodies, couple_below=config.couple_below,
-                        widths=config.widths, material=config.bed_material())
-
-
-def sph_coupling(mjcf: str | os.PathLike[str] | mujoco.MjModel, *, spacing: float, bed_width: float,
-                 bed_depth: float, freeboard: float, fidelity: str, numerics: Mapping[str, Any] | None = None,
-                 start_x: float | None = None, bodies: tuple[str, ...] = (), couple_below: float | None = COUPLE_BELOW,
-                 widths: Mapping[str, float] | None = None, data: mujoco.MjData | None = None,
-                 material: Material | None = None) -> CoupledSimulation:
-    """A planar model standing on an SPH bed of glass beads (`bed_width` × `bed_depth` m in its
-    container, `freeboard` m of wall above it, particle spacing `spacing` m, the tier `fidelity`
-    with `numerics` overrides; the bed's `material`, glass beads by default), its centre of mass at `start_x` (default mid-bed), coupled as
-    :func:`terrasph.robots.terrain_robot.terrain_robot` chooses; with `data`, the caller's data of
-    the compiled model `mjcf` is the robot's. ConfigError naming the joint or body of a model that
-    is not planar."""
-    from terrasph.scenes.leg_rotation import glass_beads  # the registry imports this module
-
-    _check_planar_model(mjcf, data)
-    settings = scene_numerics("mjcf", fidelity, spacing, BED_NUMERICS, dict(numerics or {}))
-    scene = Scene(spacing=spacing)
-    surface, inner = scene.add_bed_in_container(bed_width, bed_depth, freeboard,
-                                                layers=wall_layers_needed(settings.h_factor))
-    # room above for grains a foot kicks up (a grain leaving the domain box stops the run)
-    scene.domain_upper = (scene.domain_upper[0], surface + freeboard + KICK_HEIGHT)
-    robot = terrain_robot(mjcf, spacing, surface, 0.5 * inner if start_x is None else start_x,
-                          bodies=bodies, couple_below=couple_below, widths=widths, gravity=scene.gravity, data=data)
-    robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, material or glass_beads(), settings))
-
-
-def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: mujoco.MjData | None = None) -> None:
-    """ConfigError naming the first joint or body of the MJCF model (at the pose of `data`, if given)
-    that is not planar, with the terrain that takes any model."""
-    model = load_model(mjcf)
-    data = mujoco.MjData(model) if data is None else data
-    mujoco.mj_forward(model, data)
-    try:
-        check_planar(model, data)
-    except ConfigError as error:
-        raise ConfigError(f"{error}; the SPH terrain takes planar robots only: run this one on the 3D RFT "
-                          "terrain, terrain 'rft' (--terrain rft)") from None
+        return couple(robot, "rft3d", config.rft_table, control_interval=RFT3D_TIME_STEP)
+    robot, simulation = planar_sph_bed(config.model, spacing=config.spacing, bed_width=config.bed_width,
+                                       bed_depth=config.bed_depth, freeboard=config.freeboard, fidelity=config.fidelity,
+                                       numerics=config.numerics, start_x=config.start_x, bodies=config.bodies,
+                                       couple_below=config.couple_below, widths=config.widths,
+                                       material=config.bed_material())
+    return couple(robot, "sph", simulation=simulation)
 
 
 def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
@@ -203,12 +165,13 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     reason, when a coupled body reached an end of the bed and the run ended there:
     :class:`terrasph.robots.run.BedEnds`) and the series; with `plot` and an
     `output`, the PNG beside it. ``resume`` and ``until`` as in
-    :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
-    coupled = build_mjcf(config)
-    model, data = coupled.robot.model, coupled.robot.data
+    :func:`terrasph.scenes.leg_wheel.run_leg_wheel`."""
+    sand = build_mjcf(config)
+    coupled = sand.coupling
+    model, data = sand.model, sand.data
     drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
     memory: dict[str, Any] = {}  # the run's checkpointed values: BedCrossings' record
-    on_rft = isinstance(coupled, RFT3DCoupling)
+    on_rft = sand.kind == "rft3d"
     surface = coupled.robot.surface if on_rft else float(coupled.sim.scene.surface_level)
     crossings = BedCrossings(coupled.robot, surface, memory)
     # the SPH bed ends at its container's walls; the 3D RFT terrain is a plane without ends
@@ -220,12 +183,12 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
         crossings.check(run.time)
         data.ctrl[:] = drive(run.time, model, data)
 
-    terrain = coupled.describe() if on_rft else coupled.sim.describe()
-    series = run_coupled(coupled, config.t_end if until is None else until, output=output,
+    described = coupled.describe() if on_rft else coupled.sim.describe()
+    series = run_coupled(sand, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
                          recorder=RobotLoads3D(coupled) if on_rft else None, end_check=bed,
-                         config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **terrain})
+                         config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **described})
     summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"]),
                "end_of_bed": bed.reason if bed else None}
     if output is not None:  # /results holds plain values: the bodies that went through, by name
@@ -253,7 +216,7 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
     the centre of mass's final position (x, y, z) m, the root body's final heading, pitch and roll
     (degrees, z–y–x angles of its frame), each coupled body's load (force, N, world axes) in the
     last fifth and each wheel's slip after the pause, Eq. 4.8 of its mean forward speed and mean spin
-    (:class:`terrasph.robots.rft3d_terrain.RobotLoads3D`)."""
+    (:class:`terrasph.robots.run.RobotLoads3D`)."""
     on_rft = isinstance(coupled, RFT3DCoupling)
     model, data = coupled.robot.model, coupled.robot.data
     up = 2 if on_rft else 1  # the vertical component of the series' forces and centre of mass

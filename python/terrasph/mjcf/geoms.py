@@ -30,7 +30,7 @@ import numpy as np
 
 from terrasph.bodies import BodyShape, _merge_indices, nearest_edge_normals
 from terrasph.config import ConfigError
-from terrasph.robots.mjcf import body_name
+from terrasph.mjcf.model import body_name
 
 __all__ = ["CONVERTIBLE", "SUPPORT_DIRECTIONS", "body_shape", "body_surface", "geom_extent_y", "geom_loop",
            "geom_support", "geom_surface", "geom_thickness", "inside_geom", "is_collision_geom", "shape_from_loops"]
@@ -250,7 +250,7 @@ def body_shape(model: mujoco.MjModel, body: int, spacing: float, width: float | 
 
 
 # ---------------------------------------------------------------------------------------------
-# the geoms' surfaces in 3D: the elements of 3D resistive force theory (terrasph.rft3d)
+# the geoms' surfaces in 3D: the elements of 3D resistive force theory (terrasph.terrain.rft3d)
 
 def _zone(radius: float, z_low: float, z_high: float, length: float) -> tuple[np.ndarray, np.ndarray]:
     """Patches of the sphere of `radius` between heights z_low·r and z_high·r (−1 ≤ z_low < z_high ≤ 1):

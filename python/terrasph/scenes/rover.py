@@ -17,9 +17,13 @@ import numpy as np
 from terrasph import bodies
 from terrasph.config import ConfigError
 from terrasph.io import write_results
+from terrasph.mjcf.model import Coupling, PlanarRobot
 from terrasph.options import option, redefault
-from terrasph.robots.coupling import CoupledSimulation
-from terrasph.robots.leg_wheel import (
+from terrasph.robots import ROVER
+from terrasph.robots.metrics import slip
+from terrasph.robots.plots import plot_robot
+from terrasph.robots.run import RobotRun, run_coupled
+from terrasph.scenes.leg_wheel import (
     WheelScene,
     bed_and_wheel,
     check_wheel_config,
@@ -27,13 +31,11 @@ from terrasph.robots.leg_wheel import (
     wheel_footprint,
     wheel_shape,
 )
-from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import ROVER, Coupling, PlanarRobot
-from terrasph.robots.plots import plot_robot
-from terrasph.robots.run import RobotRun, run_coupled
 from terrasph.settle_cache import SettleCache, run_after_pause
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
+from terrasph.terrain.interface import Terrain, couple
+from terrasph.terrain.sph_coupling import CoupledSimulation
 
 __all__ = ["WHEEL_BODIES", "Rover", "build_rover", "run_rover"]
 
@@ -80,16 +82,15 @@ class Rover(WheelScene):
         return wheel_footprint(self, wheels=len(WHEEL_BODIES), material=self.bed_material())
 
 
-def build_rover(config: Rover) -> CoupledSimulation:
-    """Bed, container and the rover standing on it (wheels Δx/2 above the surface)."""
-    # imported here, as the scene registry imports this module
-
+def build_rover(config: Rover) -> Terrain:
+    """Bed, container and the rover standing on it (wheels Δx/2 above the surface), coupled
+    (:func:`terrasph.terrain.interface.couple`)."""
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle_z = surface - shape.lowest_point() + 0.5 * config.spacing
     robot = PlanarRobot(config.mjcf or ROVER, {name: Coupling(shape, config.width) for name in WHEEL_BODIES},
                         gravity=scene.gravity, initial={"x": config.start_x, "z": axle_z})
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, config.bed_material(), numerics))
+    return couple(robot, "sph", simulation=Simulation(scene, config.bed_material(), numerics))
 
 
 def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
@@ -99,7 +100,8 @@ def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, pr
     pause, final sinkage of each wheel, pitch, leaks; ``end_of_bed`` as in :func:`run_leg_wheel`) and
     the series, and with `plot` and an `output` draws the PNG beside it. ``resume``, ``until`` and
     ``cache`` (the settled pause, terrasph.settle_cache) as in :func:`run_leg_wheel`."""
-    coupled = build_rover(config)
+    sand = build_rover(config)
+    coupled = sand.coupling
     bed = wheel_bed_ends(config, coupled, resume)
     assert bed is not None  # the rover runs on the SPH, whose bed has its container's ends
 
@@ -109,18 +111,19 @@ def run_rover(config: Rover, output: str | os.PathLike[str] | None = None, *, pr
     run_config = {"scene": "rover", "rover": dataclasses.asdict(config), **coupled.sim.describe()}
     t_end = config.t_end if until is None else until
 
-    def run(stepper: CoupledSimulation, end: float, out: str | os.PathLike[str] | None,
+    def run(terrain: Terrain, end: float, out: str | os.PathLike[str] | None,
             resumed: bool) -> dict[str, dict[str, np.ndarray]]:
-        bed.coupled = stepper  # the end check follows the stepper that runs (a cached pause continues on another)
-        return run_coupled(stepper, end, output=out, frame_interval=config.frame_interval,
+        bed.coupled = terrain.coupling  # the end check follows the terrain that runs (a cached pause continues on another)
+        return run_coupled(terrain, end, output=out, frame_interval=config.frame_interval,
                            series_interval=config.series_interval, control=motors, progress=progress,
                            resume=resumed, end_check=bed, config=run_config)
 
     if cache is not False and not resume and 0 < config.settle_time < t_end:
-        series, coupled, _ = run_after_pause(cache, "rover", config, coupled, lambda: build_rover(config), run, output,
-                                             run_config, config.settle_time, t_end)
+        series, sand, _ = run_after_pause(cache, "rover", config, sand, lambda: build_rover(config), run, output,
+                                          run_config, config.settle_time, t_end)
+        coupled = sand.coupling
     else:
-        series = run(coupled, t_end, output, resume)
+        series = run(sand, t_end, output, resume)
     summary: dict[str, Any] = {"wheel": config.wheel, "steps": coupled.sim.step_count,
                                "leaked_particles": coupled.sim.leaked_particles,
                                "distance": float(coupled.robot.data.qpos[0] - config.start_x),

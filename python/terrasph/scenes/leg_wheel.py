@@ -6,7 +6,7 @@ z that carries the load (its mass is load/g: the dissertation's 4.9 N is 0.4995 
 and the *wheel* on a hinge about y, turned by a velocity servo (gain ``motor_gain`` N·m·s/rad,
 torque limit ``motor_torque`` N·m) that holds ω = 0 for the settling pause and then
 ``omega`` clockwise. The wheel's mass and inertia are those of its shape at ``wheel_density``
-(:func:`terrasph.robots.shape_inertial`). MuJoCo integrates with ``implicitfast`` so the stiff
+(:func:`terrasph.mjcf.model.shape_inertial`). MuJoCo integrates with ``implicitfast`` so the stiff
 servo is stable at the SPH step.
 
 Readings (the figure is not in the text): ``leg_length`` is the dissertation's "2R = 8 cm" read
@@ -14,7 +14,7 @@ as in chapter 3, the hip-to-toe length of each leg, so the tips lie on a circle 
 the wheels have ``legs`` = 3 legs (Whegs-like); the plain wheel has the same outer radius. Slip
 (Eq. 4.8) uses that radius. Sinkage is the depth of the wheel's lowest point below the bed's
 undisturbed free surface, measured at each sample away from the wheel
-(:func:`terrasph.robots.coupling.undisturbed_surface`).
+(:func:`terrasph.terrain.sph_coupling.undisturbed_surface`).
 """
 
 from __future__ import annotations
@@ -29,17 +29,15 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from terrasph import bodies, rft
+from terrasph import bodies
 from terrasph.config import ConfigError, Material, Numerics, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
+from terrasph.mjcf.model import Coupling, PlanarRobot, shape_inertial
 from terrasph.options import option, shared
-from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.metrics import slip
-from terrasph.robots.mjcf import Coupling, PlanarRobot, shape_inertial
 from terrasph.robots.plots import plot_robot
-from terrasph.robots.rft_terrain import RFTCoupling
 from terrasph.robots.run import BedEnds, RobotRun, run_coupled
 from terrasph.scene import GRAVITY, Scene, flung_height
 from terrasph.scenes.leg_rotation import BeadBed
@@ -47,6 +45,9 @@ from terrasph.schedules import check_knots, evaluate
 from terrasph.settle_cache import SettleCache, run_after_pause
 from terrasph.simulation import Simulation
 from terrasph.size_guard import Footprint
+from terrasph.terrain import rft
+from terrasph.terrain.interface import Terrain, couple
+from terrasph.terrain.sph_coupling import BED_NUMERICS, CoupledSimulation, RobotStepper
 
 __all__ = ["SPH_BED_WIDTH", "WHEELS", "LegWheel", "build_leg_wheel", "leg_wheel_mjcf", "plot_leg_wheel", "run_leg_wheel"]
 
@@ -146,11 +147,6 @@ class LegWheel(WheelScene):
         return np.where(after >= 0, driven, 0.0)
 
 
-#: What the bed needs at every fidelity: the Shepard filter every 100 steps and the density floor
-#: ρ ≥ ρ0, as the chapter 3 legs (terrasph.scenes.leg_rotation.SCENE_NUMERICS).
-BED_NUMERICS: dict[str, Any] = {"shepard_interval": 100, "density_floor": 1.0}
-
-
 def check_wheel_config(config: Any, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...] = ()) -> None:
     """Checks what the leg-wheel and rover configurations share (the wheel, the bed, the times, the
     fidelity) and the extra `positive` / `nonnegative` numbers of each; ConfigError naming the first
@@ -247,9 +243,9 @@ def leg_wheel_mjcf(config: LegWheel, shape: bodies.BodyShape, axle: tuple[float,
 </mujoco>"""
 
 
-def build_leg_wheel(config: LegWheel) -> CoupledSimulation | RFTCoupling:
-    """Bed, container, robot and coupling, ready to run (on the RFT terrain: the robot on a flat
-    surface at z = 0, its wheel touching it)."""
+def build_leg_wheel(config: LegWheel) -> Terrain:
+    """Bed, container, robot and the terrain coupling them (:func:`terrasph.terrain.interface.couple`),
+    ready to run (on the RFT terrain: the robot on a flat surface at z = 0, its wheel touching it)."""
     if config.terrain == "rft":
         try:
             shape = wheel_shape(config)
@@ -258,16 +254,16 @@ def build_leg_wheel(config: LegWheel) -> CoupledSimulation | RFTCoupling:
         axle = (config.start_x, -shape.lowest_point())
         robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, GRAVITY), {"wheel": Coupling(shape, config.width)},
                             gravity=GRAVITY)
-        return RFTCoupling(robot, 0.0, config.rft_table)
+        return couple(robot, "rft", config.rft_table, surface=0.0)
     scene, numerics, surface, shape = bed_and_wheel(config)
     axle = (config.start_x, surface - shape.lowest_point() + 0.5 * config.spacing)
     robot = PlanarRobot(leg_wheel_mjcf(config, shape, axle, scene.gravity), {"wheel": Coupling(shape, config.width)},
                         gravity=scene.gravity)
     robot.add_to_scene(scene)
-    return CoupledSimulation(robot, Simulation(scene, config.material(), numerics))
+    return couple(robot, "sph", simulation=Simulation(scene, config.material(), numerics))
 
 
-def wheel_bed_ends(config: WheelScene, coupled: CoupledSimulation | RFTCoupling, resume: bool) -> BedEnds | None:
+def wheel_bed_ends(config: WheelScene, coupled: RobotStepper, resume: bool) -> BedEnds | None:
     """Where a wheel scene's run ends (:class:`terrasph.robots.run.BedEnds`): the container's inner
     walls on the SPH; on the RFT terrain the bed from 0 to `bed_width` if one is given (None, the
     default there: a plane without ends, no end check)."""
@@ -290,12 +286,13 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     bed, robot, numerics and code made it (terrasph.settle_cache; bit for bit the run that settles
     itself), and caches it otherwise: `cache` is the cache (True: the default one,
     :func:`terrasph.settle_cache.default_cache`; False: settle without it)."""
-    coupled = build_leg_wheel(config)
+    sand = build_leg_wheel(config)
+    coupled = sand.coupling
     bed = wheel_bed_ends(config, coupled, resume)
     # positive motor work since the pause (J) and the axle's x when the spin began (NaN before)
     work = {"motor": 0.0, "start_x": math.nan}
 
-    def motor(run: CoupledSimulation) -> None:
+    def motor(run: RobotStepper) -> None:
         data = run.robot.data
         data.ctrl[0] = float(config.commanded_omega(run.time))
         if run.time >= config.settle_time:
@@ -308,19 +305,20 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     run_config = {"scene": "leg-wheel", "leg_wheel": dataclasses.asdict(config), **coupled.describe()}
     t_end = config.t_end if until is None else until
 
-    def run(stepper: CoupledSimulation | RFTCoupling, end: float, out: str | os.PathLike[str] | None,
+    def run(terrain: Terrain, end: float, out: str | os.PathLike[str] | None,
             resumed: bool) -> dict[str, dict[str, np.ndarray]]:
         if bed is not None:
-            bed.coupled = stepper  # the end check follows the stepper that runs (a cached pause continues on another)
-        return run_coupled(stepper, end, output=out, frame_interval=config.frame_interval,
+            bed.coupled = terrain.coupling  # the end check follows the terrain that runs (a cached pause continues on another)
+        return run_coupled(terrain, end, output=out, frame_interval=config.frame_interval,
                            series_interval=config.series_interval, control=motor, progress=progress, memory=work,
                            resume=resumed, end_check=bed, config=run_config)
 
     if cache is not False and not resume and config.terrain == "sph" and 0 < config.settle_time < t_end:
-        series, coupled, _ = run_after_pause(cache, "leg-wheel", config, coupled, lambda: build_leg_wheel(config),
-                                             run, output, run_config, config.settle_time, t_end)
+        series, sand, _ = run_after_pause(cache, "leg-wheel", config, sand, lambda: build_leg_wheel(config),
+                                          run, output, run_config, config.settle_time, t_end)
+        coupled = sand.coupling
     else:
-        series = run(coupled, t_end, output, resume)
+        series = run(sand, t_end, output, resume)
     wheel = series["robot/wheel"]
     # the driven phase: after the pause, once the servo has brought ω to half the command
     driving = (wheel["time"] > config.settle_time) & (wheel["omega"] >= 0.5 * config.commanded_omega(wheel["time"]))
@@ -349,7 +347,7 @@ def run_leg_wheel(config: LegWheel, output: str | os.PathLike[str] | None = None
     return RobotRun(summary, series, figure)
 
 
-def _cost_of_transport(work: float, coupled: CoupledSimulation | RFTCoupling, distance: float) -> float:
+def _cost_of_transport(work: float, coupled: RobotStepper, distance: float) -> float:
     """Motor work / (robot weight × distance travelled after the pause); inf if it did not move."""
     model = coupled.robot.model
     weight = float(model.body_subtreemass[1]) * -float(model.opt.gravity[2])
