@@ -163,5 +163,5 @@ def test_draws_run_each_point_with_several_schedules_that_share_its_settled_star
         assert len(schedules_drawn) == 4
     bad = tiny_spec(runs=3)
     bad["design"]["input"] = {"parameter": "omega_schedule", "range": [0.5, 3.0], "draws": 0}
-    with pytest.raises(ConfigError, match="design.input.draws"):
+    with pytest.raises(ConfigError, match=r"design\.input\.draws"):
         parse_spec(bad)
