@@ -20,7 +20,7 @@ import pathlib
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -46,9 +46,15 @@ from terrasph.robots.terrain_robot import COUPLE_BELOW, terrain_robot, world_sup
 from terrasph.scene import Scene
 from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.simulation import Simulation
+from terrasph.sph3d import BED_MARGIN, BED_SPACING
+
+if TYPE_CHECKING:  # the terrain package imports this module
+    from terrasph.terrain.sph3d_robot import SandRun3D
 
 __all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf", "sph_coupling"]
 
+#: the planar SPH bed's particle spacing (m) unless given
+PLANAR_BED_SPACING = 0.01
 #: height (m) of the domain box above the container's walls: a grain kicked up at 3 m/s rises
 #: v²/2g = 0.46 m
 KICK_HEIGHT = 1.0
@@ -78,12 +84,19 @@ class MjcfScene(BeadBed):
                                                   "water_content")
     #: the settings of the RFT terrain only, refused on the SPH bed unless at their defaults
     RFT_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("rft_table", "element_length")
+    #: the settings of the planar SPH bed only and of the 3D one only, each refused on the other unless at its default
+    PLANAR_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "start_x", "widths", "mu1_deg", "mu2_deg",
+                                                     "water_content")
+    SPH3D_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_margin",)
 
     model: str = option("", positional=True, cli="ROBOT.xml",
                         help="the MJCF file (not changed; its floor is switched off in the loaded copy)")
     bed_width: float = shared("bed_width", 1.0)
     bed_depth: float = shared("bed_depth", 0.1)
-    spacing: float = option(0.01, help="particle spacing dx; every coupled body must be >= 3 dx thick", unit="m")
+    spacing: float | None = option(None, help="particle spacing dx; every coupled body must be >= 3 dx thick", unit="m",
+                                   default_text=f"{PLANAR_BED_SPACING:g} (sph), {BED_SPACING:g} (sph3d)")
+    bed_margin: float = option(BED_MARGIN, help="terrain sph3d: the bed's reach beyond the coupled bodies' geoms on "
+                                                "each side, in x and y", unit="m")
     start_x: float | None = option(None, help="x of the robot's centre of mass at start, bed frame", unit="m",
                                    default_text="mid-bed")
     settle_time: float = shared("settle_time", 0.5, help="pause before the ctrl schedules start (hold acts throughout)")
@@ -102,7 +115,9 @@ class MjcfScene(BeadBed):
     frame_interval: float = shared("frame_interval", 0.05)
     fidelity: str = fidelity_option("mjcf")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
-    terrain: str = shared("terrain", "sph")
+    terrain: str = shared("terrain", "sph", choices=("sph", "rft", "sph3d"),
+                          help="the planar SPH bed, the 3D resistive-force-theory terrain (rft, docs/rft.md) or a 3D "
+                               "SPH bed (sph3d, docs/sph3d.md)")
     rft_table: str = shared("rft_table", "generic")
     element_length: float | None = option(None, help="terrain rft: the size of the 3D RFT surface elements",
                                           unit="m", default_text="0.1 of each coupled body's largest geom's "
@@ -115,8 +130,10 @@ class MjcfScene(BeadBed):
             raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: no such file (allowed the path of an "
                               "MJCF file)")
         for name in ("bed_width", "bed_depth", "spacing", "t_end", "couple_below", "freeboard",
-                     "series_interval", "frame_interval"):
+                     "series_interval", "frame_interval", "bed_margin"):
             value = getattr(self, name)
+            if name == "spacing" and value is None:
+                continue
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
         check_settle_time(self.settle_time, self.t_end)
@@ -135,19 +152,41 @@ class MjcfScene(BeadBed):
                                    or not (math.isfinite(length) and length > 0)):
             raise ConfigError(f"parameter 'element_length' = {self.element_length!r} is invalid: allowed a finite "
                               "number > 0 (m)")
-        rft.check_terrain(self, self.SPH_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
+        rft.check_terrain(self, self.SPH_ONLY_FIELDS + self.SPH3D_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
+        from terrasph.terrain.sph3d_robot import check_unused_fields
+
+        if self.terrain == "sph3d":
+            check_unused_fields(self, self.PLANAR_ONLY_FIELDS, "it sets the planar bed; the 3D bed is glass beads "
+                                                               "reaching bed_margin beyond the coupled geoms")
+        elif self.terrain == "sph":
+            check_unused_fields(self, self.SPH3D_ONLY_FIELDS, "it sets the 3D bed: add terrain 'sph3d'")
+
+    @property
+    def bed_spacing(self) -> float:
+        """The particle spacing (m): `spacing`, or the terrain's default."""
+        if self.spacing is not None:
+            return self.spacing
+        return BED_SPACING if self.terrain == "sph3d" else PLANAR_BED_SPACING
 
 
-def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
+def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling | SandRun3D:
     """The model on its terrain, coupled; every check done before any step. On the SPH: the bed, its
     container and the model standing on it (a planar model only). On RFT: the model in its own frame
     on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
-    every step (a ``hold`` spec is a servo), as on the SPH."""
+    every step (a ``hold`` spec is a servo), as on the SPH. On sph3d: the model in its own frame on
+    the 3D SPH bed of :func:`terrasph.terrain.attach`, the controller called every model step
+    (:mod:`terrasph.terrain.sph3d_robot`)."""
+    if config.terrain == "sph3d":
+        from terrasph.terrain.sph3d_robot import sand_run_3d
+
+        return sand_run_3d(config.model, bodies=config.bodies, couple_below=config.couple_below,
+                           spacing=config.bed_spacing, bed_margin=config.bed_margin, bed_depth=config.bed_depth,
+                           freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics)
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
                           element_length=config.element_length)
         return RFT3DCoupling(robot, config.rft_table, control_interval=RFT3D_TIME_STEP)
-    return sph_coupling(config.model, spacing=config.spacing, bed_width=config.bed_width, bed_depth=config.bed_depth,
+    return sph_coupling(config.model, spacing=config.bed_spacing, bed_width=config.bed_width, bed_depth=config.bed_depth,
                         freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics,
                         start_x=config.start_x, bodies=config.bodies, couple_below=config.couple_below,
                         widths=config.widths, material=config.bed_material())
@@ -209,22 +248,28 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
     memory: dict[str, Any] = {}  # the run's checkpointed values: BedCrossings' record
     on_rft = isinstance(coupled, RFT3DCoupling)
-    surface = coupled.robot.surface if on_rft else float(coupled.sim.scene.surface_level)
+    three_d = not isinstance(coupled, CoupledSimulation)  # series and summary of a 3D model: RFT's or sph3d's
+    surface = coupled.robot.surface if three_d else float(coupled.sim.scene.surface_level)
     crossings = BedCrossings(coupled.robot, surface, memory)
     # the SPH bed ends at its container's walls; the 3D RFT terrain is a plane without ends
     bed = None
     if isinstance(coupled, CoupledSimulation) and coupled.sim.scene.bed_ends is not None:
         bed = BedEnds(coupled, coupled.sim.scene.bed_ends, resume=resume)
 
-    def control(run: CoupledSimulation | RFT3DCoupling) -> None:
+    def control(run: CoupledSimulation | RFT3DCoupling | SandRun3D) -> None:
         crossings.check(run.time)
         data.ctrl[:] = drive(run.time, model, data)
 
-    terrain = coupled.describe() if on_rft else coupled.sim.describe()
+    terrain = coupled.describe() if three_d else coupled.sim.describe()
+    recorder = RobotLoads3D(coupled) if on_rft else None
+    if three_d and not on_rft:
+        from terrasph.terrain.sph3d_robot import SandLoads3D
+
+        recorder = SandLoads3D(coupled)  # type: ignore[arg-type]
     series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
-                         recorder=RobotLoads3D(coupled) if on_rft else None, end_check=bed,
+                         recorder=recorder, end_check=bed,
                          config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **terrain})
     summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"]),
                "end_of_bed": bed.reason if bed else None}
@@ -233,7 +278,7 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     figure = None
     if plot and output is not None:
         figure = str(pathlib.Path(output).with_suffix(".png"))
-        draw = plot_robot_3d if on_rft else plot_mjcf
+        draw = plot_robot_3d if three_d else plot_mjcf
         draw(series, [b.name for b in coupled.robot.coupled], figure, settle_time=config.settle_time,
              title=pathlib.Path(config.model).stem, weight=_weight(model))
     return RobotRun(summary, series, figure)
@@ -244,19 +289,20 @@ def _weight(model: mujoco.MjModel) -> float:
     return float(model.body_subtreemass[0]) * -float(model.opt.gravity[2])
 
 
-def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
+def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling | SandRun3D,
              series: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
     """The run's summary values from its series: the terrain's vertical load on the coupled bodies
     over the robot's weight in the last fifth of the run; with actuators, the distance along x and
-    mean speed of the centre of mass after the pause (on RFT also its distance along y); each
-    coupled body's final sinkage and mean sinkage after the pause; leaks (none on RFT). On RFT also
-    the centre of mass's final position (x, y, z) m, the root body's final heading, pitch and roll
-    (degrees, z–y–x angles of its frame), each coupled body's load (force, N, world axes) in the
-    last fifth and each wheel's slip after the pause, Eq. 4.8 of its mean forward speed and mean spin
-    (:class:`terrasph.robots.rft3d_terrain.RobotLoads3D`)."""
+    mean speed of the centre of mass after the pause (in 3D also its distance along y); each
+    coupled body's final sinkage and mean sinkage after the pause; leaks (none on RFT). In 3D (RFT
+    and sph3d) also the centre of mass's final position (x, y, z) m, the root body's final heading,
+    pitch and roll (degrees, z–y–x angles of its frame), each coupled body's load (force, N, world
+    axes) in the last fifth and, on RFT, each wheel's slip after the pause, Eq. 4.8 of its mean
+    forward speed and mean spin (:class:`terrasph.robots.rft3d_terrain.RobotLoads3D`)."""
     on_rft = isinstance(coupled, RFT3DCoupling)
+    three_d = not isinstance(coupled, CoupledSimulation)
     model, data = coupled.robot.model, coupled.robot.data
-    up = 2 if on_rft else 1  # the vertical component of the series' forces and centre of mass
+    up = 2 if three_d else 1  # the vertical component of the series' forces and centre of mass
     names = [b.name for b in coupled.robot.coupled]
     time = series[f"robot/{names[0]}"]["time"]
     last = time >= time[-1] - 0.2 * (time[-1] - time[0])
@@ -274,19 +320,19 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
         span = float(actuators["time"][driven][-1] - actuators["time"][driven][0]) if driven.sum() > 1 else 0.0
         summary["distance"] = float(com[-1, 0] - com[0, 0]) if len(com) else math.nan
         summary["mean_speed"] = summary["distance"] / span if span > 0 else math.nan
-        if on_rft:
+        if three_d:
             summary["distance_y"] = float(com[-1, 1] - com[0, 1]) if len(com) else math.nan
     for n in names:
         body = series[f"robot/{n}"]
         after = body["time"] >= config.settle_time
         summary[f"{n}_final_sinkage"] = float(body["sinkage"][-1])
         summary[f"{n}_mean_sinkage"] = float(np.mean(body["sinkage"][after]))
-        if on_rft:
+        if three_d:
             summary[f"{n}_mean_force"] = np.mean(body["force"][last], axis=0).tolist()
             if n in radii and after.any():
                 speed, spin = np.mean(body["forward_speed"][after]), np.mean(body["spin"][after])
                 summary[f"{n}_mean_slip"] = float(slip(speed, spin, radii[n]))
-    if on_rft:
+    if three_d:
         mujoco.mj_kinematics(model, data)  # the end state's derived quantities
         mujoco.mj_comPos(model, data)
         rotation = data.xmat[1].reshape(3, 3)

@@ -58,6 +58,7 @@ from terrasph.robots.mjcf_scene import sph_coupling
 from terrasph.robots.rft3d_terrain import RFT3D_TIME_STEP, RFT3DCoupling, Robot3D, bodies_3d
 from terrasph.robots.rft_terrain import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
 from terrasph.robots.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
+from terrasph.sph3d import BED_MARGIN, BED_SPACING
 from terrasph.terrain.sph3d_coupling import Coupled3D, CoupledBody3D, bed_under, body_shape_3d
 
 __all__ = ["INTEGRATORS", "PLANAR_SPACING", "SPH3D_BED", "SPH_BED", "TERRAINS", "RFTTerrain", "SPH3DTerrain",
@@ -86,8 +87,8 @@ SPH_BED = {"spacing": 0.01, "bed_width": 2.0, "bed_depth": 0.1, "freeboard": 0.2
 #: 5 cm spacing (gymnasium's Ant's capsules are 16 cm thick, three wall layers at most), reaching
 #: `bed_margin` beyond the coupled geoms on each side (or `bed_size` (x, y) across), its wall 10 cm
 #: above the grains
-SPH3D_BED = {"spacing": 0.05, "bed_size": None, "bed_margin": 0.3, "bed_depth": 0.15, "freeboard": 0.1, "numerics": None,
-             "fidelity": DEFAULT_TIER}
+SPH3D_BED = {"spacing": BED_SPACING, "bed_size": None, "bed_margin": BED_MARGIN, "bed_depth": 0.15, "freeboard": 0.1,
+             "numerics": None, "fidelity": DEFAULT_TIER}
 
 #: the integrators of the terrain's substeps (:func:`attach`'s option ``integrator``)
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "model": None}
@@ -337,6 +338,11 @@ class SPH3DTerrain(_SPHBedTerrain):
                  integrator: int | None) -> None:
         super().__init__("sph3d", model, data, coupled, coupled.core, coupled.coupled, coupled.surface, model_step,
                          integrator)
+
+    @property
+    def coupling(self) -> Coupled3D:
+        """The coupling of the model with the bed: its SPH simulation (``core``), bed and bodies."""
+        return self._stepper
 
     def _mean_loads(self) -> dict[str, np.ndarray]:
         return {name: self._stepper.mean_load(k) for k, name in enumerate(self._names)}
