@@ -25,10 +25,11 @@ import numpy as np
 
 from terrasph.analysis import fit_line
 from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.fidelity import fidelity_option, scene_numerics
 from terrasph.io import write_results
 from terrasph.options import option
 from terrasph.scene import GRAVITY
-from terrasph.scenes.leg_rotation import glass_beads
+from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.simulation import RunResult
 from terrasph.sph3d import box, geostatic_bed
 from terrasph.sph3d_run import Body3D, Simulation3D
@@ -52,7 +53,7 @@ def _positive(name: str, value: Any) -> None:
 
 
 @dataclass(frozen=True)
-class PlateIntrusion3D:
+class PlateIntrusion3D(BeadBed):
     """Configuration of a 3D plate intrusion. Lengths in m, times in s, speeds in m/s."""
 
     speed: float = option(0.02, help="plate speed, down", unit="m/s")
@@ -69,7 +70,8 @@ class PlateIntrusion3D:
     frame_interval: float = option(0.05, help="simulated time between frames", unit="s")
     model: str = option("mu_i_hypoelastic", choices=parameter("material.model").choices, cli="material-model",
                         help="constitutive model of the beads (material.model)")
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    fidelity: str = fidelity_option("plate-intrusion-3d")
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
     t_end: float | None = option(None, help="simulated end time", unit="s", default_text="the end of the stroke")
 
     def __post_init__(self) -> None:
@@ -82,6 +84,7 @@ class PlateIntrusion3D:
         if self.t_end is not None:
             _positive("t_end", self.t_end)
         numerics = self.build_numerics()
+        self.check_bed_material()
         self.material()
         layers = math.ceil(2.0 * numerics.h_factor) * self.spacing
         for name, plate, bed in (("plate_length", self.plate_length, self.bed_length),
@@ -95,15 +98,13 @@ class PlateIntrusion3D:
                               "(the plate must stay clear of the floor's kernel support)")
 
     def build_numerics(self) -> Numerics:
-        """terrasph.Numerics at this spacing with the overrides applied."""
-        try:
-            return Numerics(**{"spacing": self.spacing, **self.numerics})
-        except TypeError as error:
-            raise ConfigError(f"parameter 'numerics' = {self.numerics!r} is invalid: {error}") from None
+        """terrasph.Numerics at this spacing: the fidelity tier's, with the overrides applied."""
+        return scene_numerics("plate-intrusion-3d", self.fidelity, self.spacing, None, self.numerics)
 
     def material(self) -> Material:
-        """The chapter 3 glass beads under the configured constitutive model."""
-        return dataclasses.replace(glass_beads(), model=self.model)
+        """The chapter 3 glass beads (with the bed's friction angles and water content) under the
+        configured constitutive model."""
+        return dataclasses.replace(self.bed_material(), model=self.model)
 
     @property
     def thickness(self) -> float:
