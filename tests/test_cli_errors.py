@@ -180,6 +180,8 @@ BAD_INPUT = [
      "--terrain"),
     ("run-plate-intrusion-3d-plate-too-wide", ["run", "plate-intrusion-3d", "--plate-length", "0.1", "--out",
                                                "{root}/r.h5"], "plate-length"),
+    ("run-plate-intrusion-3d-spacing-too-fine", ["run", "plate-intrusion-3d", "--spacing", "1e-5", "--out",
+                                                 "{root}/r.h5"], "spacing 1e-05 m"),
     # info and plot
     ("info-missing-file", ["info", "{root}/nothing.h5"], "nothing.h5"),
     ("info-text-file", ["info", "{text}"], "notes.txt"),

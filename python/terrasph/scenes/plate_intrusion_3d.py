@@ -31,6 +31,7 @@ from terrasph.options import option
 from terrasph.scene import GRAVITY
 from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.simulation import RunResult
+from terrasph.size_guard import Footprint
 from terrasph.sph3d import box, geostatic_bed
 from terrasph.sph3d_run import Body3D, Simulation3D
 
@@ -105,6 +106,14 @@ class PlateIntrusion3D(BeadBed):
         """The chapter 3 glass beads (with the bed's friction angles and water content) under the
         configured constitutive model."""
         return dataclasses.replace(self.bed_material(), model=self.model)
+
+    def footprint(self) -> Footprint:
+        """The bed and the plate, the box's floor and four sides up to the freeboard (size guard)."""
+        height = self.bed_depth + WALL_FREEBOARD
+        area = self.bed_length * self.bed_breadth + 2.0 * height * (self.bed_length + self.bed_breadth)
+        return Footprint(self.spacing, 0.0, 0.0, self.end_time, self.material(), self.build_numerics(),
+                         granular_volume=self.bed_length * self.bed_breadth * self.bed_depth
+                         + self.plate_length * self.plate_breadth * self.thickness, wall_area=area)
 
     @property
     def thickness(self) -> float:
