@@ -7,12 +7,12 @@ point (the axle) is marked from ``/series/robot/<body>/reference``. A run on a t
 grains (resistive force theory, docs/rft.md) has frames of its bodies only: its flat free surface
 (``config_json``'s ``terrain.surface``) is drawn as sand below that level (a robot on the 3D RFT
 terrain seen from the side: its bodies' surface points in x–z). A 3D run (granular SPH in 3D,
-docs/sph3d.md) is shown as a slice seen from the side (−y): the grains and fixed walls within half a
-spacing of the plane y = y_c through the middle of the grains (the first frame's y extent), with
-every body particle projected onto the x–z plane over them, so a body off the slice is still seen.
-Each picture is a matplotlib
-figure (no pyplot) rendered with Agg and encoded by imageio: MP4 through imageio-ffmpeg (which
-ships the ffmpeg encoder on PyPI), GIF through imageio's pillow plugin.
+docs/sph3d.md) is shown as a slice seen from the side (−y): the grains and fixed walls within 3/4 of a
+spacing of the plane y = y_c through the middle of the grains (the first frame's y extent; one or
+two layers), with every body particle projected onto the x–z plane over them, so a body off the
+slice is still seen. Each picture is a matplotlib figure (no pyplot) rendered with Agg and encoded
+by imageio: MP4 through imageio-ffmpeg (which ships the ffmpeg encoder on PyPI), GIF through
+imageio's pillow plugin.
 """
 
 from __future__ import annotations
@@ -60,11 +60,12 @@ class Section:
     @classmethod
     def of(cls, file: h5py.File, spacing: float) -> Section | None:
         """The slice through the middle of the first frame's grains (of its bodies, without grains),
-        half a spacing either side; None for a planar run."""
+        three quarters of a spacing either side: the one or two lattice layers nearest the middle, a
+        quarter spacing clear of the next (so grains do not flicker in and out); None for a planar run."""
         points = file["frames/position"][0] if has_grains(file) else file["frames/body_position"][0]
         if points.shape[-1] != 3:
             return None
-        return cls(0.5 * float(points[:, 1].min() + points[:, 1].max()), 0.5 * spacing * (1 + 1e-6))
+        return cls(0.5 * float(points[:, 1].min() + points[:, 1].max()), 0.75 * spacing)
 
     def inside(self, points: np.ndarray) -> np.ndarray:
         """Which of the (N, 3) `points` lie in the slice."""
