@@ -20,7 +20,7 @@ import pathlib
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -32,7 +32,7 @@ from terrasph.config import ConfigError, Material, check_settle_time
 from terrasph.fidelity import check_tier, fidelity_option, scene_numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.io import write_results
-from terrasph.options import option, shared
+from terrasph.options import check_unused_fields, option, shared
 from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controller
 from terrasph.robots.coupling import CoupledSimulation
 from terrasph.robots.geoms import is_collision_geom
@@ -47,9 +47,6 @@ from terrasph.scene import Scene
 from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.simulation import Simulation
 from terrasph.sph3d import BED_MARGIN, BED_SPACING
-
-if TYPE_CHECKING:  # the terrain package imports this module
-    from terrasph.terrain.sph3d_robot import SandRun3D
 
 __all__ = ["KICK_HEIGHT", "MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf", "sph_coupling"]
 
@@ -153,8 +150,6 @@ class MjcfScene(BeadBed):
             raise ConfigError(f"parameter 'element_length' = {self.element_length!r} is invalid: allowed a finite "
                               "number > 0 (m)")
         rft.check_terrain(self, self.SPH_ONLY_FIELDS + self.SPH3D_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
-        from terrasph.terrain.sph3d_robot import check_unused_fields
-
         if self.terrain == "sph3d":
             check_unused_fields(self, self.PLANAR_ONLY_FIELDS, "it sets the planar bed; the 3D bed is glass beads "
                                                                "reaching bed_margin beyond the coupled geoms")
@@ -169,19 +164,16 @@ class MjcfScene(BeadBed):
         return BED_SPACING if self.terrain == "sph3d" else PLANAR_BED_SPACING
 
 
-def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling | SandRun3D:
+def build_mjcf(config: MjcfScene) -> CoupledSimulation | RFT3DCoupling:
     """The model on its terrain, coupled; every check done before any step. On the SPH: the bed, its
     container and the model standing on it (a planar model only). On RFT: the model in its own frame
     on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
-    every step (a ``hold`` spec is a servo), as on the SPH. On sph3d: the model in its own frame on
-    the 3D SPH bed of :func:`terrasph.terrain.attach`, the controller called every model step
-    (:mod:`terrasph.terrain.sph3d_robot`)."""
+    every step (a ``hold`` spec is a servo), as on the SPH. The 3D SPH bed (``sph3d``) is built by
+    :func:`terrasph.terrain.sph3d_robot.sand_run_3d` on :func:`terrasph.terrain.attach`, which
+    imports this module."""
     if config.terrain == "sph3d":
-        from terrasph.terrain.sph3d_robot import sand_run_3d
-
-        return sand_run_3d(config.model, bodies=config.bodies, couple_below=config.couple_below,
-                           spacing=config.bed_spacing, bed_margin=config.bed_margin, bed_depth=config.bed_depth,
-                           freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics)
+        raise ConfigError("parameter 'terrain' = 'sph3d' is built by terrasph.terrain.sph3d_robot: run the scene with "
+                          "terrasph.terrain.sph3d_robot.run_mjcf_scene (or terrasph run mjcf)")
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
                           element_length=config.element_length)
@@ -233,7 +225,7 @@ def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: muj
 
 def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *, progress: bool = False,
              plot: bool = True, resume: bool = False, until: float | None = None,
-             controller: Controller | None = None) -> RobotRun:
+             controller: Controller | None = None, coupled: Any = None) -> RobotRun:
     """Runs the scene; `controller` (time, model, data) -> ctrl replaces the ``ctrl`` specs. Returns
     a summary (:func:`_summary`: travel of the centre of mass after the pause, each coupled body's
     sinkage, the terrain's lift over the robot's weight, on RFT the final pose, each body's load and
@@ -242,8 +234,9 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     reason, when a coupled body reached an end of the bed and the run ended there:
     :class:`terrasph.robots.run.BedEnds`) and the series; with `plot` and an
     `output`, the PNG beside it. ``resume`` and ``until`` as in
-    :func:`terrasph.robots.leg_wheel.run_leg_wheel`."""
-    coupled = build_mjcf(config)
+    :func:`terrasph.robots.leg_wheel.run_leg_wheel`. `coupled`: the model already on its terrain
+    (the 3D SPH bed's, :func:`terrasph.terrain.sph3d_robot.run_mjcf_scene`), else :func:`build_mjcf`'s."""
+    coupled = build_mjcf(config) if coupled is None else coupled
     model, data = coupled.robot.model, coupled.robot.data
     drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
     memory: dict[str, Any] = {}  # the run's checkpointed values: BedCrossings' record
@@ -256,16 +249,12 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     if isinstance(coupled, CoupledSimulation) and coupled.sim.scene.bed_ends is not None:
         bed = BedEnds(coupled, coupled.sim.scene.bed_ends, resume=resume)
 
-    def control(run: CoupledSimulation | RFT3DCoupling | SandRun3D) -> None:
+    def control(run: Any) -> None:
         crossings.check(run.time)
         data.ctrl[:] = drive(run.time, model, data)
 
     terrain = coupled.describe() if three_d else coupled.sim.describe()
-    recorder = RobotLoads3D(coupled) if on_rft else None
-    if three_d and not on_rft:
-        from terrasph.terrain.sph3d_robot import SandLoads3D
-
-        recorder = SandLoads3D(coupled)  # type: ignore[arg-type]
+    recorder = RobotLoads3D(coupled) if on_rft else coupled.recorder() if three_d else None
     series = run_coupled(coupled, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
@@ -289,7 +278,7 @@ def _weight(model: mujoco.MjModel) -> float:
     return float(model.body_subtreemass[0]) * -float(model.opt.gravity[2])
 
 
-def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling | SandRun3D,
+def _summary(config: MjcfScene, coupled: Any,
              series: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
     """The run's summary values from its series: the terrain's vertical load on the coupled bodies
     over the robot's weight in the last fifth of the run; with actuators, the distance along x and

@@ -44,7 +44,7 @@ __all__ = ["RESOLUTIONS", "SCENES", "CaseSummary", "ColumnCollapse", "LegRotatio
 @dataclass(frozen=True)
 class SceneEntry:
     """A scene: its configuration type, where a run file keeps that configuration, its run function
-    (both named in `module`, imported on first use)."""
+    (both named in `module`, or the run function in `run_module` if given; imported on first use)."""
 
     name: str  #: command-line name, also the run file's ``config["scene"]``
     config_key: str  #: key of the scene's configuration in the run file's configuration
@@ -53,6 +53,7 @@ class SceneEntry:
     run_function: str
     help: str = ""  #: one line for ``terrasph run --help``
     description: str = ""  #: the paragraph of ``terrasph run NAME --help``
+    run_module: str = ""  #: the module of the run function, if not `module`
 
     @property
     def config_type(self) -> type:
@@ -62,7 +63,7 @@ class SceneEntry:
     @property
     def run(self) -> Callable[..., Any]:
         """The scene's run function."""
-        return getattr(importlib.import_module(self.module), self.run_function)
+        return getattr(importlib.import_module(self.run_module or self.module), self.run_function)
 
     def current_names(self, values: Mapping[str, Any]) -> dict[str, Any]:
         """`values` with the fields earlier versions saved under other names renamed (the
@@ -114,13 +115,13 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
                "The example MJCF rover (terrasph.robots.ROVER), or your own planar MJCF (--model): a chassis and "
                "two leg-wheels on driven hinges, paused and then driven clockwise across a bed of 3 mm glass "
                "beads (docs/robots.md)."),
-    SceneEntry("mjcf", "mjcf", "terrasph.robots.mjcf_scene", "MjcfScene", "run_mjcf",
+    SceneEntry("mjcf", "mjcf", "terrasph.robots.mjcf_scene", "MjcfScene", "run_mjcf_scene",
                "any planar MJCF model on a bed of glass beads, any MJCF model on the 3D RFT terrain or a 3D bed",
                "A planar MuJoCo model (slides in x and z, hinges about y) on a bed of 3 mm glass beads, or any "
                "MuJoCo model (free joints, hinges about any axis) on the 3D resistive-force-theory terrain "
                "(--terrain rft) or on a 3D SPH bed of glass beads (--terrain sph3d, docs/sph3d.md): its floor is "
                "replaced by the terrain, the bodies near the floor meet it with their collision geoms, and its "
-               "actuators follow --ctrl (docs/mjcf.md)."),
+               "actuators follow --ctrl (docs/mjcf.md).", "terrasph.terrain.sph3d_robot"),
 )}
 
 

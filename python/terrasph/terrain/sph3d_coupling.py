@@ -246,7 +246,7 @@ class Coupled3D:
                 error = InstabilityError(
                     f"coupled body '{body.name}' reached a side of the 3D bed (x, y in [{low[0]:.4g}, {high[0]:.4g}] × "
                     f"[{low[1]:.4g}, {high[1]:.4g}] m) at t = {self.time:.6g} s; widen the bed (bed_size or "
-                    "bed_margin of attach)")
+                    "bed_margin of attach, --bed-margin of terrasph run mjcf)")
                 error.step, error.time, error.particle, error.reason = self.step_count, self.time, -1, "bed side"
                 raise error
 

@@ -9,12 +9,12 @@ would in a Python loop over ``sand.step()``. What a run writes is the output con
 (docs/hdf5_schema.md): frames of the grains and the bodies' particles in 3D (XDMF sidecars with XYZ
 geometry), ``/series/robot/<body>`` as on the 3D RFT terrain
 (:class:`terrasph.robots.rft3d_terrain.RobotLoads3D`: pose, velocity, load about the centre of mass,
-sinkage), the run's status, checkpoints and bitwise resume.
+sinkage), the run's status, checkpoints and bitwise resume. :func:`run_mjcf_scene` is the ``mjcf``
+scene's run function over all its terrains (the scene registry's).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import pathlib
 from collections.abc import Callable, Sequence
@@ -23,29 +23,17 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from terrasph.config import ConfigError, as_dict, parameter_units
+from terrasph.config import as_dict, parameter_units
+from terrasph.robots.mjcf_scene import MjcfScene, run_mjcf
 from terrasph.robots.rft3d_terrain import RobotLoads3D
+from terrasph.robots.run import RobotRun
 from terrasph.sph3d_run import diagnostics, frame_fields, run_attributes, static_arrays
 from terrasph.terrain.sph3d_coupling import Coupled3D
 
 if TYPE_CHECKING:
     from terrasph.terrain.interface import SPH3DTerrain
 
-__all__ = ["SandLoads3D", "SandRun3D", "check_unused_fields", "sand_run_3d"]
-
-
-def check_unused_fields(config: Any, names: Sequence[str], why: str) -> None:
-    """ConfigError in one line naming the first of the fields `names` of the dataclass `config`
-    that differs from its default: a setting the chosen terrain has no use for (`why` says so) is
-    refused rather than ignored."""
-    for item in dataclasses.fields(config):
-        if item.name not in names:
-            continue
-        default = item.default if item.default_factory is dataclasses.MISSING else item.default_factory()
-        value = getattr(config, item.name)
-        if value != default:
-            raise ConfigError(f"parameter '{item.name}' = {value!r} is invalid on terrain {config.terrain!r}: allowed "
-                              f"only its default {default!r} there ({why})")
+__all__ = ["SandLoads3D", "SandRun3D", "run_mjcf_scene", "sand_run_3d"]
 
 
 class SandRun3D:
@@ -95,6 +83,10 @@ class SandRun3D:
         span = self.time - self._since
         load = self._sums[k] / span if span > 0 else np.full(6, np.nan)
         return {"force": load[:3].copy(), "torque": load[3:].copy(), "lowest_z": self.coupling.lowest_z(k)}
+
+    def recorder(self) -> SandLoads3D:
+        """The run loop's recorder of this run's robot series."""
+        return SandLoads3D(self)
 
     # -- what the run loop writes ---------------------------------------------------------------
     def describe(self) -> dict[str, Any]:
@@ -184,3 +176,16 @@ def sand_run_3d(model_path: str | os.PathLike[str], *, bodies: Sequence[str], co
                       spacing=spacing, bed_margin=bed_margin, bed_depth=bed_depth, freeboard=freeboard,
                       fidelity=fidelity, numerics=dict(numerics) or None)
     return SandRun3D(sand)  # type: ignore[arg-type]
+
+
+def run_mjcf_scene(config: MjcfScene, output: str | os.PathLike[str] | None = None, **options: Any) -> RobotRun:
+    """The ``mjcf`` scene on any of its terrains (the scene registry's run function; `options` those of
+    :func:`terrasph.robots.mjcf_scene.run_mjcf`): on ``sph3d`` the model is put on the bed here
+    (:func:`sand_run_3d`: robots/mjcf_scene.py cannot import terrasph.terrain, which imports it), the
+    planar bed and the 3D RFT terrain are built by ``run_mjcf`` itself."""
+    if config.terrain != "sph3d":
+        return run_mjcf(config, output, **options)
+    coupled = sand_run_3d(config.model, bodies=config.bodies, couple_below=config.couple_below,
+                          spacing=config.bed_spacing, bed_margin=config.bed_margin, bed_depth=config.bed_depth,
+                          freeboard=config.freeboard, fidelity=config.fidelity, numerics=config.numerics)
+    return run_mjcf(config, output, coupled=coupled, **options)
