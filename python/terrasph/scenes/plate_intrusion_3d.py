@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from terrasph.analysis import fit_line
-from terrasph.config import ConfigError, Material, Numerics, parameter
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time, parameter
 from terrasph.fidelity import fidelity_option, scene_numerics
 from terrasph.io import write_results
 from terrasph.options import option
@@ -79,11 +79,9 @@ class PlateIntrusion3D(BeadBed):
         for name in ("speed", "max_depth", "spacing", "plate_length", "plate_breadth", "bed_length", "bed_breadth",
                      "bed_depth", "sample_travel", "frame_interval"):
             _positive(name, getattr(self, name))
-        if not (isinstance(self.settle_time, (int, float)) and math.isfinite(self.settle_time)
-                and self.settle_time >= 0):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
         if self.t_end is not None:
             _positive("t_end", self.t_end)
+        check_settle_time(self.settle_time, self.t_end)
         numerics = self.build_numerics()
         self.check_bed_material()
         self.material()
