@@ -58,6 +58,13 @@ def files(tmp_path_factory) -> dict[str, Path]:
     paths["high_box"] = root / "high_box.xml"  # its one body 1 m above the floor: none near it
     paths["high_box"].write_text('<mujoco><worldbody><geom type="plane" size="1 1 0.1"/><body pos="0 0 1">'
                                  '<freejoint/><geom type="box" size="0.05 0.05 0.05"/></body></worldbody></mujoco>')
+    ball = '<body pos="0 0 0.1"><freejoint/><geom type="sphere" size="0.1" mass="{mass}"/></body>'
+    paths["light_ball"] = root / "light_ball.xml"  # 0.1 g displacing about 6 kg of beads
+    paths["light_ball"].write_text(f'<mujoco><worldbody><geom type="plane" size="1 1 0.1"/>{ball.format(mass=1e-4)}'
+                                   '</worldbody></mujoco>')
+    paths["upward_gravity"] = root / "upward_gravity.xml"
+    paths["upward_gravity"].write_text(f'<mujoco><option gravity="0 0 9.81"/><worldbody><geom type="plane" '
+                                       f'size="1 1 0.1"/>{ball.format(mass=20)}</worldbody></mujoco>')
     paths["root"] = root
     return paths
 
@@ -158,6 +165,23 @@ BAD_INPUT = [
                                              "--no-progress"], "couple_below"),
     ("run-mjcf-non-planar-on-the-sph", ["run", "mjcf", str(ROVER4), "--out", "{root}/r.h5", "--no-progress"],
      "joint 'root' is a free joint"),
+    # a MuJoCo model on the 3D SPH bed: the checks of terrasph.terrain.attach, and the planar bed's settings
+    ("run-mjcf-sph3d-no-body-near-the-floor", ["run", "mjcf", "{high_box}", "--terrain", "sph3d", "--out",
+                                               "{root}/r.h5", "--no-progress"], "couple_below"),
+    ("run-mjcf-sph3d-too-light", ["run", "mjcf", "{light_ball}", "--terrain", "sph3d", "--out", "{root}/r.h5",
+                                  "--no-progress"], "too light"),
+    ("run-mjcf-sph3d-gravity-up", ["run", "mjcf", "{upward_gravity}", "--terrain", "sph3d", "--out", "{root}/r.h5",
+                                   "--no-progress"], "gravity"),
+    ("run-mjcf-sph3d-with-a-bed-width", ["run", "mjcf", str(ROVER4), "--terrain", "sph3d", "--bed-width", "2",
+                                         "--out", "{root}/r.h5"], "bed-width"),
+    ("run-mjcf-sph-with-a-bed-margin", ["run", "mjcf", str(ROVER4), "--bed-margin", "0.5", "--out", "{root}/r.h5"],
+     "bed-margin"),
+    ("run-mjcf-unknown-terrain", ["run", "mjcf", str(ROVER4), "--terrain", "sph4d", "--out", "{root}/r.h5"],
+     "--terrain"),
+    ("run-plate-intrusion-3d-plate-too-wide", ["run", "plate-intrusion-3d", "--plate-length", "0.1", "--out",
+                                               "{root}/r.h5"], "plate-length"),
+    ("run-plate-intrusion-3d-spacing-too-fine", ["run", "plate-intrusion-3d", "--spacing", "1e-5", "--out",
+                                                 "{root}/r.h5"], "spacing 1e-05 m"),
     # info and plot
     ("info-missing-file", ["info", "{root}/nothing.h5"], "nothing.h5"),
     ("info-text-file", ["info", "{text}"], "notes.txt"),

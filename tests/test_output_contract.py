@@ -39,7 +39,12 @@ from terrasph.scenes import SCENES, ColumnCollapse, LegRotation, PlateIntrusion
 from terrasph.scenes.leg_wheel import LegWheel
 from terrasph.scenes.mjcf_scene import MjcfScene
 from terrasph.scenes.plate_drag import PlateDrag
+from terrasph.scenes.plate_intrusion_3d import PlateIntrusion3D
 from terrasph.scenes.rover import Rover
+
+#: gymnasium's MuJoCo models (the test extra installs gymnasium)
+GYMNASIUM_ASSETS = os.path.join(os.path.dirname(__import__("gymnasium").__file__), "envs", "mujoco", "assets")
+ANT = os.path.join(GYMNASIUM_ASSETS, "ant.xml")
 
 #: Tiny versions of every registered scene (a few seconds each on one thread), the end time T1 of
 #: the first run, and the later end time T2 that the continued runs and the reference reach.
@@ -58,8 +63,7 @@ CASES = {
                     settle_time=0.01, t_end=0.03, omega=2.0, frame_interval=0.01, series_interval=0.005),
               0.03, 0.05),
     # gymnasium's hopper, unmodified, its joints held (the test extra installs gymnasium)
-    "mjcf": (MjcfScene(model=os.path.join(os.path.dirname(__import__("gymnasium").__file__), "envs", "mujoco",
-                                          "assets", "hopper.xml"),
+    "mjcf": (MjcfScene(model=os.path.join(GYMNASIUM_ASSETS, "hopper.xml"),
                        bed_width=0.8, bed_depth=0.06, spacing=0.02, settle_time=0.01, t_end=0.03,
                        ctrl=tuple(f"{joint}=hold:2000,100" for joint in ("thigh_joint", "leg_joint", "foot_joint")),
                        series_interval=0.005, frame_interval=0.01), 0.03, 0.05),
@@ -75,6 +79,14 @@ CASES = {
                               ctrl=tuple(f"{wheel}_motor=3" for wheel in ("front_left", "front_right", "rear_left",
                                                                          "rear_right")),
                               series_interval=0.005, frame_interval=0.01), 0.06, 0.09),
+    # a box plate pushed into a 3D bed (granular SPH in 3D, docs/sph3d.md): 1 152 grains
+    "plate-intrusion-3d": (PlateIntrusion3D(spacing=0.005, bed_length=0.06, bed_breadth=0.06, bed_depth=0.04,
+                                            plate_length=0.02, plate_breadth=0.02, max_depth=0.006, speed=0.1,
+                                            settle_time=0.0, frame_interval=0.01), 0.02, 0.035),
+    # gymnasium's ant, unmodified, on a 3D SPH bed at its coarse default spacing (4 232 grains): every body
+    # coupled, one hip driven from 0.01 s
+    "mjcf on sph3d": (MjcfScene(model=ANT, terrain="sph3d", couple_below=1.0, settle_time=0.01, t_end=0.03,
+                                ctrl=("hip_1=0.5",), series_interval=0.01, frame_interval=0.01), 0.03, 0.05),
 }
 #: the cases whose runs have no SPH step to make unstable (test_unstable_run_is_recorded)
 RFT_CASES = ("leg-wheel on rft", "leg-rotation on rft", "mjcf on rft")

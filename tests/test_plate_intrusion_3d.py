@@ -93,3 +93,43 @@ def test_bad_3d_plate_configurations_are_refused() -> None:
         PlateIntrusion3D(plate_breadth=0.1)
     with pytest.raises(ConfigError, match="'speed'"):
         PlateIntrusion3D(speed=-1.0)
+    with pytest.raises(ConfigError, match="'mu1_deg'"):
+        PlateIntrusion3D(mu1_deg=40.0)  # above mu2_deg
+
+
+def test_the_bed_material_options_reach_the_3d_bed() -> None:
+    """μ1 = 20°, μ2 = 30°, w = 0.5 % given to the scene: the simulation it builds has that bed (μ = tan
+    of the angle, Eq. 2.31; wet densities × (1 + w)) under the configured model, and without them the
+    chapter 3 beads (terrasph.scenes.leg_rotation.glass_beads, built here from its own numbers)."""
+    import math
+
+    from terrasph.scenes.plate_intrusion_3d import build_plate_intrusion_3d
+
+    wet = build_plate_intrusion_3d(PlateIntrusion3D(**{**TINY, "mu1_deg": 20.0, "mu2_deg": 30.0,
+                                                      "water_content": 0.005})).material
+    assert (wet.mu1, wet.mu2) == (math.tan(math.radians(20.0)), math.tan(math.radians(30.0)))
+    assert wet.reference_density == pytest.approx(2600.0 * 0.63 * 1.005) and wet.water_content == 0.005
+    dry = build_plate_intrusion_3d(PlateIntrusion3D(**TINY)).material
+    assert (dry.mu1, dry.reference_density, dry.model) == (math.tan(math.radians(23.0)), 2600.0 * 0.63,
+                                                           "mu_i_hypoelastic")
+
+
+#: the smallest bed of the checks above, to build (not run)
+TINY = {"bed_length": 0.06, "bed_breadth": 0.06, "bed_depth": 0.04, "plate_length": 0.02, "plate_breadth": 0.02,
+        "max_depth": 0.008}
+
+
+def test_the_size_guard_estimates_the_3d_bed() -> None:
+    """The guard's particles, V/Δx³ + S·layers/Δx² (terrasph.size_guard), against the bed built: within
+    15 % on the default bed (12 × 12 × 6 cm at Δx = 5 mm: the box's edges and corners, which the area
+    leaves out, make it [10 %] short); its steps, t_end/(cfl h/c0), against the core's own first step
+    at rest: within 1 %."""
+    from terrasph.scenes.plate_intrusion_3d import build_plate_intrusion_3d
+    from terrasph.size_guard import estimate
+
+    config = PlateIntrusion3D()
+    sim = build_plate_intrusion_3d(config)
+    sim.advance(1.0, max_steps=1)
+    size = estimate(config.footprint())
+    assert size.particles == pytest.approx(len(sim.core.mass) + len(sim.core.wall_position), rel=0.15)
+    assert config.end_time / size.steps == pytest.approx(sim.core.last_dt, rel=0.01)

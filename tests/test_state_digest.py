@@ -3,7 +3,8 @@
 Each line hashes the whole state of one scene variant after a fixed number of steps (every optional
 term on and off, the gather and each-pair-once passes, the active domain), so a change to the core
 that should leave every result alone (a refactoring, a faster loop) is caught to the bit, with one
-thread and with two (the core's determinism: the same sums for any thread count).
+thread and with two (the core's determinism: the same sums for any thread count). The last lines are
+a 3D plate pushed into a 3D bed (docs/sph3d.md).
 """
 
 from __future__ import annotations

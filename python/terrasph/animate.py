@@ -6,9 +6,13 @@ in a colour of their own by body index; for a coupled robot run, each coupled bo
 point (the axle) is marked from ``/series/robot/<body>/reference``. A run on a terrain without
 grains (resistive force theory, docs/rft.md) has frames of its bodies only: its flat free surface
 (``config_json``'s ``terrain.surface``) is drawn as sand below that level (a robot on the 3D RFT
-terrain seen from the side: its bodies' surface points in x–z). Each picture is a matplotlib
-figure (no pyplot) rendered with Agg and encoded by imageio: MP4 through imageio-ffmpeg (which
-ships the ffmpeg encoder on PyPI), GIF through imageio's pillow plugin.
+terrain seen from the side: its bodies' surface points in x–z). A 3D run (granular SPH in 3D,
+docs/sph3d.md) is shown as a slice seen from the side (−y): the grains and fixed walls within 3/4 of a
+spacing of the plane y = y_c through the middle of the grains (the first frame's y extent; one or
+two layers), with every body particle projected onto the x–z plane over them, so a body off the
+slice is still seen. Each picture is a matplotlib figure (no pyplot) rendered with Agg and encoded
+by imageio: MP4 through imageio-ffmpeg (which ships the ffmpeg encoder on PyPI), GIF through
+imageio's pillow plugin.
 """
 
 from __future__ import annotations
@@ -44,6 +48,32 @@ _MAX_AXES_HEIGHT_PX = 900
 _MARGINS_PX = (80, 110, 56, 40)  # left, right (colour bar), bottom, top (time stamp)
 _DPI = 100
 _MACRO_BLOCK = 16  # H.264 wants frame sides divisible by 16
+
+
+@dataclass(frozen=True)
+class Section:
+    """The slice of a 3D run that its movie shows: the particles with |y − `centre`| ≤ `half_width` (m)."""
+
+    centre: float
+    half_width: float
+
+    @classmethod
+    def of(cls, file: h5py.File, spacing: float) -> Section | None:
+        """The slice through the middle of the first frame's grains (of its bodies, without grains),
+        three quarters of a spacing either side: the one or two lattice layers nearest the middle, a
+        quarter spacing clear of the next (so grains do not flicker in and out); None for a planar run."""
+        points = file["frames/position"][0] if has_grains(file) else file["frames/body_position"][0]
+        if points.shape[-1] != 3:
+            return None
+        return cls(0.5 * float(points[:, 1].min() + points[:, 1].max()), 0.75 * spacing)
+
+    def inside(self, points: np.ndarray) -> np.ndarray:
+        """Which of the (N, 3) `points` lie in the slice."""
+        return np.abs(points[:, 1] - self.centre) <= self.half_width
+
+    def describe(self) -> str:
+        """The slice, for the pictures' time stamp."""
+        return f"slice |y − {round(self.centre, 9) + 0.0:.3g}| ≤ {self.half_width:.2g} m"
 
 
 @dataclass(frozen=True)
@@ -158,7 +188,7 @@ def fixed_walls(file: h5py.File, k: int, time: float) -> np.ndarray:
 
 
 def robot_axles(file: h5py.File, time: float) -> np.ndarray:
-    """Reference points (axles) of a robot run's coupled bodies at `time`, interpolated in their
+    """Reference points (axles) of a planar robot run's coupled bodies at `time`, interpolated in their
     ``/series/robot/<body>/reference`` series; none for other runs."""
     robot = file.get("series/robot")
     points = []
@@ -170,13 +200,19 @@ def robot_axles(file: h5py.File, time: float) -> np.ndarray:
     return np.array(points, dtype=float).reshape(-1, 2)
 
 
-def picture(file: h5py.File, k: int, colouring: str) -> Picture:
-    """Everything drawn for frame `k`."""
+def picture(file: h5py.File, k: int, colouring: str, section: Section | None = None) -> Picture:
+    """Everything drawn for frame `k`; of a 3D run, its `section` (x–z coordinates)."""
     time = float(file["frames/time"][k])
     bodies = file["frames/body_position"][k] if "frames/body_position" in file else np.zeros((0, 2))
     grains = file["frames/position"][k] if has_grains(file) else np.zeros((0, 2))
-    return Picture(time=time, grains=grains, values=colour_values(file, k, colouring),
-                   walls=fixed_walls(file, k, time), bodies=bodies, axles=robot_axles(file, time))
+    values, walls = colour_values(file, k, colouring), fixed_walls(file, k, time)
+    if section is not None:
+        kept = section.inside(grains)
+        grains, values = grains[kept][:, [0, 2]], values[kept]
+        walls = walls[section.inside(walls)][:, [0, 2]]
+        bodies = bodies[:, [0, 2]]
+    return Picture(time=time, grains=grains, values=values, walls=walls, bodies=bodies,
+                   axles=robot_axles(file, time))
 
 
 def flat_surface(file: h5py.File) -> float | None:
@@ -187,12 +223,14 @@ def flat_surface(file: h5py.File) -> float | None:
     return float(terrain["surface"]) if grain_free else None
 
 
-def view_points(file: h5py.File, first: Picture) -> np.ndarray:
+def view_points(file: h5py.File, first: Picture, section: Section | None = None) -> np.ndarray:
     """The points the view must hold: the first frame's walls, grains and bodies; without grains (the
-    bed does not frame the picture) the bodies of every frame, so a travelling robot stays in view."""
+    bed does not frame the picture) the bodies of every frame, so a travelling robot stays in view
+    (of a 3D run, with its `section`, in x–z)."""
     if has_grains(file) or "frames/body_position" not in file:
         return np.concatenate([first.grains, first.walls, first.bodies])
-    return np.concatenate([first.walls, *file["frames/body_position"][:frame_count(file)]])
+    frames = file["frames/body_position"][:frame_count(file)]
+    return np.concatenate([first.walls, *(frames[..., [0, 2]] if section else frames)])
 
 
 def view_box(points: np.ndarray, spacing: float) -> tuple[float, float, float, float]:
@@ -209,7 +247,8 @@ class Canvas:
     """A figure whose artists are updated frame by frame and rendered to RGB arrays."""
 
     def __init__(self, box: tuple[float, float, float, float], spacing: float, colouring: str,
-                 limits: tuple[float, float], body_index: np.ndarray, surface: float | None = None) -> None:
+                 limits: tuple[float, float], body_index: np.ndarray, surface: float | None = None,
+                 caption: str = "") -> None:
         (x0, x1, z0, z1), (width_px, height_px), axes_frame = layout(box)
         self.figure = Figure(figsize=(width_px / _DPI, height_px / _DPI), dpi=_DPI)
         FigureCanvasAgg(self.figure)
@@ -235,6 +274,7 @@ class Canvas:
             self.figure.colorbar(self.grains, cax=self.figure.add_axes(bar_frame),
                                  label=COLOURINGS[colouring])
         self.stamp = axes.set_title("")
+        self.caption = caption  # after the time stamp: a 3D run's slice
         self.axes = axes
         # blitting: axes, ticks, labels and colour bar are drawn once; each frame only the particles
         # and the time stamp (drawing the axes took two thirds of a frame's time)
@@ -251,7 +291,7 @@ class Canvas:
         self.grains.set_array(frame.values)
         self.bodies.set_offsets(frame.bodies)
         self.axles.set_offsets(frame.axles)
-        self.stamp.set_text(f"t = {frame.time:.3f} s")
+        self.stamp.set_text(f"t = {frame.time:.3f} s" + (f", {self.caption}" if self.caption else ""))
         self.figure.canvas.restore_region(self.background)
         for artist in self.changing:
             self.axes.draw_artist(artist)
@@ -284,10 +324,10 @@ def marker_area(spacing: float, data_width: float, axes_width_px: float) -> floa
     return float(max(diameter, 0.5) ** 2)
 
 
-def pictures(file: h5py.File, colouring: str) -> Iterator[Picture]:
-    """The run's frames in order."""
+def pictures(file: h5py.File, colouring: str, section: Section | None = None) -> Iterator[Picture]:
+    """The run's frames in order (of a 3D run, its `section`)."""
     for k in range(frame_count(file)):
-        yield picture(file, k, colouring)
+        yield picture(file, k, colouring, section)
 
 
 # -- writing -----------------------------------------------------------------------------------
@@ -340,13 +380,16 @@ def animate_run(run: str | os.PathLike[str], out: str | os.PathLike[str] | None 
         first = picture(file, 0, colouring)
         spacing = float(_config(file).get("spacing")
                         or (_typical_spacing(first.grains) if has_grains(file) else _lattice_spacing(first.bodies)))
-        canvas = Canvas(view_box(view_points(file, first), spacing), spacing, colouring,
-                        colour_limits(file, colouring), body_index(file), flat_surface(file))
+        section = Section.of(file, spacing)
+        first = picture(file, 0, colouring, section)
+        canvas = Canvas(view_box(view_points(file, first, section), spacing), spacing, colouring,
+                        colour_limits(file, colouring), body_index(file), flat_surface(file),
+                        section.describe() if section else "")
         from tqdm.auto import tqdm
 
         try:
             with _writer(out, fps) as writer:
-                for frame in tqdm(pictures(file, colouring), total=frame_count(file), unit="frame",
+                for frame in tqdm(pictures(file, colouring, section), total=frame_count(file), unit="frame",
                                   disable=not progress, mininterval=0.5, desc=out.name):
                     writer.append_data(canvas.render(frame))
         except BaseException:

@@ -74,6 +74,11 @@ _SCENE_TIERS: dict[str, dict[str, Tier]] = {
         "standard": Tier({}, "not measured on the plate (C = 0.5; the legs: within 0.4 %)"),
         "fast": Tier({"cfl": 0.9}, "not measured on the plate (the legs at C = 0.9: within 0.5 %)"),
     },
+    "plate-intrusion-3d": {
+        "reference": _REFERENCE,
+        "standard": Tier({}, "not measured (C = 0.5, the core's default)"),
+        "fast": Tier({"cfl": 0.9}, "not measured (the planar legs at C = 0.9: within 0.5 %)"),
+    },
     "leg-wheel": {
         "reference": _REFERENCE,
         "standard": Tier({"cfl": 0.9}, "mean slip -0.8 %, mean sinkage -0.3 % (C = 0.9, no active domain)"),

@@ -22,7 +22,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["OPTION", "SHARED", "Option", "add_config_options", "config_values", "option", "option_name", "redefault",
+__all__ = ["OPTION", "SHARED", "Option", "add_config_options", "check_unused_fields", "config_values", "option",
+           "option_name", "redefault",
            "shared", "with_option_names"]
 
 #: the key of a field's metadata that holds its :class:`Option`
@@ -87,6 +88,22 @@ def redefault(config_type: type, name: str, default: Any) -> Any:
     """The field `name` of `config_type` (help, unit, …) with another default, for a subclass."""
     inherited = config_type.__dataclass_fields__[name]  # type: ignore[attr-defined]
     return dataclasses.field(default=default, metadata=inherited.metadata)
+
+
+def check_unused_fields(config: Any, names: tuple[str, ...], why: str) -> None:
+    """ConfigError in one line naming the first of the fields `names` of the dataclass `config` that
+    differs from its default: a setting its `terrain` has no use for (`why` says so) is refused
+    rather than ignored."""
+    from terrasph.config import ConfigError
+
+    for item in dataclasses.fields(config):
+        if item.name not in names:
+            continue
+        default = item.default if item.default_factory is dataclasses.MISSING else item.default_factory()
+        value = getattr(config, item.name)
+        if value != default:
+            raise ConfigError(f"parameter '{item.name}' = {value!r} is invalid on terrain {config.terrain!r}: allowed "
+                              f"only its default {default!r} there ({why})")
 
 
 def option_name(field_name: str) -> str:

@@ -5,8 +5,9 @@ The estimate comes from the scene's geometry (its :meth:`footprint`: granular ar
 spacing, end time, material, numerics), not from building it: a spacing a hundred times too fine
 is refused within a second, where the build alone would take minutes and the memory of a machine.
 
-* Particles: N = A/Δx² + L·layers/Δx (the lattice of the grains, the wall rows).
-* Memory: N · :data:`BYTES_PER_PARTICLE` + the interpreter's own.
+* Particles: N = A/Δx² + L·layers/Δx (the lattice of the grains, the wall rows); in 3D
+  N = V/Δx³ + S·layers/Δx² (the grains' volume, the walls' area).
+* Memory: N · :data:`BYTES_PER_PARTICLE` (3D: :data:`BYTES_PER_PARTICLE_3D`) + the interpreter's own.
 * Steps: t_end / Δt with Δt = cfl · h · √f / c0 (the core's stable step without the flow's own
   speed, Eq. 2.46's artificial sound speed c0, mass scaling f), so a lower bound on the steps: the
   core's step divides by max(c0, the model's wave speed) + |v|, which only makes it smaller.
@@ -25,12 +26,15 @@ from typing import Any, Protocol
 from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
 
-__all__ = ["BYTES_PER_PARTICLE", "CONFIRM_HOURS", "SECONDS_PER_PARTICLE_STEP", "Footprint", "SizeEstimate",
+__all__ = ["BYTES_PER_PARTICLE", "BYTES_PER_PARTICLE_3D", "CONFIRM_HOURS", "SECONDS_PER_PARTICLE_STEP", "Footprint", "SizeEstimate",
            "available_memory", "check_size", "estimate"]
 
 #: peak resident memory per particle (grains and walls), measured: 626–646 B at 80 k–320 k grains
 #: (plate-intrusion bed, one thread; docs/cli.md)
 BYTES_PER_PARTICLE = 650.0
+#: the same in 3D, per grain and wall particle: 1 237–1 309 B at 87 k–156 k particles (a 3D plate-intrusion bed,
+#: one thread; python benchmarks/performance/size_guard_costs_3d.py 0.0025, … 0.002)
+BYTES_PER_PARTICLE_3D = 1300.0
 #: the interpreter with terrasph, numpy, h5py and MuJoCo loaded, before any particle (measured 46 MiB)
 BASE_BYTES = 200e6
 #: wall time of one particle-step on one thread, measured 0.87–1.4 µs (the same beds, shared machine)
@@ -44,11 +48,18 @@ class Footprint:
     """What a scene's size depends on, from its configuration alone."""
 
     spacing: float  #: Δx (m)
-    granular_area: float  #: area the grains fill (m²)
-    wall_length: float  #: length of the walls, each `layers` rows of particles (m)
+    granular_area: float  #: area the grains fill (m²); 0 in 3D
+    wall_length: float  #: length of the walls, each `layers` rows of particles (m); 0 in 3D
     end_time: float  #: simulated time (s)
     material: Material
     numerics: Numerics
+    granular_volume: float = 0.0  #: a 3D scene: the volume the grains fill (m³)
+    wall_area: float = 0.0  #: a 3D scene: the area of its walls, each `layers` sheets of particles (m²)
+
+    @property
+    def three_d(self) -> bool:
+        """Whether the footprint is a 3D scene's."""
+        return self.granular_volume > 0
 
 
 class Sized(Protocol):
@@ -78,7 +89,8 @@ def estimate(footprint: Footprint, threads: int = 1) -> SizeEstimate:
 
     dx = footprint.spacing
     layers = wall_layers_needed(footprint.numerics.h_factor)
-    particles = footprint.granular_area / dx**2 + footprint.wall_length * layers / dx
+    particles = (footprint.granular_area / dx**2 + footprint.wall_length * layers / dx
+                 + footprint.granular_volume / dx**3 + footprint.wall_area * layers / dx**2)
     params = _core.ModelParams2D()
     params.material = footprint.material.to_core()
     params.numerics = footprint.numerics.to_core()
@@ -87,7 +99,8 @@ def estimate(footprint: Footprint, threads: int = 1) -> SizeEstimate:
     step = numerics.cfl * numerics.h_factor * dx * math.sqrt(numerics.mass_scaling) / sound_speed
     steps = footprint.end_time / step
     seconds = particles * steps * SECONDS_PER_PARTICLE_STEP / max(1, threads)
-    return SizeEstimate(int(particles), BASE_BYTES + particles * BYTES_PER_PARTICLE, steps, seconds / 3600.0)
+    per_particle = BYTES_PER_PARTICLE_3D if footprint.three_d else BYTES_PER_PARTICLE
+    return SizeEstimate(int(particles), BASE_BYTES + particles * per_particle, steps, seconds / 3600.0)
 
 
 def _meminfo_available() -> float | None:

@@ -21,10 +21,16 @@ from terrasph.config import ConfigError, Material, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.scene import GRAVITY, earth_pressure_at_rest
 
-__all__ = ["BED_WALLS", "Bed3D", "BodyShape3D", "bed_simulation", "body_walls", "box", "capsule", "core_params",
-           "cylinder", "ellipsoid", "extrude", "geostatic_bed", "geostatic_deviatoric_stress", "sphere"]
+__all__ = ["BED_MARGIN", "BED_SPACING", "BED_WALLS", "Bed3D", "BodyShape3D", "bed_simulation", "body_walls", "box",
+           "capsule", "core_params", "cylinder", "ellipsoid", "extrude", "geostatic_bed", "geostatic_deviatoric_stress", "sphere"]
 
 BED_WALLS = {"floor": 0, "sides": 1}  # wall groups of a bed's box
+#: how far (m) a 3D bed under a MuJoCo model (terrasph.terrain.attach) reaches beyond the coupled geoms on
+#: each side (x, y) unless its size is given: room for a robot of gymnasium's Ant's size to settle and step
+BED_MARGIN = 0.3
+#: the grains' spacing (m) of a 3D bed under a MuJoCo model unless given: coarse, the coarsest at which the
+#: Ant's capsules (16 cm across) hold the three wall layers a body needs
+BED_SPACING = 0.05
 
 
 @dataclass(frozen=True)

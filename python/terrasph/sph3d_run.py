@@ -17,7 +17,8 @@ from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_
 from terrasph.simulation import BodyLoads, RunResult, versions
 from terrasph.sph3d import Bed3D, BodyShape3D, bed_simulation, body_walls
 
-__all__ = ["Body3D", "Simulation3D"]
+__all__ = ["Body3D", "Simulation3D", "diagnostics", "frame_fields", "kinetic_energy", "run_attributes",
+           "static_arrays"]
 
 
 @dataclass(frozen=True)
@@ -96,8 +97,7 @@ class Simulation3D:
 
     def kinetic_energy(self) -> float:
         """½ Σ m |v|² of the grains (J)."""
-        mass = self.bed.granular["mass"]
-        return float(0.5 * (mass * np.einsum("ij,ij->i", self.core.velocity, self.core.velocity)).sum())
+        return kinetic_energy(self.core)
 
     # -- run loop -------------------------------------------------------------------------
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
@@ -114,39 +114,20 @@ class Simulation3D:
         return restore_core(self.core, path, self.describe())
 
     def frame_fields(self) -> dict[str, np.ndarray]:
-        """The grains' position, velocity, density, pressure and stress (3 × 3), and the body
-        particles' position and velocity."""
-        core = self.core
-        fields = {"position": core.position, "velocity": core.velocity, "density": core.density,
-                  "pressure": core.pressure, "stress": core.stress}
-        if self.bodies:
-            on_body = np.asarray(core.wall_body) >= 0
-            fields["body_position"] = np.asarray(core.wall_position)[on_body]
-            fields["body_velocity"] = np.asarray(core.wall_velocity)[on_body]
-        return {name: np.array(value) for name, value in fields.items()}
+        """The grains' and body particles' fields of a frame (:func:`frame_fields`)."""
+        return frame_fields(self.core)
 
     def static_arrays(self) -> dict[str, np.ndarray]:
-        """Grain masses and ids, the fixed walls' positions, groups and ids, the body particles' ids
-        and body indices (as the planar Simulation's)."""
-        body = np.asarray(self.core.wall_body)
-        arrays = {"granular/mass": np.array(self.core.mass), "granular/id": np.array(self.core.id)}
-        for name in ("position", "group", "id"):
-            arrays[f"walls/{name}"] = np.array(np.asarray(getattr(self.core, f"wall_{name}"))[body < 0])
-        if self.bodies:
-            arrays["bodies/id"] = np.array(np.asarray(self.core.wall_id)[body >= 0])
-            arrays["bodies/index"] = np.array(body[body >= 0], dtype=np.int32)
-        return arrays
+        """The arrays written once (:func:`static_arrays`)."""
+        return static_arrays(self.core)
 
     def diagnostics(self) -> dict[str, float]:
-        """One row of ``/series/diagnostics`` but the time and wall time."""
-        return {"step": self.step_count, "dt": self.core.last_dt, "kinetic_energy": self.kinetic_energy(),
-                "max_speed": self.core.max_speed, "neighbour_builds": self.core.neighbour_builds,
-                "leaked_particles": self.leaked_particles}
+        """One row of ``/series/diagnostics`` but the time and wall time (:func:`diagnostics`)."""
+        return diagnostics(self.core)
 
     def run_attributes(self) -> dict[str, int]:
         """Particle counts and the leak counter, for a run file's ``/run``."""
-        return {"granular_particles": len(self.core.mass), "wall_particles": len(self.core.wall_position),
-                "leaked_particles": self.leaked_particles}
+        return run_attributes(self.core)
 
     def describe(self) -> dict[str, Any]:
         """Configuration of this simulation as plain data (saved with the output and checkpoints)."""
@@ -177,3 +158,50 @@ class Simulation3D:
         bodies = {b.name: dict(series.get(f"bodies/{b.name}", {})) for b in self.bodies}
         return RunResult(done.time, done.steps, done.wall_time, done.frames, os.fspath(output) if output else None,
                          done.status, diagnostics, bodies, {})
+
+
+# -- what every run of a 3D core writes (the bed with bodies here, a MuJoCo model on a bed in
+# terrasph.terrain.sph3d_coupling) ---------------------------------------------------------------
+
+def kinetic_energy(core: Any) -> float:
+    """½ Σ m |v|² of the grains of a ``_core.Simulation3D`` (J)."""
+    velocity = np.asarray(core.velocity)
+    return float(0.5 * (np.asarray(core.mass) * np.einsum("ij,ij->i", velocity, velocity)).sum())
+
+
+def frame_fields(core: Any) -> dict[str, np.ndarray]:
+    """A frame of a ``_core.Simulation3D``: the grains' position, velocity, density, pressure and
+    stress (3 × 3), and, with bodies, their particles' position and velocity (copies)."""
+    fields = {"position": core.position, "velocity": core.velocity, "density": core.density,
+              "pressure": core.pressure, "stress": core.stress}
+    on_body = np.asarray(core.wall_body) >= 0
+    if on_body.any():
+        fields["body_position"] = np.asarray(core.wall_position)[on_body]
+        fields["body_velocity"] = np.asarray(core.wall_velocity)[on_body]
+    return {name: np.array(value) for name, value in fields.items()}
+
+
+def static_arrays(core: Any) -> dict[str, np.ndarray]:
+    """Grain masses and ids, the fixed walls' positions, groups and ids, the body particles' ids
+    and body indices (as the planar Simulation's)."""
+    body = np.asarray(core.wall_body)
+    arrays = {"granular/mass": np.array(core.mass), "granular/id": np.array(core.id)}
+    for name in ("position", "group", "id"):
+        arrays[f"walls/{name}"] = np.array(np.asarray(getattr(core, f"wall_{name}"))[body < 0])
+    if (body >= 0).any():
+        arrays["bodies/id"] = np.array(np.asarray(core.wall_id)[body >= 0])
+        arrays["bodies/index"] = np.array(body[body >= 0], dtype=np.int32)
+    return arrays
+
+
+def diagnostics(core: Any) -> dict[str, float]:
+    """One row of ``/series/diagnostics`` but the time and wall time."""
+    return {"step": core.step, "dt": core.last_dt, "kinetic_energy": kinetic_energy(core),
+            "max_speed": core.max_speed, "neighbour_builds": core.neighbour_builds,
+            "leaked_particles": core.penetrated_particles}
+
+
+def run_attributes(core: Any) -> dict[str, int]:
+    """Particle counts and the leak counter, for a run file's ``/run``."""
+    return {"granular_particles": len(core.mass), "wall_particles": len(core.wall_position),
+            "leaked_particles": core.penetrated_particles}

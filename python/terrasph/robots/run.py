@@ -33,6 +33,7 @@ from terrasph.robots.metrics import sinkage, slip
 from terrasph.run_loop import END_OF_BED, Recorder
 from terrasph.terrain.interface import Terrain
 from terrasph.terrain.rft3d_coupling import RFT3DCoupling, Robot3D
+from terrasph.terrain.sph3d_coupling import Coupled3D
 from terrasph.terrain.sph_coupling import SURFACE_MARGIN, CoupledSimulation, RobotStepper
 
 __all__ = ["BED_END_MARGIN", "WHEEL_BALANCE", "BedEnds", "ControlledRun", "RobotLoads", "RobotLoads3D", "RobotRun",
@@ -256,19 +257,21 @@ def wheel_radii(robot: Robot3D) -> dict[int, tuple[int, float]]:
 
 
 class RobotLoads3D:
-    """Recorder of the run loop for :class:`RFT3DCoupling`: per coupled body ``robot/<body>`` (time,
+    """Recorder of the run loop for a 3D model (:class:`RFT3DCoupling`, or
+    :class:`terrasph.terrain.sph3d_coupling.Coupled3D` on the 3D SPH bed): per coupled body ``robot/<body>`` (time,
     position (3) m and quaternion (w, x, y, z) of its frame, velocity (3) m/s of its centre of mass
     and angular velocity (3) rad/s, world frame; force (3) N and torque (3) N·m about its centre of
     mass averaged over the sampling interval; lowest_z m, surface m, sinkage m = surface − lowest_z;
-    for a wheel (:func:`wheel_radii`) also spin rad/s, its angular velocity about the hinge's axis a,
+    for a wheel on RFT (:func:`wheel_radii`) also spin rad/s, its angular velocity about the hinge's axis a,
     forward_speed m/s, the velocity of the hinge's anchor along a × ẑ (where a positive spin rolls
     it), and slip, Eq. 4.8 of the two with the wheel's R (:func:`terrasph.robots.metrics.slip`; NaN
     while the axis is vertical)) and, for a robot with actuators, ``robot/actuators`` (time, qpos,
     qvel, ctrl, the robot's centre of mass com (3) m, actuator_force, power W)."""
 
-    def __init__(self, coupled: RFT3DCoupling) -> None:
+    def __init__(self, coupled: RFT3DCoupling | Coupled3D) -> None:
         self.coupled = coupled
-        self.wheels = wheel_radii(coupled.robot)
+        # the wheels' rolling radii are read from the RFT elements (on the 3D SPH bed: no slip series)
+        self.wheels = wheel_radii(coupled.robot) if isinstance(coupled, RFT3DCoupling) else {}
 
     def rows(self) -> dict[str, dict[str, Any]]:
         coupled = self.coupled

@@ -96,6 +96,11 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
                "horizontal plate pushed into a bed and pulled out",
                "A horizontal plate pushed down into a settled bed of glass beads at constant speed, then pulled "
                "up; vertical force against depth."),
+    SceneEntry("plate-intrusion-3d", "plate_intrusion_3d", "terrasph.scenes.plate_intrusion_3d", "PlateIntrusion3D",
+               "run_plate_intrusion_3d", "box plate pushed into a 3D bed (granular SPH in 3D, docs/sph3d.md)",
+               "A horizontal box plate L x B pushed down at constant speed into a 3D bed of glass beads at rest in a "
+               "box of fixed walls, then held; vertical force against depth, its line fit and alpha = k/(rho0 g L B) "
+               "(docs/sph3d.md)."),
     SceneEntry("plate-drag", "plate_drag", "terrasph.scenes.plate_drag", "PlateDrag", "run_plate_drag",
                "a plate moved at an attack angle through a bed (resistive force theory's experiment)",
                "A plate at attack angle beta moved in direction gamma at constant speed through a settled bed of "
@@ -111,11 +116,12 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
                "two leg-wheels on driven hinges, paused and then driven clockwise across a bed of 3 mm glass "
                "beads (docs/robots.md)."),
     SceneEntry("mjcf", "mjcf", "terrasph.scenes.mjcf_scene", "MjcfScene", "run_mjcf",
-               "any planar MJCF model on a bed of glass beads, any MJCF model on the 3D RFT terrain",
+               "any planar MJCF model on a bed of glass beads, any MJCF model on the 3D RFT terrain or a 3D bed",
                "A planar MuJoCo model (slides in x and z, hinges about y) on a bed of 3 mm glass beads, or any "
                "MuJoCo model (free joints, hinges about any axis) on the 3D resistive-force-theory terrain "
-               "(--terrain rft): its floor is replaced by the terrain, the bodies near the floor meet it with "
-               "their collision geoms, and its actuators follow --ctrl (docs/mjcf.md)."),
+               "(--terrain rft) or on a 3D SPH bed of glass beads (--terrain sph3d, docs/sph3d.md): its floor is "
+               "replaced by the terrain, the bodies near the floor meet it with their collision geoms, and its "
+               "actuators follow --ctrl (docs/mjcf.md)."),
 )}
 
 

@@ -1,10 +1,14 @@
 """Scene ``mjcf``: any planar MJCF model on a bed of chapter 4's glass beads, or any MJCF model —
-hinges about any axis, free joints — on the 3D resistive-force-theory terrain (docs/mjcf.md).
+hinges about any axis, free joints — on the 3D resistive-force-theory terrain (docs/mjcf.md) or on
+a 3D SPH bed of glass beads (docs/sph3d.md).
 
 The model's floor is replaced by the terrain and the bodies near the floor meet it with their
 collision geoms: on the SPH bed as planar terrain bodies (:mod:`terrasph.mjcf.terrain_robot`),
 on the RFT terrain (``terrain = "rft"``) as 3D RFT surface elements
-(:mod:`terrasph.terrain.rft3d_coupling`). Its actuators follow the ``ctrl`` specs
+(:mod:`terrasph.terrain.rft3d_coupling`), on the 3D SPH bed (``terrain = "sph3d"``) as particles
+filling them (:mod:`terrasph.terrain.sph3d_coupling`, the bed of :func:`terrasph.terrain.attach`).
+Every terrain is a :class:`terrasph.terrain.Terrain` stepped by the one run loop
+(:func:`terrasph.robots.run.run_coupled`). Its actuators follow the ``ctrl`` specs
 (:mod:`terrasph.robots.control`) or, from Python, any controller ``(time, model, data) -> ctrl``.
 :func:`rigid_floor_run` runs the same model and controller on MuJoCo's own floor, for comparison.
 """
@@ -33,14 +37,15 @@ from terrasph.io import write_results
 from terrasph.mjcf.geoms import is_collision_geom
 from terrasph.mjcf.model import PlanarRobot, body_name, load_model, mujoco_warnings
 from terrasph.mjcf.terrain_robot import COUPLE_BELOW, world_support
-from terrasph.options import option, shared
+from terrasph.options import check_unused_fields, option, shared
 from terrasph.robots.control import FORMS, Controller, parse_spec, spec_controller
 from terrasph.robots.metrics import slip
 from terrasph.robots.plots import body_legend, plot_robot_3d
 from terrasph.robots.run import BedEnds, RobotLoads3D, RobotRun, run_coupled, wheel_radii
 from terrasph.scenes.leg_rotation import BeadBed
+from terrasph.sph3d import BED_MARGIN, BED_SPACING
 from terrasph.terrain import rft
-from terrasph.terrain.interface import Terrain, couple
+from terrasph.terrain.interface import Terrain, attach, couple
 from terrasph.terrain.rft3d_coupling import (
     RFT3D_TIME_STEP,
     RFT3DCoupling,
@@ -50,6 +55,9 @@ from terrasph.terrain.rft3d_coupling import (
 from terrasph.terrain.sph_coupling import CoupledSimulation, planar_sph_bed
 
 __all__ = ["MjcfScene", "build_mjcf", "plot_mjcf", "rigid_floor_run", "run_mjcf"]
+
+#: the planar SPH bed's particle spacing (m) unless given
+PLANAR_BED_SPACING = 0.01
 
 
 def _body_width(text: str) -> tuple[str, float]:
@@ -65,8 +73,8 @@ def _body_width(text: str) -> tuple[str, float]:
 
 @dataclass(frozen=True)
 class MjcfScene(BeadBed):
-    """Configuration of an MJCF model on the bed (a planar model) or on the 3D RFT terrain (any
-    model). Lengths in m, times in s."""
+    """Configuration of an MJCF model on the bed (a planar model), on the 3D RFT terrain or on a 3D
+    SPH bed (any model). Lengths in m, times in s."""
 
     #: fields saved under another name by earlier versions (run files, sweep SPECs): old → new
     RENAMED_FIELDS: ClassVar[Mapping[str, str]] = {"duration": "t_end"}
@@ -76,12 +84,19 @@ class MjcfScene(BeadBed):
                                                   "water_content")
     #: the settings of the RFT terrain only, refused on the SPH bed unless at their defaults
     RFT_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("rft_table", "element_length")
+    #: the settings of the planar SPH bed only and of the 3D one only, each refused on the other unless at its default
+    PLANAR_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "start_x", "widths", "mu1_deg", "mu2_deg",
+                                                     "water_content")
+    SPH3D_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_margin",)
 
     model: str = option("", positional=True, cli="ROBOT.xml",
                         help="the MJCF file (not changed; its floor is switched off in the loaded copy)")
     bed_width: float = shared("bed_width", 1.0)
     bed_depth: float = shared("bed_depth", 0.1)
-    spacing: float = option(0.01, help="particle spacing dx; every coupled body must be >= 3 dx thick", unit="m")
+    spacing: float | None = option(None, help="particle spacing dx; every coupled body must be >= 3 dx thick", unit="m",
+                                   default_text=f"{PLANAR_BED_SPACING:g} (sph), {BED_SPACING:g} (sph3d)")
+    bed_margin: float = option(BED_MARGIN, help="terrain sph3d: the bed's reach beyond the coupled bodies' geoms on "
+                                                "each side, in x and y", unit="m")
     start_x: float | None = option(None, help="x of the robot's centre of mass at start, bed frame", unit="m",
                                    default_text="mid-bed")
     settle_time: float = shared("settle_time", 0.5, help="pause before the ctrl schedules start (hold acts throughout)")
@@ -100,7 +115,9 @@ class MjcfScene(BeadBed):
     frame_interval: float = shared("frame_interval", 0.05)
     fidelity: str = fidelity_option("mjcf")
     numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
-    terrain: str = shared("terrain", "sph")
+    terrain: str = shared("terrain", "sph", choices=("sph", "rft", "sph3d"),
+                          help="the planar SPH bed, the 3D resistive-force-theory terrain (rft, docs/rft.md) or a 3D "
+                               "SPH bed (sph3d, docs/sph3d.md)")
     rft_table: str = shared("rft_table", "generic")
     element_length: float | None = option(None, help="terrain rft: the size of the 3D RFT surface elements",
                                           unit="m", default_text="0.1 of each coupled body's largest geom's "
@@ -113,8 +130,10 @@ class MjcfScene(BeadBed):
             raise ConfigError(f"parameter 'model' = {self.model!r} is invalid: no such file (allowed the path of an "
                               "MJCF file)")
         for name in ("bed_width", "bed_depth", "spacing", "t_end", "couple_below", "freeboard",
-                     "series_interval", "frame_interval"):
+                     "series_interval", "frame_interval", "bed_margin"):
             value = getattr(self, name)
+            if name == "spacing" and value is None:
+                continue
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
         check_settle_time(self.settle_time, self.t_end)
@@ -133,20 +152,40 @@ class MjcfScene(BeadBed):
                                    or not (math.isfinite(length) and length > 0)):
             raise ConfigError(f"parameter 'element_length' = {self.element_length!r} is invalid: allowed a finite "
                               "number > 0 (m)")
-        rft.check_terrain(self, self.SPH_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
+        rft.check_terrain(self, self.SPH_ONLY_FIELDS + self.SPH3D_ONLY_FIELDS, self.RFT_ONLY_FIELDS)
+        if self.terrain == "sph3d":
+            check_unused_fields(self, self.PLANAR_ONLY_FIELDS, "it sets the planar bed; the 3D bed is glass beads "
+                                                               "reaching bed_margin beyond the coupled geoms")
+        elif self.terrain == "sph":
+            check_unused_fields(self, self.SPH3D_ONLY_FIELDS, "it sets the 3D bed: add terrain 'sph3d'")
+
+    @property
+    def bed_spacing(self) -> float:
+        """The particle spacing (m): `spacing`, or the terrain's default."""
+        if self.spacing is not None:
+            return self.spacing
+        return BED_SPACING if self.terrain == "sph3d" else PLANAR_BED_SPACING
 
 
 def build_mjcf(config: MjcfScene) -> Terrain:
     """The model on its terrain, coupled (:func:`terrasph.terrain.interface.couple`); every check
-    done before any step. On the SPH: the bed, its
-    container and the model standing on it (a planar model only). On RFT: the model in its own frame
-    on the 3D RFT terrain, whose flat surface is at its floor's height; the controller is called
-    every step (a ``hold`` spec is a servo), as on the SPH."""
+    done before any step. On the SPH: the bed, its container and the model standing on it (a planar
+    model only). On RFT: the model in its own frame on the 3D RFT terrain, whose flat surface is at
+    its floor's height; the controller is called every step (a ``hold`` spec is a servo), as on the
+    SPH. On the 3D SPH bed (``sph3d``): the model in its own frame, put on the bed by
+    :func:`terrasph.terrain.attach` (the same checks, bed and coupling as from Python)."""
+    if config.terrain == "sph3d":
+        model = load_model(config.model)
+        data = mujoco.MjData(model)
+        with mujoco_warnings():
+            return attach(model, data, "sph3d", bodies=config.bodies or None, couple_below=config.couple_below,
+                          spacing=config.bed_spacing, bed_margin=config.bed_margin, bed_depth=config.bed_depth,
+                          freeboard=config.freeboard, fidelity=config.fidelity, numerics=dict(config.numerics) or None)
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
                           element_length=config.element_length)
         return couple(robot, "rft3d", config.rft_table, control_interval=RFT3D_TIME_STEP)
-    robot, simulation = planar_sph_bed(config.model, spacing=config.spacing, bed_width=config.bed_width,
+    robot, simulation = planar_sph_bed(config.model, spacing=config.bed_spacing, bed_width=config.bed_width,
                                        bed_depth=config.bed_depth, freeboard=config.freeboard, fidelity=config.fidelity,
                                        numerics=config.numerics, start_x=config.start_x, bodies=config.bodies,
                                        couple_below=config.couple_below, widths=config.widths,
@@ -159,8 +198,8 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
              controller: Controller | None = None) -> RobotRun:
     """Runs the scene; `controller` (time, model, data) -> ctrl replaces the ``ctrl`` specs. Returns
     a summary (:func:`_summary`: travel of the centre of mass after the pause, each coupled body's
-    sinkage, the terrain's lift over the robot's weight, on RFT the final pose, each body's load and
-    each wheel's slip, and ``through_the_bed``: the uncoupled bodies that reached below the
+    sinkage, the terrain's lift over the robot's weight, in 3D (RFT, sph3d) the final pose and each
+    body's load, on RFT each wheel's slip, and ``through_the_bed``: the uncoupled bodies that reached below the
     terrain's surface, with the first time, each also warned of; on the SPH bed ``end_of_bed``, the
     reason, when a coupled body reached an end of the bed and the run ended there:
     :class:`terrasph.robots.run.BedEnds`) and the series; with `plot` and an
@@ -171,23 +210,23 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     model, data = sand.model, sand.data
     drive = controller or spec_controller(config.ctrl, model, data, config.settle_time)
     memory: dict[str, Any] = {}  # the run's checkpointed values: BedCrossings' record
-    on_rft = sand.kind == "rft3d"
-    surface = coupled.robot.surface if on_rft else float(coupled.sim.scene.surface_level)
+    three_d = sand.kind in ("rft3d", "sph3d")  # series and summary of a 3D model
+    surface = coupled.robot.surface if three_d else float(coupled.sim.scene.surface_level)
     crossings = BedCrossings(coupled.robot, surface, memory)
     # the SPH bed ends at its container's walls; the 3D RFT terrain is a plane without ends
     bed = None
     if isinstance(coupled, CoupledSimulation) and coupled.sim.scene.bed_ends is not None:
         bed = BedEnds(coupled, coupled.sim.scene.bed_ends, resume=resume)
 
-    def control(run: CoupledSimulation | RFT3DCoupling) -> None:
+    def control(run: Any) -> None:
         crossings.check(run.time)
         data.ctrl[:] = drive(run.time, model, data)
 
-    described = coupled.describe() if on_rft else coupled.sim.describe()
+    described = coupled.describe() if three_d else coupled.sim.describe()
     series = run_coupled(sand, config.t_end if until is None else until, output=output,
                          frame_interval=config.frame_interval, series_interval=config.series_interval,
                          control=control, progress=progress, resume=resume, memory=memory,
-                         recorder=RobotLoads3D(coupled) if on_rft else None, end_check=bed,
+                         recorder=RobotLoads3D(coupled) if three_d else None, end_check=bed,
                          config={"scene": "mjcf", "mjcf": dataclasses.asdict(config), **described})
     summary = {**_summary(config, coupled, series), "through_the_bed": dict(memory["through_the_bed"]),
                "end_of_bed": bed.reason if bed else None}
@@ -196,7 +235,7 @@ def run_mjcf(config: MjcfScene, output: str | os.PathLike[str] | None = None, *,
     figure = None
     if plot and output is not None:
         figure = str(pathlib.Path(output).with_suffix(".png"))
-        draw = plot_robot_3d if on_rft else plot_mjcf
+        draw = plot_robot_3d if three_d else plot_mjcf
         draw(series, [b.name for b in coupled.robot.coupled], figure, settle_time=config.settle_time,
              title=pathlib.Path(config.model).stem, weight=_weight(model))
     return RobotRun(summary, series, figure)
@@ -207,19 +246,20 @@ def _weight(model: mujoco.MjModel) -> float:
     return float(model.body_subtreemass[0]) * -float(model.opt.gravity[2])
 
 
-def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
+def _summary(config: MjcfScene, coupled: Any,
              series: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
     """The run's summary values from its series: the terrain's vertical load on the coupled bodies
     over the robot's weight in the last fifth of the run; with actuators, the distance along x and
-    mean speed of the centre of mass after the pause (on RFT also its distance along y); each
-    coupled body's final sinkage and mean sinkage after the pause; leaks (none on RFT). On RFT also
-    the centre of mass's final position (x, y, z) m, the root body's final heading, pitch and roll
-    (degrees, z–y–x angles of its frame), each coupled body's load (force, N, world axes) in the
-    last fifth and each wheel's slip after the pause, Eq. 4.8 of its mean forward speed and mean spin
-    (:class:`terrasph.robots.run.RobotLoads3D`)."""
+    mean speed of the centre of mass after the pause (in 3D also its distance along y); each
+    coupled body's final sinkage and mean sinkage after the pause; leaks (none on RFT). In 3D (RFT
+    and sph3d) also the centre of mass's final position (x, y, z) m, the root body's final heading,
+    pitch and roll (degrees, z–y–x angles of its frame), each coupled body's load (force, N, world
+    axes) in the last fifth and, on RFT, each wheel's slip after the pause, Eq. 4.8 of its mean
+    forward speed and mean spin (:class:`terrasph.robots.run.RobotLoads3D`)."""
     on_rft = isinstance(coupled, RFT3DCoupling)
+    three_d = not isinstance(coupled, CoupledSimulation)
     model, data = coupled.robot.model, coupled.robot.data
-    up = 2 if on_rft else 1  # the vertical component of the series' forces and centre of mass
+    up = 2 if three_d else 1  # the vertical component of the series' forces and centre of mass
     names = [b.name for b in coupled.robot.coupled]
     time = series[f"robot/{names[0]}"]["time"]
     last = time >= time[-1] - 0.2 * (time[-1] - time[0])
@@ -237,19 +277,19 @@ def _summary(config: MjcfScene, coupled: CoupledSimulation | RFT3DCoupling,
         span = float(actuators["time"][driven][-1] - actuators["time"][driven][0]) if driven.sum() > 1 else 0.0
         summary["distance"] = float(com[-1, 0] - com[0, 0]) if len(com) else math.nan
         summary["mean_speed"] = summary["distance"] / span if span > 0 else math.nan
-        if on_rft:
+        if three_d:
             summary["distance_y"] = float(com[-1, 1] - com[0, 1]) if len(com) else math.nan
     for n in names:
         body = series[f"robot/{n}"]
         after = body["time"] >= config.settle_time
         summary[f"{n}_final_sinkage"] = float(body["sinkage"][-1])
         summary[f"{n}_mean_sinkage"] = float(np.mean(body["sinkage"][after]))
-        if on_rft:
+        if three_d:
             summary[f"{n}_mean_force"] = np.mean(body["force"][last], axis=0).tolist()
             if n in radii and after.any():
                 speed, spin = np.mean(body["forward_speed"][after]), np.mean(body["spin"][after])
                 summary[f"{n}_mean_slip"] = float(slip(speed, spin, radii[n]))
-    if on_rft:
+    if three_d:
         mujoco.mj_kinematics(model, data)  # the end state's derived quantities
         mujoco.mj_comPos(model, data)
         rotation = data.xmat[1].reshape(3, 3)

@@ -24,11 +24,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from terrasph.analysis import fit_line
-from terrasph.config import ConfigError, Material, Numerics, glass_beads, parameter
+from terrasph.config import ConfigError, Material, Numerics, check_settle_time, parameter
+from terrasph.fidelity import fidelity_option, scene_numerics
 from terrasph.io import write_results
 from terrasph.options import option
 from terrasph.scene import GRAVITY
+from terrasph.scenes.leg_rotation import BeadBed
 from terrasph.simulation import RunResult
+from terrasph.size_guard import Footprint
 from terrasph.sph3d import box, geostatic_bed
 from terrasph.sph3d_run import Body3D, Simulation3D
 
@@ -51,7 +54,7 @@ def _positive(name: str, value: Any) -> None:
 
 
 @dataclass(frozen=True)
-class PlateIntrusion3D:
+class PlateIntrusion3D(BeadBed):
     """Configuration of a 3D plate intrusion. Lengths in m, times in s, speeds in m/s."""
 
     speed: float = option(0.02, help="plate speed, down", unit="m/s")
@@ -68,19 +71,19 @@ class PlateIntrusion3D:
     frame_interval: float = option(0.05, help="simulated time between frames", unit="s")
     model: str = option("mu_i_hypoelastic", choices=parameter("material.model").choices, cli="material-model",
                         help="constitutive model of the beads (material.model)")
-    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of terrasph.Numerics
+    fidelity: str = fidelity_option("plate-intrusion-3d")
+    numerics: dict[str, Any] = field(default_factory=dict)  #: overrides of the tier's numerics
     t_end: float | None = option(None, help="simulated end time", unit="s", default_text="the end of the stroke")
 
     def __post_init__(self) -> None:
         for name in ("speed", "max_depth", "spacing", "plate_length", "plate_breadth", "bed_length", "bed_breadth",
                      "bed_depth", "sample_travel", "frame_interval"):
             _positive(name, getattr(self, name))
-        if not (isinstance(self.settle_time, (int, float)) and math.isfinite(self.settle_time)
-                and self.settle_time >= 0):
-            raise ConfigError(f"parameter 'settle_time' = {self.settle_time!r} is invalid: allowed >= 0 s")
         if self.t_end is not None:
             _positive("t_end", self.t_end)
+        check_settle_time(self.settle_time, self.t_end)
         numerics = self.build_numerics()
+        self.check_bed_material()
         self.material()
         layers = math.ceil(2.0 * numerics.h_factor) * self.spacing
         for name, plate, bed in (("plate_length", self.plate_length, self.bed_length),
@@ -94,15 +97,21 @@ class PlateIntrusion3D:
                               "(the plate must stay clear of the floor's kernel support)")
 
     def build_numerics(self) -> Numerics:
-        """terrasph.Numerics at this spacing with the overrides applied."""
-        try:
-            return Numerics(**{"spacing": self.spacing, **self.numerics})
-        except TypeError as error:
-            raise ConfigError(f"parameter 'numerics' = {self.numerics!r} is invalid: {error}") from None
+        """terrasph.Numerics at this spacing: the fidelity tier's, with the overrides applied."""
+        return scene_numerics("plate-intrusion-3d", self.fidelity, self.spacing, None, self.numerics)
 
     def material(self) -> Material:
-        """The chapter 3 glass beads under the configured constitutive model."""
-        return dataclasses.replace(glass_beads(), model=self.model)
+        """The chapter 3 glass beads (with the bed's friction angles and water content) under the
+        configured constitutive model."""
+        return dataclasses.replace(self.bed_material(), model=self.model)
+
+    def footprint(self) -> Footprint:
+        """The bed and the plate, the box's floor and four sides up to the freeboard (size guard)."""
+        height = self.bed_depth + WALL_FREEBOARD
+        area = self.bed_length * self.bed_breadth + 2.0 * height * (self.bed_length + self.bed_breadth)
+        return Footprint(self.spacing, 0.0, 0.0, self.end_time, self.material(), self.build_numerics(),
+                         granular_volume=self.bed_length * self.bed_breadth * self.bed_depth
+                         + self.plate_length * self.plate_breadth * self.thickness, wall_area=area)
 
     @property
     def thickness(self) -> float:

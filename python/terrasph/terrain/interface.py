@@ -33,8 +33,9 @@ gentle open-loop gait closer to the travel at half the step than RK4 substeps di
 
 Every terrain is built by :func:`couple` from a robot whose coupled bodies are chosen: :func:`attach`
 prepares the user's model and calls it, and terrasph's own robot scenes call it with their robots'
-shapes; their runs step the same :class:`Terrain` (:meth:`Terrain.advance`,
-:func:`terrasph.robots.run.run_coupled`).
+shapes; the 3D SPH bed, laid under the model's own geoms, is built by :func:`attach` alone (the
+``mjcf`` scene on ``sph3d`` attaches its model as a user would). Their runs step the same
+:class:`Terrain` (:meth:`Terrain.advance`, :func:`terrasph.robots.run.run_coupled`).
 
 The floor: the model's horizontal planes (and the world's collision geoms whose top is at their
 height) have their contacts switched off, one log line says so, and the sand's free surface lies
@@ -59,6 +60,7 @@ from terrasph.mjcf.geoms import body_shape
 from terrasph.mjcf.model import Coupling, PlanarRobot, body_name, check_body_masses, check_planar
 from terrasph.mjcf.terrain_robot import check_couple_below, coupled_body_ids, floor_geoms, switch_off_floor
 from terrasph.simulation import Simulation
+from terrasph.sph3d import BED_MARGIN, BED_SPACING
 from terrasph.terrain import rft
 from terrasph.terrain.rft3d_coupling import RFT3DCoupling, Robot3D, bodies_3d
 from terrasph.terrain.rft_coupling import RFT_TIME_STEP, NativeRFTStepper, RFTCoupling
@@ -97,8 +99,8 @@ SPH_BED = {"spacing": 0.01, "bed_width": 2.0, "bed_depth": 0.1, "freeboard": 0.2
 #: 5 cm spacing (gymnasium's Ant's capsules are 16 cm thick, three wall layers at most), reaching
 #: `bed_margin` beyond the coupled geoms on each side (or `bed_size` (x, y) across), its wall 10 cm
 #: above the grains
-SPH3D_BED = {"spacing": 0.05, "bed_size": None, "bed_margin": 0.3, "bed_depth": 0.15, "freeboard": 0.1, "numerics": None,
-             "fidelity": DEFAULT_TIER}
+SPH3D_BED = {"spacing": BED_SPACING, "bed_size": None, "bed_margin": BED_MARGIN, "bed_depth": 0.15, "freeboard": 0.1,
+             "numerics": None, "fidelity": DEFAULT_TIER}
 
 #: the integrators of the terrain's substeps (:func:`attach`'s option ``integrator``)
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "model": None}
@@ -224,8 +226,14 @@ class Terrain:
         `max_steps` steps; returns the number taken. `control`, if given, is called with the coupling
         before each step or each control interval (the coupling's ``advance`` says which); the loads
         of :meth:`loads` and ``xfrc_applied`` are the coupling's, not replaced here (a run records
-        them itself)."""
-        return int(self.coupling.advance(t_end, max_steps, control))
+        them itself). The steps use the terrain's integrator, as :meth:`step`'s do."""
+        own_integrator = self.model.opt.integrator
+        if self._integrator is not None:
+            self.model.opt.integrator = self._integrator
+        try:
+            return int(self.coupling.advance(t_end, max_steps, control))
+        finally:
+            self.model.opt.integrator = own_integrator
 
     # -- what each terrain says ------------------------------------------------------------------
     #: the coupling beneath: the stepper that advances the model and the sand (its type is the terrain's)

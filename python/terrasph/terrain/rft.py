@@ -63,7 +63,7 @@ import numpy as np
 from terrasph import _core
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
-from terrasph.options import SHARED
+from terrasph.options import OPTION, SHARED
 from terrasph.scene import GRAVITY
 
 __all__ = ["COEFFICIENT_NAMES", "GENERIC", "GLASS_BEADS_DENSITY", "GLASS_BEADS_ZETA", "MAX_ORDER", "REGULARISATION_SPEED", "TABLE_FORMAT",
@@ -273,13 +273,17 @@ def load_coefficients(path: str | os.PathLike[str]) -> RFTCoefficients:
 
 
 def check_terrain(config: Any, sph_only: tuple[str, ...], rft_only: tuple[str, ...] = ()) -> None:
-    """Checks a scene configuration's `terrain` and, on RFT, its coefficient map and that none of its
+    """Checks a scene configuration's `terrain` (one of the choices its field declares, by default
+    :data:`TERRAINS`) and, on RFT, its coefficient map and that none of its
     `sph_only` fields (the bed's material, depth, numerics, fidelity: settings the RFT terrain has no
     use for) differs from its default, and on the SPH that none of its `rft_only` fields does;
     ConfigError in one line naming the parameter otherwise, so a setting is never ignored without a
     word."""
-    if config.terrain not in TERRAINS:
-        raise ConfigError(f"parameter 'terrain' = {config.terrain!r} is invalid: allowed one of {', '.join(TERRAINS)}")
+    field = next((f for f in dataclasses.fields(config) if f.name == "terrain"), None)
+    declared = field.metadata.get(OPTION) if field is not None else None
+    allowed = declared.choices if declared is not None and declared.choices else TERRAINS  # the scene's own choices
+    if config.terrain not in allowed:
+        raise ConfigError(f"parameter 'terrain' = {config.terrain!r} is invalid: allowed one of {', '.join(allowed)}")
     if config.terrain == "rft":
         coefficient_table(config.rft_table)  # an unknown name or a malformed file, before any work
     unused = sph_only if config.terrain == "rft" else rft_only

@@ -22,6 +22,8 @@ The scheme is explicit (the load lags the body by one step) and deterministic.
 
 from __future__ import annotations
 
+import os
+import pathlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -30,7 +32,7 @@ import mujoco
 import numpy as np
 
 from terrasph import InstabilityError
-from terrasph.config import ConfigError, Material, Numerics
+from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_units
 from terrasph.geometry import wall_layers_needed
 from terrasph.mjcf.geoms import is_collision_geom
 from terrasph.sph3d import (
@@ -44,16 +46,19 @@ from terrasph.sph3d import (
     geostatic_bed,
     sphere,
 )
+from terrasph.sph3d_run import diagnostics, frame_fields, run_attributes, static_arrays
 from terrasph.terrain.sph_coupling import (
     check_mass_ratio,
     divergence_error,
     divergences,
+    mujoco_state,
     mujoco_step,
+    restore_mujoco_state,
     step_until,
     velocity_servos,
 )
 
-__all__ = ["Coupled3D", "CoupledBody3D", "bed_under", "body_shape_3d"]
+__all__ = ["Coupled3D", "CoupledBody3D", "Robot3DOnBed", "bed_under", "body_shape_3d"]
 
 #: the geom types filled with particles, and the shell of each from MuJoCo's ``geom_size``
 _SHAPES = {
@@ -124,11 +129,14 @@ class CoupledBody3D:
     shape: BodyShape3D
 
 
-class _Robot:
-    """The model and data a MuJoCo step of :func:`terrasph.terrain.sph_coupling.mujoco_step` moves."""
+class Robot3DOnBed:
+    """The model and data a MuJoCo step of :func:`terrasph.terrain.sph_coupling.mujoco_step` moves,
+    the `coupled` bodies and the bed's free surface z (m): what a run's recorders read of a robot
+    (as of :class:`terrasph.terrain.rft3d_coupling.Robot3D`)."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        self.model, self.data = model, data
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, coupled: Sequence[CoupledBody3D],
+                 surface: float) -> None:
+        self.model, self.data, self.coupled, self.surface = model, data, list(coupled), float(surface)
 
 
 class Coupled3D:
@@ -163,8 +171,8 @@ class Coupled3D:
         self.core = bed_simulation(bed, material, numerics, lower, upper, extra)
         self._index = [self.core.add_driven_body(2 + k, np.array(data.xpos[b.body_id]),
                                                  np.array(data.xquat[b.body_id])) for k, b in enumerate(self.coupled)]
-        self._robot = _Robot(model, data)
-        self._servos = velocity_servos(self._robot)  # type: ignore[arg-type]
+        self.robot = Robot3DOnBed(model, data, self.coupled, surface)
+        self._servos = velocity_servos(self.robot)  # type: ignore[arg-type]
         self.restart()
 
     def _world(self, body: CoupledBody3D, points: np.ndarray) -> np.ndarray:
@@ -210,7 +218,7 @@ class Coupled3D:
             self.data.xfrc_applied[body.body_id] = self._at_com(body, np.asarray(raw["force"]),
                                                                 np.asarray(raw["torque"]))
         before = divergences(self.data)
-        mujoco_step(self._robot, self._servos, dt)  # type: ignore[arg-type]
+        mujoco_step(self.robot, self._servos, dt)  # type: ignore[arg-type]
         if divergences(self.data) > before:
             raise divergence_error(f"at step {self.step_count}", self.step_count, self.time,
                                    "; a smaller step (numerics.cfl) or a heavier body may help")
@@ -244,7 +252,7 @@ class Coupled3D:
                 error = InstabilityError(
                     f"coupled body '{body.name}' reached a side of the 3D bed (x, y in [{low[0]:.4g}, {high[0]:.4g}] × "
                     f"[{low[1]:.4g}, {high[1]:.4g}] m) at t = {self.time:.6g} s; widen the bed (bed_size or "
-                    "bed_margin of attach)")
+                    "bed_margin of attach, --bed-margin of terrasph run mjcf)")
                 error.step, error.time, error.particle, error.reason = self.step_count, self.time, -1, "bed side"
                 raise error
 
@@ -264,8 +272,9 @@ class Coupled3D:
         return float(np.asarray(self.core.wall_position)[owner == self._index[k], 2].min())
 
     def state(self) -> dict[str, Any]:
-        """The coupling's own memory (each body's last rates); the SPH's is its core's state."""
-        return {"velocity": {k: (v.copy(), w.copy()) for k, (v, w) in self._velocity.items()}}
+        """The coupling's own memory (each body's last rates) as plain data (JSON floats round-trip
+        exactly); the SPH's is its core's state."""
+        return {"velocity": {k: [v.tolist(), w.tolist()] for k, (v, w) in self._velocity.items()}}
 
     def restore_state(self, saved: dict[str, Any]) -> None:
         """Puts back a :meth:`state` (after the core's state of the same moment)."""
@@ -282,3 +291,57 @@ class Coupled3D:
             self.core.set_body_kinematics(index, np.array(self.data.xpos[body.body_id]),
                                           np.array(self.data.xquat[body.body_id]), velocity, omega, zero, zero)
 
+    # -- what a run loop records (terrasph.robots.run.run_coupled) ------------------------------
+    def body_sample(self, k: int) -> dict[str, Any]:
+        """Coupled body `k`'s load (force N, torque N·m about its centre of mass, world axes) averaged
+        since :meth:`reset_body_means` (:meth:`mean_load`), and the lowest z (m) of its particles."""
+        load = self.mean_load(k)
+        return {"force": load[:3].copy(), "torque": load[3:].copy(), "lowest_z": self.lowest_z(k)}
+
+    def describe(self) -> dict[str, Any]:
+        """The bed, its grains and the coupled bodies, for the run file and its checkpoints."""
+        return {"dimensions": 3, "spacing": self.numerics.spacing, "parameter_units": parameter_units(),
+                "terrain": {"kind": "sph3d", "surface": self.surface, "bed_size": list(self.bed.size),
+                            "domain": [self.lower.tolist(), self.upper.tolist()],
+                            "material": as_dict(self.material), "numerics": as_dict(self.numerics)},
+                "robot": {"coupled": [b.name for b in self.coupled], "mujoco": mujoco.__version__,
+                          "particles": {b.name: len(b.shape.position) for b in self.coupled},
+                          "units": "force N, torque N*m about each body's centre of mass, world axes"}}
+
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        """The grains (position, velocity, density, pressure, stress) and the bodies' particles in 3D."""
+        return frame_fields(self.core)
+
+    def static_arrays(self) -> dict[str, np.ndarray]:
+        """Grain masses and ids, the fixed walls, the body particles' ids and body indices."""
+        return static_arrays(self.core)
+
+    def diagnostics(self) -> dict[str, float]:
+        """One row of ``/series/diagnostics`` but the time and wall time."""
+        return diagnostics(self.core)
+
+    def run_attributes(self) -> dict[str, int]:
+        """Particle counts and the leak counter, for a run file's ``/run``."""
+        return run_attributes(self.core)
+
+    # -- checkpoints ----------------------------------------------------------------------------
+    def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
+        """Writes the SPH's State with MuJoCo's state and the coupling's memory (under
+        ``progress["robot"]``) to `path`."""
+        from terrasph.checkpoint import write_checkpoint
+
+        robot = {**mujoco_state(self.robot), **self.state()}  # type: ignore[arg-type]
+        return write_checkpoint(path, self.core.state(), self.describe(), {**(progress or {}), "robot": robot})
+
+    def restore(self, path: str | os.PathLike[str]) -> dict[str, Any]:
+        """Continues from a :meth:`checkpoint` of the same configuration, bit for bit; returns the rest
+        of its progress."""
+        from terrasph.checkpoint import CheckpointError, restore_core
+
+        progress = restore_core(self.core, path, self.describe())
+        if "robot" not in progress:
+            raise CheckpointError(f"checkpoint {path} holds no robot state; it was not written by a coupled run")
+        saved = progress.pop("robot")
+        restore_mujoco_state(self.robot, saved)  # type: ignore[arg-type]
+        self.restore_state(saved)
+        return progress

@@ -590,5 +590,5 @@ def _check_planar_model(mjcf: str | os.PathLike[str] | mujoco.MjModel, data: muj
     try:
         check_planar(model, data)
     except ConfigError as error:
-        raise ConfigError(f"{error}; the SPH terrain takes planar robots only: run this one on the 3D RFT "
-                          "terrain, terrain 'rft' (--terrain rft)") from None
+        raise ConfigError(f"{error}; the planar SPH terrain takes planar robots only: run this one on the 3D RFT "
+                          "terrain, terrain 'rft' (--terrain rft), or on the 3D SPH bed (--terrain sph3d)") from None
