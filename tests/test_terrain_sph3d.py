@@ -202,6 +202,19 @@ def test_a_saved_3d_state_continues_bit_for_bit(ant_at_rest: dict) -> None:
         np.testing.assert_array_equal(a, b)
 
 
+def test_a_run_advances_with_the_terrains_integrator(ant_at_rest: dict) -> None:
+    """Terrain.advance (a run's stepping: terrasph.robots.run.run_coupled) integrates with the
+    terrain's integrator, as Terrain.step does: attach's semi-implicit Euler in every coupled step
+    of the Ant (RK4 in its file), the model's own integrator back when it returns."""
+    sand, model = ant_at_rest["sand"], ant_at_rest["model"]
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+    seen = []
+    taken = sand.advance(sand.coupling.time + 0.01, control=lambda _: seen.append(int(model.opt.integrator)))
+    assert taken == len(seen) > 0
+    assert set(seen) == {int(mujoco.mjtIntegrator.mjINT_EULER)}
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+
+
 def test_the_coupled_3d_run_is_the_same_on_one_two_and_three_threads(restore_threads) -> None:
     """The slab of the torque test dropped 2 cm onto the bed and rocked by random pushes (0.1 s):
     the same qpos, grains and loads to the bit whatever the thread count."""
