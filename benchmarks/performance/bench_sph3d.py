@@ -12,8 +12,8 @@ the quoted figure is the 3D/2D ratio of CPU seconds per grain-step per round (in
 spread over rounds beside it: absolute times on a shared machine drift). Memory is the core's own
 count (Simulation.memory_bytes: fields, neighbour lists, pair caches) per particle, grains and
 walls; each phase's share of the step (phase_seconds) shows where the time goes. Writes a JSON file
-with the machine, date and commit (``provenance``) and one row per thread count, which docs/sph3d.md
-shows with ``<!-- results: sph3d_cost -->``.
+with the machine, date and commit (``provenance``), one row per thread count and the columns
+docs/sph3d.md shows of them (``<!-- results: sph3d_cost -->``).
 """
 
 from __future__ import annotations
@@ -119,6 +119,12 @@ def main() -> None:
                        "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
                        "threads": ", ".join(map(str, args.threads)) + f" (OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')})",
                        "load_average": os.getloadavg(), "command": command},
+        "columns": [["threads", "threads", "{}"], ["rounds", "rounds", "{}"],
+                    ["us_per_grain_step_2d", "2D CPU µs per grain-step", "{:.3f}"],
+                    ["us_per_grain_step_3d", "3D CPU µs per grain-step", "{:.3f}"],
+                    ["ratio_3d_2d", "3D/2D (median)", "{:.2f}"], ["ratio_spread_text", "3D/2D over rounds", "{}"],
+                    ["bytes_per_particle_2d", "2D bytes/particle", "{:.0f}"],
+                    ["bytes_per_particle_3d", "3D bytes/particle", "{:.0f}"]],
         "machine": {"node": platform.node(), "processor": platform.processor() or platform.machine()},
         "spacing": SPACING, "h_factor_3d": args.h_factor_3d,
         "scenes": {"2d": {"grains": grains2, "walls": walls2, "bytes_per_particle": bytes2,

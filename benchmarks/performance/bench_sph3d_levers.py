@@ -9,7 +9,8 @@ all in this process; each round advances every bed by `steps` steps in turn (the
 every other round), timing the process's CPU seconds per grain-step. The figure is the median over
 rounds of the defaults' time over the variant's (its speed-up): a change of the machine's speed
 falls on every bed alike. Only the cost: a variant that changes the resolution (h_factor) needs its
-accuracy measured apart. Writes a JSON file with its provenance, one row per bed.
+accuracy measured apart. Writes a JSON file with its provenance, one row per bed and the columns
+docs/sph3d.md shows of them (``<!-- results: sph3d_levers -->``).
 """
 
 from __future__ import annotations
@@ -81,6 +82,8 @@ def main() -> None:
                        "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
                        "threads": f"{args.threads} (OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')})",
                        "load_average": os.getloadavg(), "command": command},
+        "columns": [["variant", "numerics", "{}"], ["us_per_grain_step_3d", "3D CPU µs per grain-step", "{:.3f}"],
+                    ["speedup", "speed-up against the defaults (median over rounds)", "{:.2f}"]],
         "side": args.side, "rounds": args.rounds, "steps": args.steps, "rows": rows}, indent=2) + "\n")
 
 

@@ -66,14 +66,6 @@ RESULT_COLUMNS = (
     ("steps", "steps", "{:,}"), ("time", "at rest at (s)", "{:.2f}"), ("cpu_time", "CPU time (s)", "{:.1f}"),
     ("runout_normalised", "L*", "{:.3f}"), ("final_height_normalised", "H*", "{:.3f}"),
     ("runout_change", "ΔL* vs finest", "%"), ("height_change", "ΔH* vs finest", "%"), ("status", "status", "{}"),
-    # bench_sph3d_levers.py: numerics variants of the 3D bed; bench_sph3d.py: the 3D bed beside the 2D one
-    ("variant", "numerics", "{}"),
-    ("threads", "threads", "{}"), ("rounds", "rounds", "{}"),
-    ("us_per_grain_step_2d", "2D CPU µs per grain-step", "{:.3f}"),
-    ("us_per_grain_step_3d", "3D CPU µs per grain-step", "{:.3f}"), ("ratio_3d_2d", "3D/2D (median)", "{:.2f}"),
-    ("ratio_spread_text", "3D/2D over rounds", "{}"),
-    ("bytes_per_particle_2d", "2D bytes/particle", "{:.0f}"), ("bytes_per_particle_3d", "3D bytes/particle", "{:.0f}"),
-    ("speedup", "speed-up against the defaults (median)", "{:.2f}"),
 )
 
 
