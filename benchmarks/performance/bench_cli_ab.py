@@ -10,8 +10,11 @@ each with its own extra arguments (e.g. ``--b-args "--fidelity reference"``), A 
 pair of rounds, each in its own process writing a scratch file. Prints every run's wall seconds
 and summary figures, the median wall time of each side and the ratio A/B; ``--json PATH`` writes
 them too, with the machine, the date, the commit and the OpenMP environment both sides ran with
-(set ``OMP_WAIT_POLICY=passive`` for both: a side whose threads spin idles the other's). Absolute
-times move with the machine's load: compare only the ratio, measured side by side.
+(set ``OMP_WAIT_POLICY=passive`` for both: a side whose threads spin idles the other's).
+``--fresh-cache`` gives each run an empty settled-state cache (``TERRASPH_CACHE_DIR`` in the scratch
+directory), so that every run settles its bed itself: else the first run of each side fills the
+cache and the later ones start from it, and the rounds time different work. Absolute times move
+with the machine's load: compare only the ratio, measured side by side.
 """
 
 from __future__ import annotations
@@ -30,9 +33,11 @@ import time
 from pathlib import Path
 
 
-def run_side(path: str, command: list[str], extra: list[str], out: Path) -> tuple[float, dict]:
+def run_side(path: str, command: list[str], extra: list[str], out: Path, fresh_cache: bool) -> tuple[float, dict]:
     """Wall seconds and the printed summary (the last JSON object on stdout) of one run."""
     env = dict(os.environ)
+    if fresh_cache:
+        env["TERRASPH_CACHE_DIR"] = str(out.with_suffix(".cache"))
     if path:
         env["PYTHONPATH"] = path
     else:
@@ -60,6 +65,7 @@ def main() -> None:
     parser.add_argument("--keys", nargs="*", default=["travel", "mean_slip", "mean_sinkage", "peak_lift", "peak_thrust",
                                                       "runout", "L_star", "H_star"])
     parser.add_argument("--json", type=Path, help="also write the runs and the ratio to this file")
+    parser.add_argument("--fresh-cache", action="store_true", help="an empty settled-state cache for every run")
     parser.add_argument("command", nargs=argparse.REMAINDER)
     args = parser.parse_args()
     command = args.command[1:] if args.command[:1] == ["--"] else args.command
@@ -71,7 +77,7 @@ def main() -> None:
             order = ("A", "B") if index % 2 == 0 else ("B", "A")
             for side in order:
                 path, extra = sides[side]
-                wall, summary = run_side(path, command, extra, Path(scratch) / f"{side}{index}.h5")
+                wall, summary = run_side(path, command, extra, Path(scratch) / f"{side}{index}.h5", args.fresh_cache)
                 walls[side].append(wall)
                 runs.append({"round": index + 1, "side": side, "wall": wall, "summary": summary})
                 figures = {key: summary[key] for key in args.keys if key in summary}
@@ -81,7 +87,7 @@ def main() -> None:
     if args.json:
         args.json.write_text(json.dumps({
             "command": command, "a_path": args.a_path, "b_path": args.b_path, "a_args": args.a_args,
-            "b_args": args.b_args, "runs": runs, "median_wall_a": a, "median_wall_b": b, "ratio_a_over_b": a / b,
+            "b_args": args.b_args, "fresh_cache": args.fresh_cache, "runs": runs, "median_wall_a": a, "median_wall_b": b, "ratio_a_over_b": a / b,
             "environment": {k: os.environ.get(k) for k in ("OMP_WAIT_POLICY", "OMP_NUM_THREADS", "OMP_PROC_BIND")},
             "machine": {"host": platform.node(), "cpus": os.cpu_count(), "load_average": os.getloadavg()},
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),

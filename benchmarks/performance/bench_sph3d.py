@@ -12,7 +12,8 @@ the quoted figure is the 3D/2D ratio of CPU seconds per grain-step per round (in
 spread over rounds beside it: absolute times on a shared machine drift). Memory is the core's own
 count (Simulation.memory_bytes: fields, neighbour lists, pair caches) per particle, grains and
 walls; each phase's share of the step (phase_seconds) shows where the time goes. Writes a JSON file
-with the machine, date and commit.
+with the machine, date and commit (``provenance``), one row per thread count and the columns
+docs/sph3d.md shows of them (``<!-- results: sph3d_cost -->``).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import terrasph
 from bench_sph import bed as bed_2d
 from terrasph import _core
 from terrasph.config import Material, Numerics
@@ -92,7 +94,10 @@ def main() -> None:
             seconds2.append(cpu_per_grain_step(lambda n: sim2.advance(1e9, max_steps=n), grains2, args.steps))
             seconds3.append(cpu_per_grain_step(lambda n: sim3.advance(1e9, n), grains3, args.steps))
         ratios = [b / a for a, b in zip(seconds2, seconds3)]
-        row = {"threads": threads,
+        row = {"threads": threads, "rounds": args.rounds,
+               "us_per_grain_step_2d": 1e6 * statistics.median(seconds2),
+               "us_per_grain_step_3d": 1e6 * statistics.median(seconds3),
+               "ratio_spread_text": f"{min(ratios):.2f}–{max(ratios):.2f}",
                "cpu_us_per_grain_step_2d": [1e6 * s for s in seconds2],
                "cpu_us_per_grain_step_3d": [1e6 * s for s in seconds3],
                "ratio_3d_2d": statistics.median(ratios), "ratio_spread": [min(ratios), max(ratios)],
@@ -102,16 +107,29 @@ def main() -> None:
         print(f"threads {threads}: 2D {1e6 * statistics.median(seconds2):.3f} µs, 3D "
               f"{1e6 * statistics.median(seconds3):.3f} µs CPU per grain-step, 3D/2D {row['ratio_3d_2d']:.2f} "
               f"[{min(ratios):.2f}, {max(ratios):.2f}]", flush=True)
+    bytes2 = sim2.core.memory_bytes / (grains2 + walls2)
+    bytes3 = sim3.memory_bytes / (grains3 + walls3)
+    for row in rows:
+        row.update(grains_2d=grains2, walls_2d=walls2, grains_3d=grains3, walls_3d=walls3,
+                   bytes_per_particle_2d=bytes2, bytes_per_particle_3d=bytes3)
+    command = " ".join(["python", "benchmarks/performance/bench_sph3d.py", *sys.argv[1:]])
     result = {
-        "benchmark": "bench_sph3d.py", "command": " ".join(["python", "benchmarks/performance/bench_sph3d.py",
-                                                            *sys.argv[1:]]),
-        "machine": {"node": platform.node(), "processor": platform.processor() or platform.machine(),
-                    "cpus": os.cpu_count(), "load_average": os.getloadavg()},
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "commit": commit(), "spacing": SPACING, "h_factor_3d": args.h_factor_3d,
-        "scenes": {"2d": {"grains": grains2, "walls": walls2, "bytes_per_particle": sim2.core.memory_bytes / (grains2 + walls2),
+        "provenance": {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                       "terrasph": terrasph.__version__, "commit": commit(),
+                       "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
+                       "threads": ", ".join(map(str, args.threads)) + f" (OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')})",
+                       "load_average": os.getloadavg(), "command": command},
+        "columns": [["threads", "threads", "{}"], ["rounds", "rounds", "{}"],
+                    ["us_per_grain_step_2d", "2D CPU µs per grain-step", "{:.3f}"],
+                    ["us_per_grain_step_3d", "3D CPU µs per grain-step", "{:.3f}"],
+                    ["ratio_3d_2d", "3D/2D (median)", "{:.2f}"], ["ratio_spread_text", "3D/2D over rounds", "{}"],
+                    ["bytes_per_particle_2d", "2D bytes/particle", "{:.0f}"],
+                    ["bytes_per_particle_3d", "3D bytes/particle", "{:.0f}"]],
+        "machine": {"node": platform.node(), "processor": platform.processor() or platform.machine()},
+        "spacing": SPACING, "h_factor_3d": args.h_factor_3d,
+        "scenes": {"2d": {"grains": grains2, "walls": walls2, "bytes_per_particle": bytes2,
                           "phase_shares": phase_shares(sim2.core)},
-                   "3d": {"grains": grains3, "walls": walls3, "bytes_per_particle": sim3.memory_bytes / (grains3 + walls3),
+                   "3d": {"grains": grains3, "walls": walls3, "bytes_per_particle": bytes3,
                           "phase_shares": phase_shares(sim3)}},
         "rows": rows,
     }

@@ -177,30 +177,34 @@ template <int Density, bool UseXsph>
   const Vec<D> vi = row_vec<D>(p.velocity, i);
   const double rho_i = p.density[i], m_i = p.mass[i], volume_i = p.volume[i];
   const Mat<D> si = row_mat<D>(p.stress_over_rho2, i);
+  const FieldRows<D> in(p);  // the arrays' addresses, taken once
+  double* const acceleration = p.acceleration.data();
+  double* const density_rate = p.density_rate.data();
+  [[maybe_unused]] double* const xsph_sums = UseXsph ? xsph_correction_->data() : nullptr;
   Vec<D> a = Vec<D>::Zero(), x = Vec<D>::Zero();  // i's sums
   double r = 0.0;
   const bool i_awake = for_each_held_pair<UseXsph>(i, [&](std::int32_t j, bool j_awake, const PairBatch<D>& batch, int k) {
     const double grad_factor = batch.gradient_factor[k];
     const Vec<D>& xij = batch.x[k];
     const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39); ∇_jW_ji = −∇_iW_ij
-    const Vec<D> vij = vi - row_vec<D>(p.velocity, j);
-    const double m_j = p.mass[j];
-    const double rho_j = p.density[j];
+    const Vec<D> vij = vi - in.velocity(j);
+    const double m_j = in.mass[j];
+    const double rho_j = in.density[j];
     const double inv_rho_mean = 2.0 / (rho_i + rho_j);
-    const Vec<D> t = momentum_per_unit_mass<D>(c, si, row_mat<D>(p.stress_over_rho2, j), vij, xij, batch.r2[k], grad_w,
+    const Vec<D> t = momentum_per_unit_mass<D>(c, si, in.stress_over_rho2(j), vij, xij, batch.r2[k], grad_w,
                                                inv_rho_mean);
     a.noalias() += m_j * t;
     const double difference = dynamic_density_difference<D>(c, rho_i, rho_j, xij);
     const DensityRatePair<Density> drho_i =
-        density_rate_pair<D, Density>(c, m_j, p.volume[j], difference, vij, grad_w, grad_factor);
+        density_rate_pair<D, Density>(c, m_j, in.volume[j], difference, vij, grad_w, grad_factor);
     r += drho_i.total();
     if constexpr (UseXsph) x += term::xsph<D>(c.chi, m_j, inv_rho_mean, batch.value[k], vij);
     if (j_awake) {
-      row_vec<D>(p.acceleration, j) -= m_i * t;
+      Eigen::Map<Vec<D>>(acceleration + D * j) -= m_i * t;
       if constexpr (Density != no_density_terms)
-        p.density_rate[j] += density_rate_pair<D, Density>(c, m_i, volume_i, -difference, vij, grad_w, grad_factor).total();
+        density_rate[j] += density_rate_pair<D, Density>(c, m_i, volume_i, -difference, vij, grad_w, grad_factor).total();
       if constexpr (UseXsph)
-        row_vec<D>(*xsph_correction_, j) += term::xsph<D>(c.chi, m_i, inv_rho_mean, batch.value[k], Vec<D>(-vij));
+        Eigen::Map<Vec<D>>(xsph_sums + D * j) += term::xsph<D>(c.chi, m_i, inv_rho_mean, batch.value[k], Vec<D>(-vij));
     }
   });
   if (!i_awake) return;

@@ -109,25 +109,28 @@ template <int Density>
   const Vec<D> vi = row_vec<D>(p.velocity, i);
   [[maybe_unused]] const double rho_i = p.density[i], m_i = p.mass[i];
   const double volume_i = p.volume[i];
+  const FieldRows<D> in(p);  // the arrays' addresses, taken once
+  double* const velocity_gradient = p.velocity_gradient.data();
+  [[maybe_unused]] double* const density_rate = p.density_rate.data();
   Mat<D> g = Mat<D>::Zero();  // i's sums
   double r = 0.0;
   const bool i_awake = for_each_held_pair<false>(i, [&](std::int32_t j, bool j_awake, const PairBatch<D>& batch, int k) {
     const Vec<D>& xij = batch.x[k];
     const double grad_factor = batch.gradient_factor[k];
-    const Vec<D> vji = row_vec<D>(p.velocity, j) - vi;
-    add_gradient_pair<D>(g, p.volume[j], grad_factor, vji, xij);
+    const Vec<D> vji = in.velocity(j) - vi;
+    add_gradient_pair<D>(g, in.volume[j], grad_factor, vji, xij);
     [[maybe_unused]] DensityRatePair<Density> drho_i, drho_j;
     if constexpr (Density != no_density_terms) {
       const Vec<D> vij = -vji;
       const Vec<D> grad_w = grad_factor * xij;  // ∇_iW_ij (Eq. 2.39)
-      const double difference = dynamic_density_difference<D>(c, rho_i, p.density[j], xij);
-      drho_i = density_rate_pair<D, Density>(c, p.mass[j], p.volume[j], difference, vij, grad_w, grad_factor);
+      const double difference = dynamic_density_difference<D>(c, rho_i, in.density[j], xij);
+      drho_i = density_rate_pair<D, Density>(c, in.mass[j], in.volume[j], difference, vij, grad_w, grad_factor);
       drho_j = density_rate_pair<D, Density>(c, m_i, volume_i, -difference, vij, grad_w, grad_factor);
       r += drho_i.total();
     }
     if (j_awake) {
-      add_gradient_pair<D>(row_mat<D>(p.velocity_gradient, j), volume_i, grad_factor, vji, xij);
-      if constexpr (Density != no_density_terms) p.density_rate[j] += drho_j.total();
+      add_gradient_pair<D>(Eigen::Map<Mat<D>>(velocity_gradient + D * D * j), volume_i, grad_factor, vji, xij);
+      if constexpr (Density != no_density_terms) density_rate[j] += drho_j.total();
     }
   });
   if (!i_awake) return;
