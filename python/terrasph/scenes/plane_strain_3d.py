@@ -122,8 +122,9 @@ def build_leg_slab(slab: LegSlab) -> Simulation3D:
 def run_leg_slab(slab: LegSlab, *, output: str | None = None, progress: bool = False) -> LegResult:
     """Runs the leg's slab to the end of the sweep and returns the planar scene's
     :class:`LegResult`: lift F_z, thrust F_x and the torque about the hip's +y axis (the planar
-    clockwise torque), whole loads on the slab's leg (N), each a time average over 1/samples_per_radian
-    of the sweep."""
+    clockwise torque), each a time average over 1/samples_per_radian of the sweep, in N for the
+    leg's ``width`` as the planar scene reports them: the slab's load over its breadth on the
+    lattice (a whole number of spacings, e.g. 12 × 2.13 = 25.6 mm for 25.4 mm) times ``width``."""
     config = slab.config
     sim = build_leg_slab(slab)
     interval = 1.0 / (config.samples_per_radian * config.omega)
@@ -134,7 +135,8 @@ def run_leg_slab(slab: LegSlab, *, output: str | None = None, progress: bool = F
     time, q = np.asarray(series["time"]), np.asarray(series["orientation"])
     turning = time > config.settle_time + 1e-9
     angle = 2.0 * np.arctan2(q[:, 2], q[:, 0])  # the turn about +y (turn_about_y inverted)
-    force, torque = np.asarray(series["mean_force"]), np.asarray(series["mean_torque"])
+    per_width = config.width / sim.bed.size[1]
+    force, torque = per_width * np.asarray(series["mean_force"]), per_width * np.asarray(series["mean_torque"])
     return LegResult(angle[turning], force[turning, 2], force[turning, 0], torque[turning, 1], config,
                      len(sim.core.mass), sim.leaked_particles, run)
 
@@ -183,7 +185,8 @@ def build_plate_slab(slab: PlateSlab) -> Simulation3D:
 def run_plate_slab(slab: PlateSlab, *, output: str | None = None, progress: bool = False) -> PlateResult:
     """Runs the plate's 3D bed to ``config.end_time`` and returns the planar scene's
     :class:`PlateResult`: F_z (N, the whole plate) against the depth of its underside, per load
-    sample; ``alpha()`` = k/(ρ0 g L W) and ζ = k/(L W) with W the plate's breadth."""
+    sample; its ``config.width`` is the plate's breadth on the lattice (a whole number of spacings),
+    so ``alpha()`` = k/(ρ0 g L W) and ζ = k/(L W) are per unit area of the plate as built."""
     config = slab.config
     sim = build_plate_slab(slab)
     run: RunResult = sim.run(config.end_time, output=output, body_interval=config.sample_interval,
@@ -197,5 +200,6 @@ def run_plate_slab(slab: PlateSlab, *, output: str | None = None, progress: bool
     planar = {"time": np.asarray(series["time"]), "sinkage": sim.bed.size[2] - underside,
               "force": force[:, [0, 2]]}
     depth, force_z, phase, time = stroke_samples(planar, config)
-    return PlateResult(depth, force_z, phase, time, config, len(sim.core.mass), sim.leaked_particles,
-                       config.material().reference_density, run)
+    breadth = float(np.ptp(sim.bodies[0].shape.position[:, 1])) + config.spacing
+    return PlateResult(depth, force_z, phase, time, dataclasses.replace(config, width=breadth), len(sim.core.mass),
+                       sim.leaked_particles, config.material().reference_density, run)
