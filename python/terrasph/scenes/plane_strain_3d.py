@@ -36,7 +36,7 @@ from terrasph.scenes.plate_intrusion import (
     stroke_samples,
 )
 from terrasph.simulation import RunResult
-from terrasph.sph3d import Bed3D, extrude, geostatic_bed, turn_about_y
+from terrasph.sph3d import Bed3D, BodyShape3D, extrude, geostatic_bed, turn_about_y
 from terrasph.sph3d_run import Body3D, Simulation3D
 
 __all__ = ["LEG_SLAB_RIM", "LegSlab", "PlateSlab", "build_leg_slab", "build_plate_slab", "planar_motion_rows",
@@ -69,6 +69,18 @@ def _without_grains_near(bed: Bed3D, section: np.ndarray, breadth: tuple[float, 
     near[rows[(rows < len(x)) & (indices >= len(x))]] = True
     keep = ~(near & (x[:, 1] > breadth[0]) & (x[:, 1] < breadth[1]))
     return dataclasses.replace(bed, granular={k: v[keep] for k, v in bed.granular.items()}, depth=bed.depth[keep])
+
+
+def _across(section: BodyShape, breadth: float, bed: Bed3D, layers: int, h_factor: float) -> BodyShape3D:
+    """``section`` extruded to ``breadth``; a body as broad as the bed reaches on through the side
+    walls' ``layers``. Measured: a plate ending at the walls' surface let grains into the slot
+    between its end faces and the smooth walls (24 grains inside the plate of the planar scene at
+    1.7 s, its resistance levelled off from 2 cm deep, ζ −96 %); reaching through, the body seals
+    the slot as the planar body, continuous in y, does."""
+    dx = section.spacing
+    if round(breadth / dx) >= round(bed.size[1] / dx):
+        return extrude(section, bed.size[1] + 2 * layers * dx, h_factor)
+    return extrude(section, breadth, h_factor)
 
 
 def _domain(bed: Bed3D, rim: float, layers: int, spacing: float) -> tuple[np.ndarray, np.ndarray]:
@@ -109,7 +121,7 @@ def build_leg_slab(slab: LegSlab) -> Simulation3D:
     bed = geostatic_bed((config.bed_width, config.width, config.bed_depth), config.bed_material(), dx,
                         h_factor=numerics.h_factor, rim=slab.rim, smooth_y_walls=True)
     section: BodyShape = planar.shape
-    leg = extrude(section, bed.size[1], numerics.h_factor)
+    leg = _across(section, bed.size[1], bed, layers, numerics.h_factor)
     hip = (0.5 * bed.size[0], 0.5 * bed.size[1], bed.size[2] + config.hip_height)
     placed, _ = section.transformed(config.start_angle, (hip[0], hip[2]))
     bed = _without_grains_near(bed, placed, (0.0, bed.size[1]), dx)
@@ -174,7 +186,7 @@ def build_plate_slab(slab: PlateSlab) -> Simulation3D:
     scene = build_plate_intrusion(config)[0]
     scene.validate(numerics)  # the planar scene's checks
     section = scene.bodies[0].shape
-    plate = extrude(section, config.width, numerics.h_factor)
+    plate = _across(section, config.width, bed, layers, numerics.h_factor)
     half = 0.5 * dx * round(config.plate_thickness / dx)
     centre = (0.5 * bed.size[0], 0.5 * bed.size[1], bed.size[2] + config.start_gap + half)
     lower, upper = _domain(bed, WALL_FREEBOARD, layers, dx)
@@ -200,6 +212,6 @@ def run_plate_slab(slab: PlateSlab, *, output: str | None = None, progress: bool
     planar = {"time": np.asarray(series["time"]), "sinkage": sim.bed.size[2] - underside,
               "force": force[:, [0, 2]]}
     depth, force_z, phase, time = stroke_samples(planar, config)
-    breadth = float(np.ptp(sim.bodies[0].shape.position[:, 1])) + config.spacing
+    breadth = min(float(np.ptp(sim.bodies[0].shape.position[:, 1])) + config.spacing, sim.bed.size[1])
     return PlateResult(depth, force_z, phase, time, dataclasses.replace(config, width=breadth), len(sim.core.mass),
                        sim.leaked_particles, config.material().reference_density, run)
