@@ -19,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -120,7 +121,7 @@ def build_leg_slab(slab: LegSlab) -> Simulation3D:
     dx, layers = config.grid_spacing, wall_layers_needed(numerics.h_factor)
     bed = geostatic_bed((config.bed_width, config.width, config.bed_depth), config.bed_material(), dx,
                         h_factor=numerics.h_factor, rim=slab.rim, smooth_y_walls=True)
-    section: BodyShape = planar.shape
+    section = cast(BodyShape, planar.shape)  # a body of the planar scene has its shape
     leg = _across(section, bed.size[1], bed, layers, numerics.h_factor)
     hip = (0.5 * bed.size[0], 0.5 * bed.size[1], bed.size[2] + config.hip_height)
     placed, _ = section.transformed(config.start_angle, (hip[0], hip[2]))
@@ -185,7 +186,7 @@ def build_plate_slab(slab: PlateSlab) -> Simulation3D:
                         rim=WALL_FREEBOARD, smooth_y_walls=True)
     scene = build_plate_intrusion(config)[0]
     scene.validate(numerics)  # the planar scene's checks
-    section = scene.bodies[0].shape
+    section = cast(BodyShape, scene.bodies[0].shape)
     plate = _across(section, config.width, bed, layers, numerics.h_factor)
     half = 0.5 * dx * round(config.plate_thickness / dx)
     centre = (0.5 * bed.size[0], 0.5 * bed.size[1], bed.size[2] + config.start_gap + half)
