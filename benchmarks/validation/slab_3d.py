@@ -139,6 +139,10 @@ def plate(args: argparse.Namespace) -> None:
     planar, planar_cpu = timed(run_plate_intrusion, config, progress=False, plot=False)
     slab, slab_cpu = timed(run_plate_slab, PlateSlab(config), progress=args.progress)
     rows = {"planar": plate_row(planar, planar_cpu, config.width), "slab": plate_row(slab, slab_cpu, config.width)}
+    for spacing in args.planar_spacings:  # the planar scene's own resolution error at this spacing
+        finer = dataclasses.replace(config, spacing=spacing)
+        rows[f"planar at {spacing:g} m"] = plate_row(*timed(run_plate_intrusion, finer, progress=False, plot=False),
+                                                     config.width)
     change = rows["slab"]["zeta"] / rows["planar"]["zeta"] - 1.0
     print(json.dumps(rows), change, flush=True)
     path = write("plate", {"config": dataclasses.asdict(config), "runs": rows, "zeta_slab_minus_planar": change,
@@ -261,6 +265,8 @@ def main() -> None:
     parser.add_argument("--size", type=float, nargs=3, default=[0.064, 0.064, 0.048])
     parser.add_argument("--t-end", type=float, default=0.2)
     parser.add_argument("--away", type=float, default=0.2)
+    parser.add_argument("--planar-spacings", type=float, nargs="*", default=[0.004, 0.0025],
+                        help="plate: the planar scene also at these spacings (its resolution error)")
     parser.add_argument("--progress", action="store_true")
     args = parser.parse_args()
     if args.spacing is None:
