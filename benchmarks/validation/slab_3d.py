@@ -2,8 +2,8 @@
 
     python benchmarks/validation/slab_3d.py leg [--omega 0.8 --settle 0.3 --bed-depth 0.08]
     python benchmarks/validation/slab_3d.py plate [--spacing 0.005]
-    python benchmarks/validation/slab_3d.py side-flow [--spacing 0.005 --bed-breadth 0.1016
-                                                      --breadths 0.1016 0.0508 0.0254]
+    python benchmarks/validation/slab_3d.py side-flow [--spacing 0.005 --bed-breadth 0.0508
+                                                      --breadths 0.0508 0.0254 0.015 --max-depth 0.02]
     python benchmarks/validation/slab_3d.py bed [--spacing 0.004 --t-end 0.2]
 
 ``leg``: the rotating C-leg of the leg-rotation scene, planar and in a 3D slab as wide as the leg
@@ -128,7 +128,7 @@ def leg(args: argparse.Namespace) -> None:
 
 def plate_config(args: argparse.Namespace, width: float | None = None) -> PlateIntrusion:
     """The plate-intrusion scene at this spacing, down stroke only (to the turn)."""
-    base = PlateIntrusion(spacing=args.spacing, fidelity=args.fidelity)
+    base = PlateIntrusion(spacing=args.spacing, fidelity=args.fidelity, max_depth=args.max_depth)
     config = dataclasses.replace(base, width=base.width if width is None else width)
     return dataclasses.replace(config, t_end=config.settle_time + config.stroke_time)
 
@@ -183,7 +183,8 @@ def side_flow(args: argparse.Namespace) -> None:
                         f"ζ = {row['zeta']:.3g} N/m³")
     axes.set_xlabel("depth of the plate's underside (mm)")
     axes.set_ylabel("$F_z$ per unit breadth (N/m)")
-    axes.set_title(f"plate 40 mm long in a {1e3 * args.bed_breadth:.1f} mm broad bed, smooth sides")
+    axes.set_title(f"plate 40 mm long in a {1e3 * args.bed_breadth:.1f} mm broad bed, smooth sides, "
+                   f"Δx = {1e3 * args.spacing:g} mm")
     axes.legend()
     fig.savefig(png, dpi=120)
     print(path, png)
@@ -260,13 +261,14 @@ def main() -> None:
     parser.add_argument("--resolution", default="coarse")
     parser.add_argument("--fidelity", default="standard")
     parser.add_argument("--spacing", type=float, default=None, help="plate: 0.005 m, bed: 0.004 m")
-    parser.add_argument("--bed-breadth", type=float, default=0.1016)
-    parser.add_argument("--breadths", type=float, nargs="+", default=[0.1016, 0.0508, 0.0254])
+    parser.add_argument("--bed-breadth", type=float, default=0.0508)
+    parser.add_argument("--breadths", type=float, nargs="+", default=[0.0508, 0.0254, 0.015])
     parser.add_argument("--size", type=float, nargs=3, default=[0.064, 0.064, 0.048])
     parser.add_argument("--t-end", type=float, default=0.2)
     parser.add_argument("--away", type=float, default=0.2)
     parser.add_argument("--planar-spacings", type=float, nargs="*", default=[0.004, 0.0025],
                         help="plate: the planar scene also at these spacings (its resolution error)")
+    parser.add_argument("--max-depth", type=float, default=0.04, help="plate, side-flow: the stroke's depth (m)")
     parser.add_argument("--progress", action="store_true")
     args = parser.parse_args()
     if args.spacing is None:
