@@ -169,11 +169,17 @@ def side_flow(args: argparse.Namespace) -> None:
         config = plate_config(args, breadth)
         result, cpu = timed(run_plate_slab, PlateSlab(config, args.bed_breadth), progress=args.progress)
         rows.append(plate_row(result, cpu, args.bed_breadth))
-        depth, force = result.stroke("down")
-        curves[f"{breadth:g}"] = {"depth": depth.tolist(), "force_per_breadth": (force / breadth).tolist()}
+        depth, force = result.stroke("down")  # the breadth as built: result.config.width
+        curves[f"{result.config.width:g}"] = {"depth": depth.tolist(),
+                                              "force_per_breadth": (force / result.config.width).tolist()}
         print(json.dumps(rows[-1]), flush=True)
+    planar = {f"{spacing:g}": plate_row(*timed(run_plate_intrusion, dataclasses.replace(plate_config(args),
+                                                                                      spacing=spacing),
+                                               progress=False, plot=False), args.bed_breadth)
+              for spacing in (args.spacing, *args.planar_spacings)}  # the planar scene, the same stroke
+    print(json.dumps(planar), flush=True)
     path = write("side_flow", {"config": dataclasses.asdict(plate_config(args)), "bed_breadth": args.bed_breadth,
-                               "rows": rows, "curves": curves})
+                               "rows": rows, "planar": planar, "curves": curves})
     fig, png = figure("side_flow")
     axes = fig.add_subplot()
     for row in rows:
