@@ -103,7 +103,8 @@ def leg(args: argparse.Namespace) -> None:
                          resolution=args.resolution, fidelity=args.fidelity)
     planar, planar_cpu = timed(run_leg_rotation, config, progress=False, plot=False)
     print("planar", leg_row(planar, planar_cpu), flush=True)
-    slab, slab_cpu = timed(run_leg_slab, LegSlab(config), progress=args.progress)
+    run_file = None if args.run_dir is None else str(args.run_dir / "leg_slab.h5")  # keeps a stopped run's series
+    slab, slab_cpu = timed(run_leg_slab, LegSlab(config), output=run_file, progress=args.progress)
     print("slab", leg_row(slab, slab_cpu), flush=True)
     rows = {"planar": leg_row(planar, planar_cpu), "slab": leg_row(slab, slab_cpu)}
     ratios = {key: rows["slab"][key] / rows["planar"][key] - 1.0 for key in ("peak_lift", "peak_thrust")}
@@ -275,6 +276,7 @@ def main() -> None:
     parser.add_argument("--planar-spacings", type=float, nargs="*", default=[0.004, 0.0025],
                         help="plate: the planar scene also at these spacings (its resolution error)")
     parser.add_argument("--max-depth", type=float, default=0.04, help="plate, side-flow: the stroke's depth (m)")
+    parser.add_argument("--run-dir", type=Path, default=None, help="leg: write the slab's run file here")
     parser.add_argument("--progress", action="store_true")
     args = parser.parse_args()
     if args.spacing is None:
