@@ -9,7 +9,8 @@ a part thinner than t is refused, naming the parameter. An extruded planar secti
 the section per row across the width, the rows at the ends facing ±y. A bed at rest started at
 Jáky's K0 = 1 − sin φ state (φ = atan μ1, K0 = 0.642) keeps σ_xx/σ_zz and σ_yy/σ_zz within 0.05
 of K0 over 0.1 s [0.647] and −σ_zz of every row of grains away from the walls within 3 % of the
-weight above it per unit area [−0.2 to +0.5 %], at rest (mean speed < 0.2 mm/s [0.01]). A box
+weight above it per unit area [−0.2 to +0.5 %], at rest (mean speed < 0.2 mm/s [0.01]); so does a bed between smooth walls facing ±y (the slab of
+terrasph.scenes.plane_strain_3d). A box
 plate pushed down into the bed at constant speed meets a resistance that grows with depth, about
 in proportion as a shallow footing's in cohesionless soil (Terzaghi: q ∝ γ d): from 4 to 16 mm more
 than 3× [4.3×].
@@ -131,18 +132,19 @@ def test_an_extruded_c_leg_has_a_section_per_row_and_faces_at_its_ends() -> None
     assert np.all(leg.normal[middle, 1] == 0.0)
 
 
-def _bed_sim(size, material: Material, extra=None):
-    bed = geostatic_bed(size, material, DX, rim=0.02)
+def _bed_sim(size, material: Material, extra=None, smooth_y_walls: bool = False):
+    bed = geostatic_bed(size, material, DX, rim=0.02, smooth_y_walls=smooth_y_walls)
     lower = np.array([-0.05, -0.05, -0.05])
     upper = np.array([size[0] + 0.05, size[1] + 0.05, size[2] + 0.1])
     return bed, bed_simulation(bed, material, Numerics(spacing=DX), lower, upper, extra)
 
 
 @pytest.mark.slow
-def test_a_3d_bed_at_rest_keeps_k0_and_carries_its_weight() -> None:
+@pytest.mark.parametrize("smooth_y_walls", [False, True])
+def test_a_3d_bed_at_rest_keeps_k0_and_carries_its_weight(smooth_y_walls: bool) -> None:
     material = Material()
     size = (0.048, 0.048, 0.032)
-    _, sim = _bed_sim(size, material)
+    _, sim = _bed_sim(size, material, smooth_y_walls=smooth_y_walls)
     k0 = 1.0 - math.sin(math.atan(material.mu1))
     sim.advance(0.1, 100000)
     x, stress = sim.position, sim.stress

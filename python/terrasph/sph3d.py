@@ -22,7 +22,8 @@ from terrasph.geometry import wall_layers_needed
 from terrasph.scene import GRAVITY, earth_pressure_at_rest
 
 __all__ = ["BED_MARGIN", "BED_SPACING", "BED_WALLS", "Bed3D", "BodyShape3D", "bed_simulation", "body_walls", "box",
-           "capsule", "core_params", "cylinder", "ellipsoid", "extrude", "geostatic_bed", "geostatic_deviatoric_stress", "sphere"]
+           "capsule", "core_params", "cylinder", "ellipsoid", "extrude", "geostatic_bed", "geostatic_deviatoric_stress",
+           "quaternion_matrix", "sphere", "turn_about_y"]
 
 BED_WALLS = {"floor": 0, "sides": 1}  # wall groups of a bed's box
 #: how far (m) a 3D bed under a MuJoCo model (terrasph.terrain.attach) reaches beyond the coupled geoms on
@@ -222,11 +223,14 @@ class Bed3D:
 
 
 def geostatic_bed(size: tuple[float, float, float], material: Material, spacing: float, *,
-                  h_factor: float = 1.3, rim: float = 0.0, gravity: float = GRAVITY) -> Bed3D:
+                  h_factor: float = 1.3, rim: float = 0.0, gravity: float = GRAVITY,
+                  smooth_y_walls: bool = False) -> Bed3D:
     """A bed of ``size`` (x, y, z; m) at rest: grains at the density of the mean geostatic
     pressure (1 + 2 K0)/3 ρ0 g depth (the EOS inverted, Jáky's K0 = 1 − sin φ), in an open box of
     no-slip walls as thick as the kernel support (``wall_layers_needed(h_factor)`` layers) rising
-    ``rim`` (m) above the grains."""
+    ``rim`` (m) above the grains. With ``smooth_y_walls`` the two walls facing ±y are smooth (the
+    core's free-slip ghost walls: no shear traction, no tangential viscosity): a slab between them
+    deforms in plane strain in x–z."""
     dx = _positive("spacing", spacing)
     counts = [max(1, round(_positive("size", s) / dx)) for s in size]
     if min(counts) < 2:
@@ -259,7 +263,7 @@ def geostatic_bed(size: tuple[float, float, float], material: Material, spacing:
     group = np.where(floor, BED_WALLS["floor"], BED_WALLS["sides"]).astype(np.int32)
     walls = {"position": position, "normal": normal,
              "mass": np.full(len(position), material.reference_density * dx**3),
-             "no_slip": np.ones(len(position), np.uint8), "group": group}
+             "no_slip": np.where(beside_y & smooth_y_walls, 0, 1).astype(np.uint8), "group": group}
     return Bed3D(granular, walls, (counts[0] * dx, counts[1] * dx, height), depth)
 
 
@@ -292,10 +296,26 @@ def bed_simulation(bed: Bed3D, material: Material, numerics: Numerics, lower: np
     return sim
 
 
-def body_walls(shape: BodyShape3D, reference: np.ndarray, group: int, material: Material) -> dict[str, np.ndarray]:
-    """The wall-set arrays of a body of ``shape`` placed with its reference point at ``reference``
-    (orientation identity), wall group ``group``, no-slip."""
+def quaternion_matrix(orientation: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
+    """The rotation matrix (3, 3) of a unit quaternion (w, x, y, z): body-frame to world vectors."""
+    w, x, y, z = np.asarray(orientation, float) / np.linalg.norm(orientation)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def turn_about_y(angle: float) -> tuple[float, float, float, float]:
+    """The unit quaternion (w, x, y, z) of a right-handed turn by ``angle`` (rad) about +y: in the
+    x–z plane the planar core's clockwise angle (docs/sph3d.md, conventions)."""
+    return (math.cos(0.5 * angle), 0.0, math.sin(0.5 * angle), 0.0)
+
+
+def body_walls(shape: BodyShape3D, reference: np.ndarray, group: int, material: Material,
+               orientation: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)) -> dict[str, np.ndarray]:
+    """The wall-set arrays of a body of ``shape`` turned by ``orientation`` (unit quaternion w, x,
+    y, z) and placed with its reference point at ``reference``, wall group ``group``, no-slip."""
     n = len(shape.position)
-    return {"position": shape.position + np.asarray(reference, float), "normal": shape.normal,
+    turn = quaternion_matrix(orientation)
+    return {"position": shape.position @ turn.T + np.asarray(reference, float), "normal": shape.normal @ turn.T,
             "mass": np.full(n, material.reference_density * shape.spacing**3),
             "no_slip": np.ones(n, np.uint8), "group": np.full(n, group, np.int32)}

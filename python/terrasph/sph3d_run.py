@@ -46,7 +46,7 @@ class Simulation3D:
         groups = {name: 2 + k for k, name in enumerate(names)}  # after the bed's floor (0) and sides (1)
         extra = None
         for body in bodies:
-            walls = body_walls(body.shape, np.asarray(body.reference), groups[body.name], material)
+            walls = body_walls(body.shape, np.asarray(body.reference), groups[body.name], material, body.orientation)
             extra = walls if extra is None else {k: np.concatenate([extra[k], walls[k]]) for k in walls}
         self.bed, self.material, self.numerics = bed, material, numerics
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)

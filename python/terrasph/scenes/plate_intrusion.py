@@ -59,7 +59,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["RESOLUTIONS", "PlateIntrusion", "PlateResult", "anchor_uplift_references", "build_plate_intrusion",
-           "plot_intrusion", "run_plate_intrusion"]
+           "plot_intrusion", "run_plate_intrusion", "stroke_samples"]
 
 #: Wall height above the free surface (m): room for the plate above the bed and for heaped grains.
 WALL_FREEBOARD = 0.05
@@ -383,8 +383,9 @@ class PlateResult:
                 "status": self.run.status}
 
 
-def _strokes(series: dict[str, np.ndarray], config: PlateIntrusion) -> tuple[np.ndarray, ...]:
-    """Depth at the window middle, F_z, phase and window end of the samples inside one stroke."""
+def stroke_samples(series: dict[str, np.ndarray], config: PlateIntrusion) -> tuple[np.ndarray, ...]:
+    """Depth at the window middle, F_z, phase and window end of the samples inside one stroke, from a
+    body series (time, sinkage of the underside, force (x, z)); the planar and the 3D plate share it."""
     time = series["time"]
     depth = series["sinkage"]
     start, end = config.settle_time, config.duration
@@ -415,7 +416,7 @@ def run_plate_intrusion(config: PlateIntrusion = PlateIntrusion(), *, output: st
                   frame_interval=config.frame_interval, progress=progress,
                   body_interval=config.sample_interval,
                   config={"scene": "plate-intrusion", "plate_intrusion": dataclasses.asdict(config), **sim.describe()})
-    depth, force, phase, time = _strokes(run.bodies["plate"], config)
+    depth, force, phase, time = stroke_samples(run.bodies["plate"], config)
     result = PlateResult(depth, force, phase, time, config, len(sim.mass), sim.leaked_particles,
                          material.reference_density, run)
     if output is not None:
