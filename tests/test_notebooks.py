@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 
-NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
+ROOT = Path(__file__).parent.parent
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
 
 def figure_cells(notebook) -> list:
@@ -34,8 +35,14 @@ def test_notebook_runs_and_shows_each_figure_once(path: Path, tmp_path: Path, mo
     monkeypatch.setenv("TERRASPH_NOTEBOOK_QUICK", "1")
     monkeypatch.delenv("MPLBACKEND", raising=False)  # the kernel's own default, as for a user
     notebook = nbformat.read(path, as_version=4)
+    # run where a user runs it: in a notebooks/ folder beside the repository's examples/ and
+    # benchmarks/ (linked, so that what the notebook writes stays in tmp_path), whether terrasph is
+    # imported from the source tree or installed
+    for folder in ("examples", "benchmarks"):
+        (tmp_path / folder).symlink_to(ROOT / folder, target_is_directory=True)
+    (tmp_path / "notebooks").mkdir()
     client = nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
-                                     resources={"metadata": {"path": str(tmp_path)}})
+                                     resources={"metadata": {"path": str(tmp_path / "notebooks")}})
     client.execute()
     code_cells = [cell for cell in notebook.cells if cell.cell_type == "code"]
     outputs = [o for cell in code_cells for o in cell.get("outputs", [])]
