@@ -42,7 +42,7 @@ void Simulation<D>::force_pass(double dt) {
   const double c0 = sound_speed_;
   const Vec<D> g = params_.domain.gravity;
   const double inside_wall2 = 0.25 * params_.numerics.spacing * params_.numerics.spacing;
-  const double barrier_radius = 0.75 * params_.numerics.spacing;
+  const double barrier_radius = pair_terms::wall_barrier_reach<D>() * params_.numerics.spacing;
   const double barrier_strength = params_.numerics.wall_barrier * signal_speed_ * signal_speed_ / h;
   const double barrier_reach2 = barrier_strength > 0.0 ? barrier_radius * barrier_radius : 0.0;  // 0: off
   const ForceConstants<D> constants = force_constants(params_, h, c0);

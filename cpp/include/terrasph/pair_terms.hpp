@@ -71,12 +71,19 @@ inline Vec<D> xsph(double chi, double m_j, double inv_rho_mean, double w_ij, con
   return -(chi * m_j * inv_rho_mean * w_ij) * v_ij;
 }
 
-// Contact barrier between a grain and a wall particle closer than r0 = 0.75Δx:
+// Contact barrier between a grain and a wall particle closer than r0 (wall_barrier_reach):
 // a_i = K (1 − r/r0)² x_iw/r with K = c²/h, whose largest value keeps the acceleration step bound
-// √(h/|a|) at the sound-speed bound h/c. r0 exceeds Δx/√2, so no point between two surface
-// particles is out of its reach, and stays below the contact distance Δx of a grain resting on a
-// wall (terrasph's own addition, in the spirit of Monaghan's 1994 repulsive boundary force).
-// Returns the factor b with a_i = b x_iw.
+// √(h/|a|) at the sound-speed bound h/c (terrasph's own addition, in the spirit of Monaghan's 1994
+// repulsive boundary force). Returns the factor b with a_i = b x_iw.
+// The barrier's reach r0 in spacings. It must cover the holes of a wall's surface layer, through
+// which a grain would pass, and stay within the contact distance Δx of a grain resting on a wall
+// (so the barrier is zero in normal contact and in a settled bed). The hole is the gap between two
+// particles of a row in 2D, Δx/2 from both: r0 = 0.75Δx. In 3D it is the middle of a square of
+// four particles of a layer, Δx/√2 = 0.707Δx from each, where 0.75Δx leaves (1 − 0.943)² = 0.3 %
+// of K and grains pushed by a plate passed through its layers (docs/sph3d.md, the slab against the
+// planar scenes): r0 = Δx, the most within the contact distance.
+template <int D> constexpr double wall_barrier_reach() { return D == 2 ? 0.75 : 1.0; }
+
 inline double wall_barrier(double r, double r0, double strength) {
   const double gap = 1.0 - r / r0;
   return strength * gap * gap / r;

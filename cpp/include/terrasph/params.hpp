@@ -115,7 +115,8 @@ template <> struct ChoiceNames<PlasticFlow> {
   X(double, wall_artificial_viscosity, 1.0, "1", inclusive(0.0), exclusive(inf),                         \
     "alpha_Pi for granular-wall pairs, which keeps grains out of walls")                                 \
   X(double, wall_barrier, 1.0, "1", inclusive(0.0), exclusive(inf),                                      \
-    "strength of the contact barrier inside walls (r < dx/2), 1 = K = c^2/h; 0 = off")                   \
+    "strength of the contact barrier near wall particles (r < 0.75 dx in 2D, dx in 3D), "                \
+    "1 = K = c^2/h; 0 = off")                                                                            \
   X(double, wall_friction_coefficient, 0.0, "1", inclusive(0.0), exclusive(inf),                         \
     "mu_w, Coulomb friction on every wall: the tangential part of each granular-wall pair force becomes " \
     "-mu_w N v_t/max(|v_t|, mu_w N_i dt), never reversing the slip within a step; 0 = off (the walls' own " \
