@@ -48,6 +48,19 @@ def test_a_reset_starts_on_an_undisturbed_bed() -> None:
     assert len(again) == len(fresh) and all(np.array_equal(a, b) for a, b in zip(again, fresh))
 
 
+def test_a_loop_reads_the_same_sand_keys_after_a_reset_as_after_a_step() -> None:
+    """A loop that resets on termination and reads info["sand"] afterwards (the tutorial's) finds it
+    after a reset too: every coupled body, no load measured yet (NaN) until the first step, then a
+    finite load per body."""
+    env = OnSand(gymnasium.make("Walker2d-v5"), terrain="rft")
+    _, info = env.reset(seed=0)
+    assert set(info["sand"]) == set(env.terrain.bodies)
+    assert all(np.isnan(load).all() for load in info["sand"].values())
+    _, _, _, _, info = env.step(np.zeros(env.action_space.shape))
+    assert set(info["sand"]) == set(env.terrain.bodies)
+    assert all(np.isfinite(load).all() for load in info["sand"].values())
+
+
 @pytest.mark.slow
 def test_a_reset_puts_back_the_undisturbed_sph_bed() -> None:
     """On the SPH bed, whose grains remember the last episode's footprints, a reset puts back the bed

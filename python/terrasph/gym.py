@@ -15,7 +15,7 @@ and data, with the same ``dt`` (the model's ``opt.timestep`` is left as it is); 
 keeps no state: each episode starts on an undisturbed bed). ``info["sand"]`` holds each coupled
 body's load over the step (force and torque, 6 numbers as in ``xfrc_applied``: N, N·m about its
 centre of mass, world axes); ``env.terrain.sinkage()`` gives each one's depth below the surface
-(m) on request, ``info["sinkage"]`` after a reset.
+(m) on request, ``info["sinkage"]`` after a reset (whose ``info["sand"]`` holds NaN loads, none measured yet).
 
 gymnasium is an optional dependency: ``pip install "terrasph[gym]"``.
 """
@@ -67,10 +67,12 @@ class OnSand(gymnasium.Wrapper, gymnasium.utils.RecordConstructorArgs):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         """The environment's reset, then the terrain's (an undisturbed bed); ``info`` as the
-        environment's with each coupled body's sinkage at the start."""
+        environment's with each coupled body's sinkage at the start and ``"sand"`` as a step's
+        (NaN loads: none measured before the first step), so that a loop reads the same keys after
+        a reset as after a step."""
         observation, info = self.env.reset(seed=seed, options=options)
         self.terrain.reset()
-        return observation, {**info, "sinkage": self.terrain.sinkage()}
+        return observation, {**info, "sand": self.terrain.loads(), "sinkage": self.terrain.sinkage()}
 
     def step(self, action: Any) -> tuple[Any, Any, bool, bool, dict[str, Any]]:
         """The environment's step on the sand; ``info`` as the environment's with the sand's loads
