@@ -131,6 +131,20 @@ def test_slip_follows_eq_4_8() -> None:
     assert np.all(np.abs(slip(np.linspace(0, 1, 11), omega, radius)) <= 1.0)
 
 
+def test_slip_of_one_sample_is_the_arrays_to_the_bit() -> None:
+    """A sample's slip (numbers, computed in Python's floats) equals the array computation's at every
+    pairing of signs, zeros (signed), tiny, huge, infinite and NaN speeds."""
+    values = [0.0, -0.0, 1.0, -1.0, 0.3, -2.5, 1e-300, -1e-300, 5e-324, 1e300, math.inf, -math.inf, math.nan]
+    for speed in values:
+        for omega in values:
+            for radius in (0.04, 1.0, 1e-300, 1e300):
+                with np.errstate(over="ignore"):
+                    expected = slip(np.array([speed]), np.array([omega]), radius)[0]
+                got = slip(speed, omega, radius)
+                assert np.array_equal(expected, got, equal_nan=True) and np.signbit(expected) == np.signbit(got), \
+                    (speed, omega, radius, expected, got)
+
+
 def test_bad_density_is_refused() -> None:
     with pytest.raises(ConfigError, match="density"):
         shape_inertial(PLATE, -1.0)

@@ -488,31 +488,33 @@ class RunLoop:
                         record_sample()
                 last_checkpoint = wallclock.perf_counter()
                 last_step = 0.0  # the simulated time of the last step taken (s)
-                while stepper.time < t_end * (1 - 1e-14):
+                end_time = t_end * (1 - 1e-14)  # a time this close to t_end is the end (rounding of sums)
+                now, steps_now = stepper.time, stepper.step_count  # read once per call into the stepper
+                while now < end_time:
                     target = min(next_frame, next_sample, t_end)
                     # the stretch that reaches the end: a frame or sample time summed to within rounding
                     # of t_end ends the run as t_end itself does (at_end below); or a step that may carry
                     # past t_end before the target does (samples closer than a step: twice the last
                     # step, the step bound's growth between steps being far less)
-                    reaches_end = target >= t_end * (1 - 1e-14) or stepper.time + 2.0 * last_step >= t_end
-                    if reaches_end and not final_stretch_saved:
+                    if not final_stretch_saved and (target >= end_time or now + 2.0 * last_step >= t_end):
                         save_checkpoint()  # the last state on the path of a longer run (module docstring)
                         final_stretch_saved = True
                     load_watch.follow()
-                    started, steps_before = wallclock.perf_counter(), stepper.step_count
-                    time_before = stepper.time
+                    started, steps_before, time_before = wallclock.perf_counter(), steps_now, now
                     stepper.advance(target, chunk_steps)
-                    last_step = (stepper.time - time_before) / max(1, stepper.step_count - steps_before)
-                    per_step = (wallclock.perf_counter() - started) / max(1, stepper.step_count - steps_before)
-                    chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
+                    elapsed = wallclock.perf_counter() - started
+                    now, steps_now = stepper.time, stepper.step_count
+                    taken = max(1, steps_now - steps_before)
+                    last_step = (now - time_before) / taken
+                    chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(elapsed / taken, 1e-9))))
                     if self.progress:  # the bar shows simulated time, never past its total (the last step may end past t_end)
-                        bar.update(min(bar.total, round(stepper.time - t_start, 9)) - bar.n)
-                        bar.set_postfix(steps=stepper.step_count, refresh=False)
-                    at_end = stepper.time >= t_end * (1 - 1e-14)
-                    if stepper.time >= next_sample * (1 - 1e-12) or (sampled and at_end):
+                        bar.update(min(bar.total, round(now - t_start, 9)) - bar.n)
+                        bar.set_postfix(steps=steps_now, refresh=False)
+                    at_end = now >= end_time
+                    if now >= next_sample * (1 - 1e-12) or (sampled and at_end):
                         record_sample()
                         next_sample += self.sample_interval
-                    if stepper.time >= next_frame * (1 - 1e-12) or at_end:
+                    if now >= next_frame * (1 - 1e-12) or at_end:
                         row = record_frame()
                         next_frame += self.frame_interval
                         if self.at_rest is not None and self.at_rest(row):
@@ -524,6 +526,7 @@ class RunLoop:
                             status, ended["reason"] = early_end
                             save_checkpoint()
                             break
+                        now, steps_now = stepper.time, stepper.step_count  # as a frame's callback may have left them
                     if at_end:  # no checkpoint here: the end state is off a longer run's path
                         break
                     if stop.requested:

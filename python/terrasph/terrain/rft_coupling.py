@@ -256,6 +256,7 @@ class RFTCoupling(NativeRFTStepper, RobotStepper):
         self.table = rft.coefficient_table(table)
         self._elements = {b.name: rft.SurfaceElements.from_shape(b.shape, element_length, b.width)
                           for b in robot.coupled}
+        self._index = {b.name: k for k, b in enumerate(robot.coupled)}  # each body's row in the stepper's sums
         self._native = _core.PlanarRobotStepper(
             mujoco_library(), robot.model._address, robot.data._address,
             [(b.body_id, e.centre, e.normal, e.length, e.width, e.pockets)
@@ -305,19 +306,18 @@ class RFTCoupling(NativeRFTStepper, RobotStepper):
     def body_sample(self, name: str) -> dict[str, Any]:
         """RFT force (N) and torque (N·m) on body `name` averaged since :meth:`reset_body_means` (the load of
         each step weighted by its dt), and its lowest z (m, :meth:`BodyShape.lowest_point`)."""
-        body = next(b for b in self.robot.coupled if b.name == name)
-        index = list(self._elements).index(name)
+        index = self._index[name]
         if self.time > self._since:
             fx, fz, torque = self.load_means()[index]
             force = np.array([fx, fz])
         else:
-            force, torque = self.granular_load(body)
+            force, torque = self.granular_load(self.robot.coupled[index])
         return {"force": force, "torque": float(torque), "lowest_z": self.lowest_z(index)}
 
     def lowest_z(self, k: int) -> float:
         """The lowest z (m) of coupled body `k`'s shape now (:meth:`BodyShape.lowest_point`)."""
         body = self.robot.coupled[k]
-        return body.shape.lowest_point(self._angle[body.name], tuple(self.robot.reference(body)))
+        return body.shape.lowest_point(self._native.angles[k], self.robot.reference(body))
 
     def surface(self) -> float:
         """The free surface (m): flat and fixed, the terrain has no state."""
