@@ -1,0 +1,139 @@
+"""The per-set XDMF sidecars' virtual datasets made while a run steps, by a child interpreter on
+another core (:class:`SidecarViews`).
+
+A run's sidecars that meshio reads (:func:`terrasph.io.write_xdmf_sets`) hold a virtual HDF5 dataset per
+frame, particle set and component, each ~70 µs to create in HDF5 itself: on a robot on RFT, whose
+frames come every 25 steps of ~14 µs, as much as the stepping. A view needs only the frame datasets'
+names, shapes and types and the frame's index, not the frame, so the run loop
+(:class:`terrasph.run_loop.RunLoop`) starts a child interpreter (``python -m terrasph.sidecar_views``,
+a new process, not a fork of one holding HDF5 files) once the first frame is written, which makes the
+side file with the views of every frame the run plans, while the run steps; at the end the loop
+waits for it and completes the file (the views of frames not reached dropped, of frames past the plan
+made) with the XML files: the same files as written at the end alone.
+
+Only the child writes the side file while it runs; the run writes only the run file, which the
+child never opens. The child is in a session of its own (Ctrl-C in a terminal stops the run, which
+then ends it, not the child directly) and ends when its work is done, when the run's process ends
+(its standard input closes) or when the run stops it; a run that ends other than finished
+(interrupted, unstable, failed) stops it and writes its sidecars itself, as does a run whose child
+failed, after a warning of one line with the child's error.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import warnings
+from collections.abc import Mapping
+
+import numpy as np
+
+__all__ = ["MIN_VIEWS", "SidecarViews", "main"]
+
+#: fewer views than this (frames × views per frame) are made at the run's end (~70 µs each): a child
+#: interpreter costs ~0.15 s of a core to start and import h5py, so below this it gains nothing
+MIN_VIEWS = 2000
+
+
+class SidecarViews:
+    """The child that makes the side file's views of frames 0 … `frames` − 1 of the run file
+    `output`, whose frame datasets have the per-frame `layouts` (name → (shape of one frame, dtype)).
+    :meth:`start` decides whether one is worth starting; :meth:`finish` waits for it,
+    :meth:`stop` ends it."""
+
+    def __init__(self, output: str | os.PathLike[str], layouts: Mapping[str, tuple[tuple[int, ...], np.dtype]],
+                 frames: int) -> None:
+        import terrasph
+        from terrasph.io import side_file, source_reference
+
+        self.output = pathlib.Path(output)
+        self.frames = int(frames)
+        side = side_file(self.output.with_suffix(".xdmf"))
+        order = {"side": str(side.resolve()), "source": source_reference(self.output, side), "frames": self.frames,
+                 "parent": os.getpid(),
+                 "layouts": {name: [list(shape), np.dtype(dtype).str] for name, (shape, dtype) in layouts.items()}}
+        package = str(pathlib.Path(terrasph.__file__).resolve().parent.parent)  # this terrasph, whatever the path
+        environment = {**os.environ, "PYTHONPATH": os.pathsep.join([package, *filter(None, [os.environ.get(
+            "PYTHONPATH")])])}
+        self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
+            [sys.executable, "-m", "terrasph.sidecar_views", json.dumps(order)], stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=environment, start_new_session=True)
+
+    @classmethod
+    def start(cls, output: str | os.PathLike[str], layouts: Mapping[str, tuple[tuple[int, ...], np.dtype]],
+              frames: int) -> SidecarViews | None:
+        """A child making the views of `frames` planned frames, if they are :data:`MIN_VIEWS` or more
+        and this process may run on two cores or more; else None (the sidecars are made at the end),
+        also when no child can be started (a RuntimeWarning of one line says why)."""
+        from terrasph.io import _Layout, frame_views
+        from terrasph.threads import available_cores
+
+        sets = frame_views({name: _Layout(f"/frames/{name}", (frames, *shape), np.dtype(dtype))
+                            for name, (shape, dtype) in layouts.items()})
+        views = frames * sum(len(components) for _, _, components in sets)
+        if views < MIN_VIEWS or available_cores() < 2:
+            return None
+        try:
+            return cls(output, layouts, frames)
+        except OSError as error:  # no interpreter to start, no process left: the run writes them at its end
+            warnings.warn(f"{output}: the sidecars' helper cannot start ({error.strerror}); the run writes them "
+                          "at its end", RuntimeWarning, stacklevel=2)
+            return None
+
+    def finish(self) -> int:
+        """Waits for the child; the frames whose views it made (0 if it failed: a RuntimeWarning of
+        one line says why, and the sidecars are then written whole at the end)."""
+        process, self._process = self._process, None
+        if process is None:
+            return 0
+        try:
+            _, errors = process.communicate()
+        except BaseException:  # a second Ctrl-C while waiting, say: nothing is left running
+            process.kill()
+            process.wait()
+            raise
+        if process.returncode == 0:
+            return self.frames
+        lines = errors.decode("utf-8", "replace").strip().splitlines()
+        why = lines[-1] if lines else f"exit status {process.returncode}"
+        warnings.warn(f"{self.output}: the sidecars' helper failed ({why}); the run writes them instead",
+                      RuntimeWarning, stacklevel=2)
+        return 0
+
+    def stop(self) -> None:
+        """Ends the child if it still runs and waits for it (its side file may then be incomplete:
+        the run writes the sidecars whole). Nothing is left running."""
+        process, self._process = self._process, None
+        if process is None:
+            return
+        if process.poll() is None:
+            process.kill()
+        process.communicate()
+
+
+def main(order_json: str) -> None:
+    """The child: makes the side file's connectivity and views that `order_json` orders (the side
+    file, the run file as the side file names it, the frames, the frame datasets' layouts); stops,
+    exit status 1, if its parent (the run) has ended meanwhile."""
+    import h5py
+
+    from terrasph.io import _connectivity, _Layout, frame_views, make_frame_views
+
+    order = json.loads(order_json)
+    frames, parent = int(order["frames"]), int(order["parent"])
+    sets = frame_views({name: _Layout(f"/frames/{name}", (frames, *shape), np.dtype(dtype))
+                        for name, (shape, dtype) in order["layouts"].items()})
+    with h5py.File(order["side"], "w") as views:
+        for name, count, _ in sets:
+            _connectivity(views, name, count)
+        for start in range(0, frames, 50):
+            if os.getppid() != parent:  # the run ended without waiting (killed): no one will use the file
+                raise SystemExit(f"the run (pid {parent}) has ended")
+            make_frame_views(views, order["source"], sets, range(start, min(frames, start + 50)))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
