@@ -55,7 +55,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import wall_layers_needed
+from .geometry import convex_hull, wall_layers_needed
 
 __all__ = [
     "SPOKES",
@@ -172,29 +172,10 @@ class BodyShape:
 RIM_TOLERANCE = 1e-6
 
 
-def _convex_hull(points: np.ndarray) -> np.ndarray:
-    """The vertices of the convex hull of (M, 2) `points`, counter-clockwise (Andrew's monotone chain;
-    collinear points dropped)."""
-    order = np.lexsort((points[:, 1], points[:, 0]))
-    unique = points[order]
-
-    def half(sequence: np.ndarray) -> list[np.ndarray]:
-        chain: list[np.ndarray] = []
-        for point in sequence:
-            while len(chain) >= 2 and ((chain[-1][0] - chain[-2][0]) * (point[1] - chain[-2][1])
-                                       - (chain[-1][1] - chain[-2][1]) * (point[0] - chain[-2][0])) <= 0:
-                chain.pop()
-            chain.append(point)
-        return chain
-
-    lower, upper = half(unique), half(unique[::-1])
-    return np.array(lower[:-1] + upper[:-1])
-
-
 def _near_hull(points: np.ndarray, tolerance: float) -> np.ndarray:
     """Indices, in order, of the (M, 2) `points` within `tolerance` (m) of their convex hull's boundary
     (of a point inside a convex polygon, its least distance to the lines of the edges)."""
-    hull = _convex_hull(points)
+    hull = convex_hull(points)
     if len(hull) < 3:  # all points on a line (or one point): every one is on the boundary
         return np.arange(len(points))
     edge = np.roll(hull, -1, axis=0) - hull
