@@ -330,7 +330,7 @@ class RFTCoupling(NativeRFTStepper, RobotStepper):
         positions, velocities = [], []
         for body in self.robot.coupled:
             reference = self.robot.reference(body)
-            points, _ = body.shape.transformed(self._angle[body.name], tuple(reference))
+            points = body.shape.positions_at(self._angle[body.name], tuple(reference))
             velocity, omega = self.robot.velocity(body)
             arm = points - reference
             # a clockwise spin ω moves a point at arm (x, z) from the reference by ω (z, −x)
