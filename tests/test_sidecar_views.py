@@ -27,20 +27,28 @@ CONFIG = LegWheel(terrain="rft", t_end=2.5)  #: 51 frames, the pause and half a 
 SIDECARS = (".xdmf", ".grains.xdmf", ".bodies.xdmf", ".walls.xdmf")
 
 
-@pytest.fixture
-def helper_used(monkeypatch) -> list[int]:
-    """The helper forced on whatever the run's size and the cores; the frames it made, per run."""
+def force_helper(monkeypatch, wait: bool) -> list[int]:
+    """The helper forced on whatever the run's size and the cores; with `wait`, the run lets it end
+    by itself (all planned frames made) before it finishes; the frames it made, per run."""
     monkeypatch.setattr(sidecar_views, "MIN_VIEWS", 1)
     monkeypatch.setattr("terrasph.threads.available_cores", lambda: 2)
     made: list[int] = []
     finish = sidecar_views.SidecarViews.finish
 
     def counted(self) -> int:
+        if wait and self._process is not None:
+            self._process.wait()
         made.append(finish(self))
         return made[-1]
 
     monkeypatch.setattr(sidecar_views.SidecarViews, "finish", counted)
     return made
+
+
+@pytest.fixture
+def helper_used(monkeypatch) -> list[int]:
+    """The helper forced on, left to make every planned frame."""
+    return force_helper(monkeypatch, wait=True)
 
 
 def children() -> list[str]:
@@ -90,6 +98,17 @@ def test_a_finished_runs_sidecars_made_beside_it_are_those_written_at_its_end(tm
         assert reader.num_steps == frames
         _, data, _ = reader.read_data(frames - 1)
         np.testing.assert_array_equal(data["position_x"], io.read_run(out).fields["body_position"][-1, :, 0])
+
+
+def test_a_run_stopping_its_helper_at_once_makes_the_rest_itself(tmp_path, monkeypatch) -> None:
+    """The run finishes before the helper has made its frames (a short run): the helper stops after
+    its chunk, the run makes the views it did not, the files are the same."""
+    made = force_helper(monkeypatch, wait=False)
+    out = tmp_path / "run.h5"
+    run_leg_wheel(CONFIG, out, plot=False)
+    assert len(made) == 1 and 0 <= made[0] <= 51 and made[0] % sidecar_views.CHUNK_FRAMES in (0, 51 % sidecar_views.CHUNK_FRAMES)
+    assert not children()
+    assert_sidecars_as_written_at_the_end(out, tmp_path)
 
 
 def test_a_run_ending_early_drops_the_views_of_frames_it_did_not_reach(tmp_path, helper_used) -> None:

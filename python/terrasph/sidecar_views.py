@@ -7,16 +7,18 @@ frames come every 25 steps of ~14 µs, as much as the stepping. A view needs onl
 names, shapes and types and the frame's index, not the frame, so the run loop
 (:class:`terrasph.run_loop.RunLoop`) starts a child interpreter (``python -m terrasph.sidecar_views``,
 a new process, not a fork of one holding HDF5 files) once the first frame is written, which makes the
-side file with the views of every frame the run plans, while the run steps; at the end the loop
-waits for it and completes the file (the views of frames not reached dropped, of frames past the plan
-made) with the XML files: the same files as written at the end alone.
+side file with the views of the frames the run plans, :data:`CHUNK_FRAMES` at a time, while the run
+steps. When the run has finished, the loop asks the child to stop after its chunk (SIGTERM), takes
+the frames it made and completes the file itself (the views of frames not reached dropped, those of
+frames the child did not make made) with the XML files: the same files as written at the end alone,
+and the run never waits for more than a chunk.
 
 Only the child writes the side file while it runs; the run writes only the run file, which the
-child never opens. The child is in a session of its own (Ctrl-C in a terminal stops the run, which
-then ends it, not the child directly) and ends when its work is done, when the run's process ends
-(its standard input closes) or when the run stops it; a run that ends other than finished
-(interrupted, unstable, failed) stops it and writes its sidecars itself, as does a run whose child
-failed, after a warning of one line with the child's error.
+child never opens, and opens the side file only once the child has ended. The child is in a session
+of its own (Ctrl-C in a terminal stops the run, which then ends it, not the child directly) and ends
+when its work is done, when the run stops it or when it finds the run's process gone; a run that ends
+other than finished (interrupted, unstable, failed) kills it and writes its sidecars itself, as does a
+run whose child failed, after a warning of one line with the child's error.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from __future__ import annotations
 import json
 import os
 import pathlib
+import signal
 import subprocess
 import sys
 import warnings
@@ -31,11 +34,14 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["MIN_VIEWS", "SidecarViews", "main"]
+__all__ = ["CHUNK_FRAMES", "MIN_VIEWS", "SidecarViews", "main"]
 
 #: fewer views than this (frames × views per frame) are made at the run's end (~70 µs each): a child
 #: interpreter costs ~0.15 s of a core to start and import h5py, so below this it gains nothing
 MIN_VIEWS = 2000
+#: frames whose views the child makes between two looks at whether to stop (the run's wait at most:
+#: ~10 ms with a robot's five views a frame)
+CHUNK_FRAMES = 25
 
 
 class SidecarViews:
@@ -60,7 +66,7 @@ class SidecarViews:
             "PYTHONPATH")])])}
         self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
             [sys.executable, "-m", "terrasph.sidecar_views", json.dumps(order)], stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=environment, start_new_session=True)
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=environment, start_new_session=True)
 
     @classmethod
     def start(cls, output: str | os.PathLike[str], layouts: Mapping[str, tuple[tuple[int, ...], np.dtype]],
@@ -84,19 +90,23 @@ class SidecarViews:
             return None
 
     def finish(self) -> int:
-        """Waits for the child; the frames whose views it made (0 if it failed: a RuntimeWarning of
-        one line says why, and the sidecars are then written whole at the end)."""
+        """Asks the child to stop after the chunk it makes and waits for it; the frames whose views it
+        made, 0 … returned − 1 (0 if it had not begun, or failed: a RuntimeWarning of one line then
+        says why; the run makes the rest)."""
         process, self._process = self._process, None
         if process is None:
             return 0
         try:
-            _, errors = process.communicate()
+            process.send_signal(signal.SIGTERM)  # nothing if it has ended already
+            made, errors = process.communicate()
         except BaseException:  # a second Ctrl-C while waiting, say: nothing is left running
             process.kill()
             process.wait()
             raise
         if process.returncode == 0:
-            return self.frames
+            return int(made.decode() or 0)
+        if process.returncode == -signal.SIGTERM:  # stopped before it could look: it had made nothing
+            return 0
         lines = errors.decode("utf-8", "replace").strip().splitlines()
         why = lines[-1] if lines else f"exit status {process.returncode}"
         warnings.warn(f"{self.output}: the sidecars' helper failed ({why}); the run writes them instead",
@@ -115,9 +125,13 @@ class SidecarViews:
 
 
 def main(order_json: str) -> None:
-    """The child: makes the side file's connectivity and views that `order_json` orders (the side
-    file, the run file as the side file names it, the frames, the frame datasets' layouts); stops,
-    exit status 1, if its parent (the run) has ended meanwhile."""
+    """The child: makes the side file's connectivity and the views of the frames that `order_json`
+    orders (the side file, the run file as the side file names it, the frames, the frame datasets'
+    layouts), :data:`CHUNK_FRAMES` at a time, until done or asked to stop (SIGTERM, looked at between
+    chunks); prints how many frames' views it made. Stops, exit status 1, if its parent (the run) has
+    ended meanwhile."""
+    stop: list[int] = []
+    signal.signal(signal.SIGTERM, lambda signum, frame: stop.append(signum))
     import h5py
 
     from terrasph.io import _connectivity, _Layout, frame_views, make_frame_views
@@ -126,14 +140,22 @@ def main(order_json: str) -> None:
     frames, parent = int(order["frames"]), int(order["parent"])
     sets = frame_views({name: _Layout(f"/frames/{name}", (frames, *shape), np.dtype(dtype))
                         for name, (shape, dtype) in order["layouts"].items()})
-    with h5py.File(order["side"], "w") as views:
-        for name, count, _ in sets:
-            _connectivity(views, name, count)
-        for start in range(0, frames, 50):
-            if os.getppid() != parent:  # the run ended without waiting (killed): no one will use the file
-                raise SystemExit(f"the run (pid {parent}) has ended")
-            make_frame_views(views, order["source"], sets, range(start, min(frames, start + 50)))
+    made = 0
+    if not stop:
+        with h5py.File(order["side"], "w") as views:
+            for name, count, _ in sets:
+                _connectivity(views, name, count)
+            while made < frames and not stop:
+                if os.getppid() != parent:  # the run ended without waiting (killed): no one will use the file
+                    raise SystemExit(f"the run (pid {parent}) has ended")
+                chunk = range(made, min(frames, made + CHUNK_FRAMES))
+                make_frame_views(views, order["source"], sets, chunk)
+                views.flush()  # a chunk's metadata written now, not all at the close the run may wait for
+                made = chunk.stop
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # done: a request to stop now changes nothing
+    print(made, flush=True)
 
 
 if __name__ == "__main__":
     main(sys.argv[1])
+    os._exit(0)  # its file closed and its count printed: no interpreter teardown for the run to wait for
