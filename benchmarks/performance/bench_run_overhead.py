@@ -12,7 +12,8 @@ Each run is its own process (the command after ``--``, default the leg-wheel on 
   controller), summed over the run;
 * the parts of the loop that are output: ``samples`` (the recorders' rows of the series),
   ``frames_write`` and ``series_write`` (their writes into the file), ``checkpoint`` and
-  ``sidecars`` (the XDMF files, :func:`terrasph.io.write_xdmf`);
+  ``sidecars`` (the XDMF files, :func:`terrasph.io.write_xdmf`, and the wait for the child that
+  makes their views while the run steps, :mod:`terrasph.sidecar_views`, where the package has one);
 * ``loop``: the run loop (:meth:`terrasph.run_loop.RunLoop.run`), from its first frame to its file
   closed and its XDMF sidecars written: the stepping plus the frames, the series' samples and their
   writes, the checkpoint and the sidecars;
@@ -108,6 +109,11 @@ frames_method = "write_frames" if hasattr(io.RunWriter, "write_frames") else "wr
 setattr(io.RunWriter, frames_method, timed(getattr(io.RunWriter, frames_method), "frames_write"))
 io.RunWriter.append_series_rows = timed(io.RunWriter.append_series_rows, "series_write")
 io.write_xdmf = timed(io.write_xdmf, "sidecars")
+try:  # the wait for the helper that makes the sidecars' views while the run steps, where the package has one
+    import terrasph.sidecar_views as sidecar_views
+    sidecar_views.SidecarViews.finish = timed(sidecar_views.SidecarViews.finish, "sidecars")
+except ImportError:
+    pass
 matplotlib.figure.Figure.savefig = timed(matplotlib.figure.Figure.savefig, "figure")
 times["imports"] = time.perf_counter() - started
 command_start = time.perf_counter()
