@@ -18,7 +18,7 @@ from terrasph.bodies import plate, rotation_matrix, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.mjcf.model import PlanarRobot, shape_inertial
-from terrasph.robots.metrics import slip
+from terrasph.robots.metrics import sinkage, slip
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 from terrasph.terrain.sph_coupling import free_surface
@@ -143,6 +143,14 @@ def test_slip_of_one_sample_is_the_arrays_to_the_bit() -> None:
                 got = slip(speed, omega, radius)
                 assert np.array_equal(expected, got, equal_nan=True) and np.signbit(expected) == np.signbit(got), \
                     (speed, omega, radius, expected, got)
+
+
+def test_sinkage_of_one_sample_is_the_arrays_to_the_bit() -> None:
+    values = [0.0, -0.0, 0.031, -0.2, 1e-300, 1e300, math.inf, math.nan]
+    for lowest in values:
+        for surface in values:
+            expected, got = sinkage(np.array([lowest]), surface)[0], sinkage(lowest, surface)
+            assert np.array_equal(expected, got, equal_nan=True) and np.signbit(expected) == np.signbit(got)
 
 
 def test_bad_density_is_refused() -> None:

@@ -58,4 +58,6 @@ def _divide(numerator: float, denominator: float) -> float:
 def sinkage(lowest_z: np.ndarray | float, surface_level: float) -> np.ndarray:
     """Depth (m) of a body's lowest point below the undisturbed free surface z = `surface_level`
     (measured on the settled bed); negative while the body is above it."""
+    if isinstance(lowest_z, (float, int, np.floating, np.integer)):  # a sample's: the same difference, unboxed
+        return np.float64(surface_level - float(lowest_z))
     return surface_level - np.asarray(lowest_z, dtype=float)

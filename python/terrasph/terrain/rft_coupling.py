@@ -271,6 +271,10 @@ class RFTCoupling(NativeRFTStepper, RobotStepper):
         super().restart()
         self._native.angles = [self.robot.wrapped_angle(b) for b in self.robot.coupled]
 
+    def angle(self, name: str) -> float:
+        """Clockwise angle (rad) of coupled body `name`, continuous over turns (the native stepper's)."""
+        return self._native.angles[self._index[name]]
+
     @property
     def _angle(self) -> dict[str, float]:
         """Each coupled body's clockwise angle (rad), continuous over turns (the native stepper's)."""
