@@ -161,3 +161,13 @@ def test_a_helper_that_fails_is_said_in_one_line_and_the_run_writes_the_sidecars
     assert helper_used == ([] if interpreter == "missing" else [0]) and not children()
     assert io.read_run(out).group_attrs["/run"]["status"] == "completed"
     assert_sidecars_as_written_at_the_end(out, tmp_path)
+
+
+def test_a_resumed_runs_helper_makes_the_views_of_all_its_frames(tmp_path, helper_used) -> None:
+    """A run continued from its checkpoint plans its earlier frames and its new ones alike."""
+    out = tmp_path / "run.h5"
+    run_leg_wheel(CONFIG, out, plot=False, until=1.5)
+    run_leg_wheel(CONFIG, out, plot=False, resume=True, until=2.5)
+    frames = len(io.read_run(out).times)
+    assert frames == 51 and helper_used[-1] >= frames and not children()
+    assert_sidecars_as_written_at_the_end(out, tmp_path)
