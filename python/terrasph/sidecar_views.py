@@ -5,8 +5,8 @@ A run's sidecars that meshio reads (:func:`terrasph.io.write_xdmf_sets`) hold a 
 frame, particle set and component, each ~70 µs to create in HDF5 itself: on a robot on RFT, whose
 frames come every 25 steps of ~14 µs, as much as the stepping. A view needs only the frame datasets'
 names, shapes and types and the frame's index, not the frame, so the run loop
-(:class:`terrasph.run_loop.RunLoop`) starts a child interpreter (``python -m terrasph.sidecar_views``,
-a new process, not a fork of one holding HDF5 files) once the first frame is written, which makes the
+(:class:`terrasph.run_loop.RunLoop`) starts a child interpreter (running :func:`main`, a new
+process, not a fork of one holding HDF5 files) once the first frame is written, which makes the
 side file with the views of the frames the run plans, :data:`CHUNK_FRAMES` at a time, while the run
 steps. When the run has finished, the loop asks the child to stop after its chunk (SIGTERM), takes
 the frames it made and completes the file itself (the views of frames not reached dropped, those of
@@ -38,6 +38,7 @@ __all__ = ["CHUNK_FRAMES", "MIN_VIEWS", "SidecarViews", "main"]
 
 #: fewer views than this (frames × views per frame) are made at the run's end (~70 µs each): a child
 #: interpreter costs ~0.15 s of a core to start and import h5py, so below this it gains nothing
+#: (benchmarks/performance/bench_run_overhead.py: the helper's CPU, helpers_cpu, was 0.33 s for 2205 views)
 MIN_VIEWS = 2000
 #: frames whose views the child makes between two looks at whether to stop (the run's wait at most:
 #: ~10 ms with a robot's five views a frame)
@@ -47,8 +48,8 @@ CHUNK_FRAMES = 25
 class SidecarViews:
     """The child that makes the side file's views of frames 0 … `frames` − 1 of the run file
     `output`, whose frame datasets have the per-frame `layouts` (name → (shape of one frame, dtype)).
-    :meth:`start` decides whether one is worth starting; :meth:`finish` waits for it,
-    :meth:`stop` ends it."""
+    :meth:`start` decides whether one is worth starting; :meth:`finish` stops it after its chunk and
+    takes what it made, :meth:`stop` kills it."""
 
     def __init__(self, output: str | os.PathLike[str], layouts: Mapping[str, tuple[tuple[int, ...], np.dtype]],
                  frames: int) -> None:
@@ -61,12 +62,13 @@ class SidecarViews:
         order = {"side": str(side.resolve()), "source": source_reference(self.output, side), "frames": self.frames,
                  "parent": os.getpid(),
                  "layouts": {name: [list(shape), np.dtype(dtype).str] for name, (shape, dtype) in layouts.items()}}
-        package = str(pathlib.Path(terrasph.__file__).resolve().parent.parent)  # this terrasph, whatever the path
-        environment = {**os.environ, "PYTHONPATH": os.pathsep.join([package, *filter(None, [os.environ.get(
-            "PYTHONPATH")])])}
+        # this process's terrasph, wherever it came from, and nothing else from its folder
+        folder = str(pathlib.Path(terrasph.__file__).resolve().parent.parent)
+        child = (f"import sys; sys.path.insert(0, {folder!r}); import terrasph.sidecar_views as views; "
+                 f"sys.path.remove({folder!r}); views.main(sys.argv[1]); import os; os._exit(0)")
         self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
-            [sys.executable, "-m", "terrasph.sidecar_views", json.dumps(order)], stdin=subprocess.DEVNULL,
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=environment, start_new_session=True)
+            [sys.executable, "-c", child, json.dumps(order)], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, start_new_session=True)
 
     @classmethod
     def start(cls, output: str | os.PathLike[str], layouts: Mapping[str, tuple[tuple[int, ...], np.dtype]],
@@ -129,7 +131,8 @@ def main(order_json: str) -> None:
     orders (the side file, the run file as the side file names it, the frames, the frame datasets'
     layouts), :data:`CHUNK_FRAMES` at a time, until done or asked to stop (SIGTERM, looked at between
     chunks); prints how many frames' views it made. Stops, exit status 1, if its parent (the run) has
-    ended meanwhile."""
+    ended meanwhile. The child's interpreter then ends at once (``os._exit``: its file is closed, its
+    count printed; no teardown for the run to wait for)."""
     stop: list[int] = []
     signal.signal(signal.SIGTERM, lambda signum, frame: stop.append(signum))
     import h5py
@@ -154,8 +157,3 @@ def main(order_json: str) -> None:
                 made = chunk.stop
     signal.signal(signal.SIGTERM, signal.SIG_IGN)  # done: a request to stop now changes nothing
     print(made, flush=True)
-
-
-if __name__ == "__main__":
-    main(sys.argv[1])
-    os._exit(0)  # its file closed and its count printed: no interpreter teardown for the run to wait for
