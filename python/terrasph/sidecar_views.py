@@ -38,7 +38,7 @@ __all__ = ["CHUNK_FRAMES", "MIN_VIEWS", "SidecarViews", "main"]
 
 #: fewer views than this (frames × views per frame) are made at the run's end (~70 µs each): a child
 #: interpreter costs ~0.15 s of a core to start and import h5py, so below this it gains nothing
-#: (benchmarks/performance/bench_run_overhead.py: the helper's CPU, helpers_cpu, was 0.33 s for 2205 views)
+#: (benchmarks/performance/bench_run_overhead.py: the helper's CPU, helpers_cpu, was 0.29 s for 2205 views)
 MIN_VIEWS = 2000
 #: frames whose views the child makes between two looks at whether to stop (the run's wait at most:
 #: ~10 ms with a robot's five views a frame)
