@@ -239,3 +239,28 @@ def test_leg_wheel_outline_is_the_rotated_spokes():
         assert _signed_area(loop) == pytest.approx(_signed_area(leg.outline[0]), rel=1e-12)
     inside = sum(_winding(wheel.position, loop) for loop in wheel.outline)
     assert np.all(inside >= 1)
+
+
+@pytest.mark.parametrize("shape", _shapes(), ids=lambda s: s.name)
+def test_lowest_point_is_the_lowest_of_all_particles_to_the_bit(shape):
+    """lowest_point moves only the shape's rim; at every pose it is the minimum over all particles moved,
+    bit for bit, including the poses that put an edge level (multiples of 1/4 degree) and random ones."""
+    rng = np.random.default_rng(46)
+    angles = np.concatenate([np.arange(-720, 721) * math.pi / 720, rng.uniform(-40.0, 40.0, 1500)])
+    for angle in angles:
+        origin = tuple(rng.uniform(-1.0, 1.0, 2))
+        every = shape.position @ bodies.rotation_matrix(angle).T + np.asarray(origin, dtype=float)
+        assert shape.lowest_point(angle, origin) == float(every[:, 1].min() - 0.5 * shape.spacing)
+    assert len(shape.rim) < len(shape.position)  # a rim, not the whole body
+
+
+def test_rim_holds_the_convex_hull_and_nothing_deep_inside():
+    """A disc of lattice points: its rim is the points near its circle, none deeper than a spacing."""
+    dx = 0.001
+    grid = np.stack(np.meshgrid(np.arange(-20, 21), np.arange(-20, 21)), axis=-1).reshape(-1, 2) * dx
+    disc = grid[np.hypot(*grid.T) <= 0.02 + 1e-12]
+    shape = bodies.BodyShape("disc", disc, np.zeros_like(disc), dx, 0.02, 0.1, 0.02)
+    radii = np.hypot(*shape.rim.T)
+    assert radii.max() == pytest.approx(0.02) and radii.min() > 0.02 - 1.5 * dx
+    square = bodies.BodyShape("square", grid, np.zeros_like(grid), dx, 0.04, 0.1, 0.02)
+    assert len(square.rim) == 4 * 40  # every particle on the square's edges, collinear ones included

@@ -6,6 +6,7 @@ be listed. The real run is 0.05 s of the coarse collapse (~3 500 steps, a few se
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import shutil
@@ -15,6 +16,7 @@ import sys
 import pytest
 from terrasph.cli import build_parser, main
 from terrasph.io import read_run
+from terrasph.scenes import SCENES
 
 
 def run_cli(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -240,3 +242,15 @@ def _same(a, b) -> bool:
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return np.array_equal(a, b)
     return bool(a == b)
+
+
+@pytest.mark.parametrize("scene", sorted(SCENES))
+def test_a_scenes_own_parser_reads_its_arguments_as_the_whole_command_line_does(scene) -> None:
+    """``terrasph run SCENE …`` is parsed by a parser holding that scene alone (build_parser(argv)):
+    the same values, defaults included, as the whole command line's parser gives."""
+    argv = ["run", scene, *(["robot.xml"] if scene == "mjcf" else []), "--out", "x.h5", "--force", "--no-progress"]
+    narrow, whole = build_parser(argv).parse_args(argv), build_parser().parse_args(argv)
+    assert {k: v for k, v in vars(narrow).items() if k != "parser_of_command"} == \
+        {k: v for k, v in vars(whole).items() if k != "parser_of_command"}
+    with_help = build_parser([*argv, "--help"])  # the whole command line, for the help to list every command
+    assert "resume" in next(a for a in with_help._actions if isinstance(a, argparse._SubParsersAction)).choices

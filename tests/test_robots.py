@@ -18,7 +18,7 @@ from terrasph.bodies import plate, rotation_matrix, wheel
 from terrasph.config import ConfigError, Numerics
 from terrasph.geometry import wall_layers_needed
 from terrasph.mjcf.model import PlanarRobot, shape_inertial
-from terrasph.robots.metrics import slip
+from terrasph.robots.metrics import sinkage, slip
 from terrasph.scene import Scene
 from terrasph.simulation import Simulation
 from terrasph.terrain.sph_coupling import free_surface
@@ -129,6 +129,30 @@ def test_slip_follows_eq_4_8() -> None:
     assert slip(0.1, 0.0, radius) == -1.0  # sliding without turning
     assert math.isnan(float(slip(0.0, 0.0, radius)))
     assert np.all(np.abs(slip(np.linspace(0, 1, 11), omega, radius)) <= 1.0)
+
+
+def test_slip_of_one_sample_is_the_arrays_to_the_bit() -> None:
+    """A sample's slip (numbers, computed in Python's floats) equals the array computation's at every
+    pairing of signs, zeros (signed), tiny, huge, infinite and NaN speeds."""
+    values = [0.0, -0.0, 1.0, -1.0, 0.3, -2.5, 1e-300, -1e-300, 5e-324, 1e300, math.inf, -math.inf, math.nan]
+    for speed in values:
+        for omega in values:
+            for radius in (0.04, 1.0, 1e-300, 1e300):
+                with np.errstate(over="ignore"):
+                    expected = slip(np.array([speed]), np.array([omega]), radius)[0]
+                got = slip(speed, omega, radius)
+                assert np.array_equal(expected, got, equal_nan=True) and np.signbit(expected) == np.signbit(got), \
+                    (speed, omega, radius, expected, got)
+
+
+def test_sinkage_of_one_sample_is_the_arrays_to_the_bit() -> None:
+    values = [0.0, -0.0, 0.031, -0.2, 1e-300, 1e300, math.inf, math.nan]
+    for lowest in values:
+        for surface in values:
+            with np.errstate(invalid="ignore"):  # inf − inf
+                expected = sinkage(np.array([lowest]), surface)[0]
+            got = sinkage(lowest, surface)
+            assert np.array_equal(expected, got, equal_nan=True) and np.signbit(expected) == np.signbit(got)
 
 
 def test_bad_density_is_refused() -> None:

@@ -12,7 +12,8 @@ Each run is its own process (the command after ``--``, default the leg-wheel on 
   controller), summed over the run;
 * the parts of the loop that are output: ``samples`` (the recorders' rows of the series),
   ``frames_write`` and ``series_write`` (their writes into the file), ``checkpoint`` and
-  ``sidecars`` (the XDMF files, :func:`terrasph.io.write_xdmf`);
+  ``sidecars`` (the XDMF files, :func:`terrasph.io.write_xdmf`, and the wait for the child that
+  makes their views while the run steps, :mod:`terrasph.sidecar_views`, where the package has one);
 * ``loop``: the run loop (:meth:`terrasph.run_loop.RunLoop.run`), from its first frame to its file
   closed and its XDMF sidecars written: the stepping plus the frames, the series' samples and their
   writes, the checkpoint and the sidecars;
@@ -23,7 +24,11 @@ Each run is its own process (the command after ``--``, default the leg-wheel on 
   start to its end: ``build`` + ``loop`` + ``after``;
 * ``imports``: the package and what its command line imports before any work (``matplotlib``, which
   the figure needs, within it), and ``command``: the process's whole wall as the parent sees it
-  (the interpreter's start is the rest).
+  (the interpreter's start is the rest);
+* the same in CPU time, which other processes on a busy machine do not stretch: ``stepping_cpu`` and
+  ``total_cpu``, the run's own thread's, and ``helpers_cpu``, its child processes' (the sidecars'
+  helper), with the ratios ``cpu_total_over_stepping`` (the run's thread alone) and
+  ``work_over_stepping`` (its helpers' CPU added: the work the run costs, whatever runs alongside).
 
 It prints each run and, per side, the medians and the ratios ``loop / stepping`` and
 ``total / stepping`` (issue 46: a run's total within 2x its stepping); with two sides A B B A …
@@ -59,18 +64,20 @@ import terrasph.run_loop as run_loop
 from terrasph.cli import build_parser, main
 build_parser()  # the modules the command line imports (its scenes), as main's own call would
 
-times = {"stepping": 0.0, "loop": 0.0, "loop_start": None, "loop_end": None, "frames_write": 0.0,
+times = {"stepping": 0.0, "stepping_cpu": 0.0, "loop": 0.0, "loop_start": None, "loop_end": None, "frames_write": 0.0,
          "series_write": 0.0, "samples": 0.0, "checkpoint": 0.0, "sidecars": 0.0, "figure": 0.0,
          "matplotlib_import": matplotlib_import}
 
 
 def timed(function, key):
     def call(*args, **kwargs):
-        started = time.perf_counter()
+        started, cpu = time.perf_counter(), time.thread_time()
         try:
             return function(*args, **kwargs)
         finally:
             times[key] += time.perf_counter() - started
+            if key == "stepping":
+                times["stepping_cpu"] += time.thread_time() - cpu
     return call
 
 
@@ -108,12 +115,22 @@ frames_method = "write_frames" if hasattr(io.RunWriter, "write_frames") else "wr
 setattr(io.RunWriter, frames_method, timed(getattr(io.RunWriter, frames_method), "frames_write"))
 io.RunWriter.append_series_rows = timed(io.RunWriter.append_series_rows, "series_write")
 io.write_xdmf = timed(io.write_xdmf, "sidecars")
+try:  # the wait for the helper that makes the sidecars' views while the run steps, where the package has one
+    import terrasph.sidecar_views as sidecar_views
+    sidecar_views.SidecarViews.finish = timed(sidecar_views.SidecarViews.finish, "sidecars")
+except ImportError:
+    pass
 matplotlib.figure.Figure.savefig = timed(matplotlib.figure.Figure.savefig, "figure")
 times["imports"] = time.perf_counter() - started
-command_start = time.perf_counter()
+import resource
+children = resource.getrusage(resource.RUSAGE_CHILDREN)
+command_start, command_cpu = time.perf_counter(), time.thread_time()
 status = main(sys.argv[2:])
 command_end = time.perf_counter()
 times["total"] = command_end - command_start
+times["total_cpu"] = time.thread_time() - command_cpu
+ended = resource.getrusage(resource.RUSAGE_CHILDREN)
+times["helpers_cpu"] = (ended.ru_utime + ended.ru_stime) - (children.ru_utime + children.ru_stime)
 times["build"] = times.pop("loop_start") - command_start
 times["after"] = command_end - times.pop("loop_end")
 with open(sys.argv[1], "w") as out:
@@ -123,7 +140,7 @@ sys.exit(status)
 
 #: the parts of a run each run reports, in seconds
 PARTS = ("stepping", "samples", "frames_write", "series_write", "checkpoint", "sidecars", "loop", "build", "after",
-         "figure", "total", "matplotlib_import", "imports", "command")
+         "figure", "total", "matplotlib_import", "imports", "command", "stepping_cpu", "total_cpu", "helpers_cpu")
 
 
 def run_side(path: str, command: list[str], out: Path) -> dict[str, float]:
@@ -143,7 +160,9 @@ def run_side(path: str, command: list[str], out: Path) -> dict[str, float]:
     times = json.loads(times_file.read_text())
     return {**times, "command": command_wall,
             "loop_over_stepping": times["loop"] / times["stepping"],
-            "total_over_stepping": times["total"] / times["stepping"]}
+            "total_over_stepping": times["total"] / times["stepping"],
+            "cpu_total_over_stepping": times["total_cpu"] / times["stepping_cpu"],
+            "work_over_stepping": (times["total_cpu"] + times["helpers_cpu"]) / times["stepping_cpu"]}
 
 
 def commit() -> str:
@@ -179,9 +198,11 @@ def main() -> None:
                 print(f"round {index + 1} {side}: stepping {times['stepping']:.3f} s, loop {times['loop']:.3f} s, "
                       f"total {times['total']:.3f} s, command {times['command']:.2f} s: "
                       f"loop/stepping {times['loop_over_stepping']:.2f}, "
-                      f"total/stepping {times['total_over_stepping']:.2f}", flush=True)
+                      f"total/stepping {times['total_over_stepping']:.2f} (CPU {times['cpu_total_over_stepping']:.2f}, "
+                      f"with helpers {times['work_over_stepping']:.2f})", flush=True)
     medians = {side: {key: statistics.median(run[key] for run in runs if run["side"] == side)
-                      for key in (*PARTS, "loop_over_stepping", "total_over_stepping")} for side in sides}
+                      for key in (*PARTS, "loop_over_stepping", "total_over_stepping", "cpu_total_over_stepping",
+                                  "work_over_stepping")} for side in sides}
     for side, values in medians.items():
         print(f"median {side}: " + ", ".join(f"{key} {value:.3f}" for key, value in values.items()))
     if "B" in medians:

@@ -48,13 +48,14 @@ takes a leg pointing down (tip at (0, −R)) to point backward (tip at (−R, 0)
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import wall_layers_needed
+from .geometry import convex_hull, wall_layers_needed
 
 __all__ = [
     "SPOKES",
@@ -147,10 +148,42 @@ class BodyShape:
         rot = rotation_matrix(angle)
         return tuple(loop @ rot.T + np.asarray(origin, dtype=float) for loop in self.outline)
 
-    def lowest_point(self, angle: float = 0.0, origin: tuple[float, float] = (0.0, 0.0)) -> float:
+    def lowest_point(self, angle: float = 0.0, origin: tuple[float, float] | np.ndarray = (0.0, 0.0)) -> float:
         """Lowest z of the body at this pose: min z of its particles minus Δx/2 (the particles are
-        cell centres), for sinkage (docs/design.md §3.8)."""
-        return float(self.positions_at(angle, origin)[:, 1].min() - 0.5 * self.spacing)
+        cell centres), for sinkage (docs/design.md §3.8). Only the particles on the rim of the shape
+        (:attr:`rim`) can be lowest at any pose, so only they are moved: the same value, bit for bit,
+        as the minimum over all particles (the same product for each)."""
+        rim = self.rim
+        return float((rim @ rotation_matrix(angle).T + np.asarray(origin, dtype=float))[:, 1].min()
+                     - 0.5 * self.spacing)
+
+    @functools.cached_property
+    def rim(self) -> np.ndarray:
+        """The particles that may be lowest (or farthest in any direction) at some pose: those within
+        :data:`RIM_TOLERANCE` of their convex hull's boundary. A particle deeper inside lies farther than
+        that above the lowest one at every pose, more than the rounding of the positions' products, so
+        the minimum of any coordinate at a pose is the same over these as over all particles."""
+        return self.position[_near_hull(self.position, RIM_TOLERANCE * max(self.spacing, 1e-300))]
+
+
+#: particles within this many spacings of their convex hull's boundary make a shape's rim
+#: (:attr:`BodyShape.rim`): far above the rounding of a rotated position (~1e-16 of the shape's size),
+#: far below a spacing, so the rim is the hull's vertices and the particles on its edges
+RIM_TOLERANCE = 1e-6
+
+
+def _near_hull(points: np.ndarray, tolerance: float) -> np.ndarray:
+    """Indices, in order, of the (M, 2) `points` within `tolerance` (m) of their convex hull's boundary
+    (of a point inside a convex polygon, its least distance to the lines of the edges)."""
+    hull = convex_hull(points)
+    if len(hull) < 3:  # all points on a line (or one point): every one is on the boundary
+        return np.arange(len(points))
+    edge = np.roll(hull, -1, axis=0) - hull
+    outward = np.column_stack([edge[:, 1], -edge[:, 0]]) / np.hypot(edge[:, 0], edge[:, 1])[:, None]
+    offset = (hull * outward).sum(axis=1)  # each edge's line: outward · x = offset
+    distance = np.concatenate([(offset - block @ outward.T).min(axis=1)  # blocks bound the memory
+                               for block in np.array_split(points, max(1, len(points) // 512))])
+    return np.flatnonzero(distance <= tolerance)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-__all__ = ["MIN_PARTICLES_ACROSS", "aligned_wall_layers", "elliptical_arc", "lattice_block", "polyline_wall",
+__all__ = ["MIN_PARTICLES_ACROSS", "aligned_wall_layers", "convex_hull", "elliptical_arc", "lattice_block", "polyline_wall",
            "trough_height", "wall_layers_needed"]
 
 
@@ -201,3 +201,21 @@ def aligned_wall_layers(surface: np.ndarray, normals: np.ndarray, spacing: float
     surface, normals = np.asarray(surface, float), np.asarray(normals, float)
     rows = [surface - (k + 0.5) * spacing * normals for k in range(layers)]
     return np.concatenate(rows), np.tile(normals, (layers, 1))
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """The convex hull of `points`, counter-clockwise (Andrew's monotone chain; the points rounded to
+    1e-12, collinear ones dropped)."""
+    ordered = sorted(set(map(tuple, np.round(points, 12))))
+
+    def half(sequence: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        chain: list[tuple[float, float]] = []
+        for p in sequence:
+            while len(chain) >= 2 and ((chain[-1][0] - chain[-2][0]) * (p[1] - chain[-2][1])
+                                       - (chain[-1][1] - chain[-2][1]) * (p[0] - chain[-2][0])) <= 0:
+                chain.pop()
+            chain.append(p)
+        return chain
+
+    lower, upper = half(ordered), half(ordered[::-1])
+    return np.array(lower[:-1] + upper[:-1])

@@ -205,6 +205,12 @@ class RunWriter:
 
     # -- writing ---------------------------------------------------------------------------
     @property
+    def frame_shapes(self) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+        """Each frame field's shape (of one frame) and dtype, as the first frame set them (empty
+        before it)."""
+        return dict(self._frame_shapes or {})
+
+    @property
     def n_frames(self) -> int:
         """Number of frames written so far."""
         return int(self._open_file()["frames/time"].shape[0])
@@ -613,7 +619,8 @@ def _hyperslab(
     source.text = f"{h5_ref}:{dataset.name}"
 
 
-def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str] | None = None) -> pathlib.Path:
+def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str] | None = None, *,
+               views_made: int = 0) -> pathlib.Path:
     """Write an XDMF 3 sidecar so ParaView can open the frames of a run file; return its path.
 
     The sidecar is a Temporal collection with one Spatial collection per frame holding up to three
@@ -626,7 +633,7 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
     per component (``velocity_x``, ``velocity_z``, ``stress_xx``, …; a body field's ``body_`` prefix
     is dropped). The HDF5 file is referenced by its path relative to the sidecar (default:
     ``h5_path`` with suffix ``.xdmf``), so keep the two files together. The per-set files that
-    meshio reads too are written beside it (:func:`write_xdmf_sets`).
+    meshio reads too are written beside it (:func:`write_xdmf_sets`, which says what `views_made` is).
     """
     h5_path = pathlib.Path(h5_path)
     out = pathlib.Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
@@ -676,7 +683,7 @@ def write_xdmf(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str
             grid = _polyvertex_grid(step, "walls", walls.shape[0])
             _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[walls.shape[1]]), h5_ref, walls)
     _write_frames_xml(root, collection, step, times, out)
-    write_xdmf_sets(h5_path, out)
+    write_xdmf_sets(h5_path, out, views_made=views_made)
     return out
 
 
@@ -725,8 +732,8 @@ def _write_xml(root: ET.Element, path: pathlib.Path) -> None:
     path.write_text('<?xml version="1.0" ?>\n' + ET.tostring(root, encoding="unicode") + "\n")
 
 
-def write_xdmf_sets(h5_path: str | os.PathLike[str],
-                    xdmf_path: str | os.PathLike[str] | None = None) -> list[pathlib.Path]:
+def write_xdmf_sets(h5_path: str | os.PathLike[str], xdmf_path: str | os.PathLike[str] | None = None, *,
+                    views_made: int = 0) -> list[pathlib.Path]:
     """Write one XDMF 3 file per particle set that both meshio and ParaView read; return their paths.
 
     meshio's XDMF readers take whole HDF5 datasets only (no hyperslabs), one Uniform grid per time
@@ -744,51 +751,48 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
       :func:`write_xdmf`, and the particles' ``id`` (bodies: also ``body_index``) when the file has them;
     * ``<stem>.walls.xdmf``: the fixed walls of ``/static/walls/position`` as one static grid
       (``meshio.read``) with their ``id`` and ``group`` (wall index).
+
+    `views_made` > 0: the side file already holds the sets' connectivity and the virtual datasets of
+    frames 0 … views_made − 1 (made while the run stepped, :class:`terrasph.sidecar_views.SidecarViews`);
+    it is completed rather than written anew: the frames the run did not reach are dropped, those
+    past them made. The files are the same either way.
     """
     h5_path = pathlib.Path(h5_path)
     base = pathlib.Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
-    side = base.with_suffix(".xdmf.h5")
+    side = side_file(base)
     run_ref = os.path.relpath(h5_path.resolve(), base.resolve().parent)
     side_ref = os.path.relpath(side.resolve(), base.resolve().parent)
-    source_ref = os.path.relpath(h5_path.resolve(), side.resolve().parent)  # VDS: relative to the side file
     written = []
-    with h5py.File(h5_path, "r") as file, h5py.File(side, "w") as views:
-        virtual_slice = _VirtualSlices(views, source_ref)
+    with h5py.File(h5_path, "r") as file, h5py.File(side, "r+" if views_made else "w") as views:
         frames, static = file["frames"], file.get("static", {})
         n_frames = min(dataset.shape[0] for dataset in frames.values())
         times = frames["time"][:n_frames]
-        sets = [("grains", "position", "", {"id": "granular/id"}),
-                ("bodies", "body_position", "body_", {"id": "bodies/id", "body_index": "bodies/index"})]
-        for name, geometry, prefix, static_fields in sets:
-            if geometry not in frames:
-                continue
-            count = frames[geometry].shape[1]
-            positions = _layout(frames[geometry])
-            fields = [(label, _layout(dataset)) for label, dataset in _set_fields(frames, frames[geometry], prefix)]
-            constant = {label: _layout(static[path]) for label, path in static_fields.items()
+        sets = frame_views({name: _layout(dataset) for name, dataset in frames.items()})
+        if views_made:
+            for name, _, _ in sets:  # frames the run did not reach (an early end)
+                for k in range(n_frames, views_made):
+                    del views[f"{name}/frame_{k}"]
+        else:
+            for name, count, _ in sets:
+                _connectivity(views, name, count)
+        make_frame_views(views, source_reference(h5_path, side), sets, range(views_made, n_frames))
+        static_fields = {"grains": {"id": "granular/id"}, "bodies": {"id": "bodies/id", "body_index": "bodies/index"}}
+        for name, count, components in sets:
+            constant = {label: _layout(static[path]) for label, path in static_fields[name].items()
                         if path in static and static[path].shape[:1] == (count,)}
             root, collection = _xdmf_root(name, temporal=True)
-            connectivity = _connectivity(views, name, count)
-            dim = positions.shape[2]
-            components = [(label + suffix, dataset, index) for label, dataset in [("position", positions), *fields]
-                          for suffix, index in (_component_suffixes(dataset.shape[2:], dim) if len(dataset.shape) > 2
-                                                else [("", ())])]
-            views_of_frame: dict[str, _Layout] = {}  # each view's layout, the frame's index a stand-in
-            for k in range(n_frames):  # the geometry, a frame's positions whole, then each component
-                slices: list[tuple[str, _Layout, tuple[int | slice, ...]]] = [("position", positions, (k,))]
-                slices += [(label, dataset, (k, slice(None), *component)) for label, dataset, component in components]
-                for label, dataset, index in slices:
-                    view = virtual_slice(f"{name}/frame_{k}/{label}", dataset, index)
-                    views_of_frame[label] = view._replace(name=f"/{name}/frame_{_FRAME_INDEX}/{label}")
+            dim = components[0][1].shape[2]
             # one frame's XML with stand-ins for its index and time, repeated for every frame (_write_frames_xml)
             grid = ET.SubElement(collection, "Grid", Name=f"frame_{_FRAME_INDEX}", GridType="Uniform")
             ET.SubElement(grid, "Time", Value=_FRAME_TIME)
-            _polyvertex(grid, count, side_ref, connectivity)
+            _polyvertex(grid, count, side_ref, _layout(views[f"{name}/connectivity"]))
             if n_frames:
-                _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[dim]), side_ref,
-                       views_of_frame["position"])
-                for label, _, _ in components:
-                    _node_attribute(grid, label, side_ref, views_of_frame[label])
+                for label, dataset, index in components:
+                    view = _Layout(_view_name(name, _FRAME_INDEX, label), _view_shape(dataset.shape, index), dataset.dtype)
+                    if label == _GEOMETRY:
+                        _whole(ET.SubElement(grid, "Geometry", GeometryType=GEOMETRY_TYPES[dim]), side_ref, view)
+                    else:
+                        _node_attribute(grid, label, side_ref, view)
             for label, dataset in constant.items():
                 _node_attribute(grid, label, run_ref, dataset)
             _write_frames_xml(root, collection, grid, times, base.with_suffix(f".{name}.xdmf"))
@@ -806,6 +810,67 @@ def write_xdmf_sets(h5_path: str | os.PathLike[str],
     return written
 
 
+def side_file(xdmf_path: str | os.PathLike[str]) -> pathlib.Path:
+    """The HDF5 file of the virtual datasets of the per-set sidecars of `xdmf_path`: ``run.xdmf`` →
+    ``run.xdmf.h5`` (:func:`write_xdmf_sets`)."""
+    return pathlib.Path(xdmf_path).with_suffix(".xdmf.h5")
+
+
+def source_reference(h5_path: str | os.PathLike[str], side: str | os.PathLike[str]) -> str:
+    """The run file `h5_path` as the side file `side`'s virtual datasets name it: relative to the
+    side file's folder, so the files work wherever they are together."""
+    return os.path.relpath(pathlib.Path(h5_path).resolve(), pathlib.Path(side).resolve().parent)
+
+
+#: the label of a set's positions whole, the geometry of each frame's grid (:func:`frame_views`)
+_GEOMETRY = "position"
+#: a frame's virtual dataset of a set: ``/<set>/frame_<k>/<label>``
+_VIEW_NAME = "/{set}/frame_{frame}/{label}"
+
+
+def _view_name(particle_set: str, frame: int | str, label: str) -> str:
+    return _VIEW_NAME.format(set=particle_set, frame=frame, label=label)
+
+
+def _view_shape(shape: tuple[int, ...], index: tuple[int, ...]) -> tuple[int, ...]:
+    """The shape of one frame's view of a frame dataset of `shape` (n_frames, N, …) at component `index`."""
+    return (shape[1], *shape[2 + len(index):])
+
+
+def frame_views(frames: Mapping[str, _Layout]) -> list[tuple[str, int, list[tuple[str, _Layout, tuple[int, ...]]]]]:
+    """The per-frame virtual datasets of the per-set sidecars (:func:`write_xdmf_sets`) of a run
+    whose ``/frames`` datasets are `frames` (name → layout): for each particle set with frames (grains
+    of ``position``, bodies of ``body_position``), its name, particle count and views, each a label,
+    the frame dataset it slices and the component index within a particle's value: the positions
+    whole (the geometry), then each field's components, positions first."""
+    sets = []
+    for name, geometry, prefix in (("grains", "position", ""), ("bodies", "body_position", "body_")):
+        if geometry not in frames:
+            continue
+        positions = frames[geometry]
+        dim = positions.shape[2]
+        fields = [(label, dataset) for label, dataset in _set_fields(frames, positions, prefix)]
+        components: list[tuple[str, _Layout, tuple[int, ...]]] = [(_GEOMETRY, positions, ())]
+        for label, dataset in [("position", positions), *fields]:
+            trailing = dataset.shape[2:]
+            components += [(label + suffix, dataset, index)
+                           for suffix, index in (_component_suffixes(trailing, dim) if trailing else [("", ())])]
+        sets.append((name, positions.shape[1], components))
+    return sets
+
+
+def make_frame_views(views: h5py.File, source_ref: str,
+                     sets: list[tuple[str, int, list[tuple[str, _Layout, tuple[int, ...]]]]],
+                     frames: range) -> None:
+    """The virtual datasets of :func:`frame_views`' `sets` for `frames` in the side file `views`, each
+    a slice of the run file `source_ref` (relative to the side file's folder)."""
+    virtual_slice = _VirtualSlices(views, source_ref)
+    for name, _, components in sets:
+        for k in frames:
+            for label, dataset, index in components:
+                virtual_slice(_view_name(name, k, label), dataset, (k, slice(None), *index))
+
+
 def _xdmf_root(name: str, temporal: bool) -> tuple[ET.Element, ET.Element]:
     """An XDMF 3 document with one grid named `name` in its domain: a Temporal collection or a
     Uniform grid (meshio reads exactly one grid per domain)."""
@@ -821,7 +886,7 @@ def _connectivity(views: h5py.File, name: str, count: int) -> h5py.Dataset:
     return views.create_dataset(f"{name}/connectivity", data=np.arange(count, dtype=np.int64).reshape(count, 1))
 
 
-def _polyvertex(grid: ET.Element, count: int, side_ref: str, connectivity: h5py.Dataset) -> None:
+def _polyvertex(grid: ET.Element, count: int, side_ref: str, connectivity: h5py.Dataset | _Layout) -> None:
     topology = ET.SubElement(grid, "Topology", TopologyType="Polyvertex", NumberOfElements=str(count),
                              NodesPerElement="1")
     _whole(topology, side_ref, connectivity)
@@ -848,12 +913,16 @@ class _VirtualSlices:
 
     def __call__(self, name: str, dataset: _Layout, index: tuple[int | slice, ...]) -> _Layout:
         """A virtual dataset `name` that is ``dataset[index]`` of the run file; `index` holds
-        integers and whole slices."""
+        integers and whole slices, its first an integer, the frame. The source's extent is given as
+        the frames up to that one, whatever the run file's frame count: the view of a frame is the
+        same whenever it is made (before the run has written it, say: :mod:`terrasph.sidecar_views`)."""
         start = tuple(i if isinstance(i, int) else 0 for i in index) + (0,) * (len(dataset.shape) - len(index))
         count = tuple(1 if isinstance(i, int) else n for i, n in zip(index, dataset.shape)) + dataset.shape[len(index):]
         shape = tuple(n for axis, n in enumerate(dataset.shape)
                       if axis >= len(index) or not isinstance(index[axis], int))
-        source = h5py.h5s.create_simple(dataset.shape)
+        frame = index[0]
+        assert isinstance(frame, int), "a view's first index is its frame"
+        source = h5py.h5s.create_simple((frame + 1, *dataset.shape[1:]))
         source.select_hyperslab(start, count)
         if shape not in self.spaces:
             self.spaces[shape] = h5py.h5s.create_simple(shape)
@@ -865,17 +934,18 @@ class _VirtualSlices:
         creation.set_virtual(virtual, self.source_ref, dataset.name.encode(), source)
         h5py.h5d.create(self.views.id, name.encode(), self.types[dataset.dtype], virtual, dcpl=creation,
                         lcpl=self.links).close()
-        return _Layout(f"/{name}", shape, dataset.dtype)
+        return _Layout(f"/{name.lstrip('/')}", shape, dataset.dtype)
 
 
-def _set_fields(frames: h5py.Group, geometry: h5py.Dataset, prefix: str) -> list[tuple[str, h5py.Dataset]]:
+def _set_fields(frames: Mapping[str, h5py.Dataset | _Layout], geometry: h5py.Dataset | _Layout,
+                prefix: str) -> list[tuple[str, Any]]:
     """(label, dataset) of the numeric per-particle frame fields of one particle set: the fields named
     with `prefix` (grains: no prefix, and not a body field) with as many particles as its geometry."""
     fields = []
     for name, dataset in sorted(frames.items()):
         if name in _RESERVED_FRAME_NAMES or dataset.name == geometry.name or dataset.dtype.kind not in "iuf":
             continue
-        if dataset.ndim < 2 or dataset.shape[1] != geometry.shape[1]:
+        if len(dataset.shape) < 2 or dataset.shape[1] != geometry.shape[1]:
             continue
         if prefix and name.startswith(prefix):
             fields.append((name[len(prefix):], dataset))

@@ -219,13 +219,34 @@ def claimed_output(output: str | os.PathLike[str], force: bool) -> Iterator[path
 
 
 def simulated_time_bar(total: float, progress: bool) -> Any:
-    """A progress bar over `total` seconds of simulated time (disabled unless `progress`)."""
-    if progress:
-        from tqdm.auto import tqdm
-    else:  # tqdm.auto warns about missing notebook widgets even for a disabled bar
-        from tqdm import tqdm
-    return tqdm(total=round(total, 9), unit="s", disable=not progress, mininterval=0.5,
+    """A progress bar over `total` seconds of simulated time (tqdm's), or, unless `progress`, a bar
+    that shows nothing (:class:`_HiddenBar`: no tqdm to import, ~25 ms, for a run that shows none)."""
+    if not progress:
+        return _HiddenBar(round(total, 9))
+    from tqdm.auto import tqdm
+
+    return tqdm(total=round(total, 9), unit="s", mininterval=0.5,
                 bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} s simulated [{elapsed}<{remaining}]{postfix}")
+
+
+@dataclass
+class _HiddenBar:
+    """The members of a tqdm bar a run loop uses, showing nothing."""
+
+    total: float
+    n: float = 0.0
+
+    def update(self, amount: float) -> None:
+        self.n += amount
+
+    def set_postfix(self, **values: Any) -> None:
+        """Shows nothing."""
+
+    def refresh(self) -> None:
+        """Shows nothing."""
+
+    def close(self) -> None:
+        """Shows nothing."""
 
 
 def _raise_interrupt(signum: int, frame: object) -> None:
@@ -372,6 +393,7 @@ class RunLoop:
         either: it then continues from its last checkpoint); an InstabilityError or any other error is
         recorded (``unstable``, ``failed``) before it propagates."""
         from terrasph import _core
+        from terrasph.sidecar_views import SidecarViews
         from terrasph.threads import LoadWatch
 
         check_run_options({"frame_interval": self.frame_interval, "sample_interval": self.sample_interval},
@@ -458,7 +480,8 @@ class RunLoop:
                     "series_rows": series_rows, "wall_time": wallclock.perf_counter() - start, **leak})
 
         def record_end(status: str, **extra: Any) -> None:
-            """The final /run attributes, the file closed and its XDMF sidecars, however the run ends."""
+            """The final /run attributes, the file closed and its XDMF sidecars, however the run ends
+            (those of a finished run with the views its helper made: terrasph.sidecar_views)."""
             from terrasph.io import write_xdmf
 
             if not writer:
@@ -468,8 +491,22 @@ class RunLoop:
                                       "steps": stepper.step_count, "time": stepper.time,
                                       **stepper.run_attributes(), **leak, **extra})
             writer.close()
+            views_made = 0
+            if views is not None:
+                if status in FINISHED_STATUSES:
+                    views_made = views.finish()
+                else:  # an interrupted or failed run ends at once, with the frames it has
+                    views.stop()
             if frames:
-                write_xdmf(self.output)
+                write_xdmf(self.output, views_made=views_made)
+
+        def start_views() -> SidecarViews | None:
+            """The helper that makes the sidecars' views of the frames this run plans while it
+            steps (terrasph.sidecar_views), once the run file has its first frame."""
+            if not writer or not frames:
+                return None
+            planned = frames + max(0, math.ceil((t_end - next_frame) / self.frame_interval - 1e-9)) + 1
+            return SidecarViews.start(self.output, writer.frame_shapes, planned)
 
         t_start = stepper.time
         bar = simulated_time_bar(t_end - t_start, self.progress)
@@ -480,81 +517,90 @@ class RunLoop:
         ended: dict[str, str] = {}  # the reason of an early end by end_check
         at_step_boundary = False  # a second Ctrl-C may stop the run anywhere, even inside a step
         stop = StopRequest()
-        try:
-            with stop.catching_signals():
-                if not resume:
-                    record_frame()
-                    if sampled:
-                        record_sample()
-                last_checkpoint = wallclock.perf_counter()
-                last_step = 0.0  # the simulated time of the last step taken (s)
-                while stepper.time < t_end * (1 - 1e-14):
-                    target = min(next_frame, next_sample, t_end)
-                    # the stretch that reaches the end: a frame or sample time summed to within rounding
-                    # of t_end ends the run as t_end itself does (at_end below); or a step that may carry
-                    # past t_end before the target does (samples closer than a step: twice the last
-                    # step, the step bound's growth between steps being far less)
-                    reaches_end = target >= t_end * (1 - 1e-14) or stepper.time + 2.0 * last_step >= t_end
-                    if reaches_end and not final_stretch_saved:
-                        save_checkpoint()  # the last state on the path of a longer run (module docstring)
-                        final_stretch_saved = True
-                    load_watch.follow()
-                    started, steps_before = wallclock.perf_counter(), stepper.step_count
-                    time_before = stepper.time
-                    stepper.advance(target, chunk_steps)
-                    last_step = (stepper.time - time_before) / max(1, stepper.step_count - steps_before)
-                    per_step = (wallclock.perf_counter() - started) / max(1, stepper.step_count - steps_before)
-                    chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(per_step, 1e-9))))
-                    if self.progress:  # the bar shows simulated time, never past its total (the last step may end past t_end)
-                        bar.update(min(bar.total, round(stepper.time - t_start, 9)) - bar.n)
-                        bar.set_postfix(steps=stepper.step_count, refresh=False)
-                    at_end = stepper.time >= t_end * (1 - 1e-14)
-                    if stepper.time >= next_sample * (1 - 1e-12) or (sampled and at_end):
-                        record_sample()
-                        next_sample += self.sample_interval
-                    if stepper.time >= next_frame * (1 - 1e-12) or at_end:
-                        row = record_frame()
-                        next_frame += self.frame_interval
-                        if self.at_rest is not None and self.at_rest(row):
-                            status = "at_rest"
-                            save_checkpoint()  # a stop on a frame: the longer run's path
+        views: SidecarViews | None = None
+        try:  # the sidecars' helper ends with the run, however it ends
+            try:
+                with stop.catching_signals():
+                    if not resume:
+                        record_frame()
+                        if sampled:
+                            record_sample()
+                    views = start_views()
+                    last_checkpoint = wallclock.perf_counter()
+                    last_step = 0.0  # the simulated time of the last step taken (s)
+                    end_time = t_end * (1 - 1e-14)  # a time this close to t_end is the end (rounding of sums)
+                    now, steps_now = stepper.time, stepper.step_count  # read once per call into the stepper
+                    while now < end_time:
+                        target = min(next_frame, next_sample, t_end)
+                        # the stretch that reaches the end: a frame or sample time summed to within rounding
+                        # of t_end ends the run as t_end itself does (at_end below); or a step that may carry
+                        # past t_end before the target does (samples closer than a step: twice the last
+                        # step, the step bound's growth between steps being far less)
+                        if not final_stretch_saved and (target >= end_time or now + 2.0 * last_step >= t_end):
+                            save_checkpoint()  # the last state on the path of a longer run (module docstring)
+                            final_stretch_saved = True
+                        load_watch.follow()
+                        started, steps_before, time_before = wallclock.perf_counter(), steps_now, now
+                        stepper.advance(target, chunk_steps)
+                        elapsed = wallclock.perf_counter() - started
+                        now, steps_now = stepper.time, stepper.step_count
+                        taken = max(1, steps_now - steps_before)
+                        last_step = (now - time_before) / taken
+                        chunk_steps = max(1, min(MAX_STEPS_PER_CHUNK, int(CHUNK_SECONDS / max(elapsed / taken, 1e-9))))
+                        if self.progress:  # the bar shows simulated time, never past its total (the last step may end past t_end)
+                            bar.update(min(bar.total, round(now - t_start, 9)) - bar.n)
+                            bar.set_postfix(steps=steps_now, refresh=False)
+                        at_end = now >= end_time
+                        if now >= next_sample * (1 - 1e-12) or (sampled and at_end):
+                            record_sample()
+                            next_sample += self.sample_interval
+                        if now >= next_frame * (1 - 1e-12) or at_end:
+                            row = record_frame()
+                            next_frame += self.frame_interval
+                            if self.at_rest is not None and self.at_rest(row):
+                                status = "at_rest"
+                                save_checkpoint()  # a stop on a frame: the longer run's path
+                                break
+                            early_end = self.end_check() if self.end_check is not None else None
+                            if early_end is not None:
+                                status, ended["reason"] = early_end
+                                save_checkpoint()
+                                break
+                            now, steps_now = stepper.time, stepper.step_count  # as a frame's callback may have left them
+                        if at_end:  # no checkpoint here: the end state is off a longer run's path
                             break
-                        early_end = self.end_check() if self.end_check is not None else None
-                        if early_end is not None:
-                            status, ended["reason"] = early_end
+                        if stop.requested:
+                            at_step_boundary = True
+                            raise KeyboardInterrupt
+                        if self.checkpoint_every is not None and \
+                                wallclock.perf_counter() - last_checkpoint >= self.checkpoint_every:
                             save_checkpoint()
-                            break
-                    if at_end:  # no checkpoint here: the end state is off a longer run's path
-                        break
-                    if stop.requested:
-                        at_step_boundary = True
-                        raise KeyboardInterrupt
-                    if self.checkpoint_every is not None and \
-                            wallclock.perf_counter() - last_checkpoint >= self.checkpoint_every:
-                        save_checkpoint()
-                        last_checkpoint = wallclock.perf_counter()
-        except KeyboardInterrupt:
+                            last_checkpoint = wallclock.perf_counter()
+            except KeyboardInterrupt:
+                bar.close()
+                if writer and at_step_boundary:
+                    save_checkpoint()  # before the extra frame below, which a resumed run drops
+                    add_frame()
+                # stopped inside a step, the run continues from its last checkpoint, if it has one
+                resumable = writer is not None and checkpoint_path(self.output).is_file()
+                record_end("interrupted", **({"checkpoint": checkpoint_path(self.output).name} if resumable else {}))
+                raise
+            except _core.InstabilityError as error:
+                bar.close()
+                record_end("unstable", message=str(error), step=error.step, particle=error.particle, time=error.time)
+                raise
+            except Exception as error:
+                bar.close()
+                if writer and not writer.closed:
+                    record_end("failed", message=f"{type(error).__name__}: {error}")
+                raise
+            bar.total = bar.n  # a run that ends early (at rest) ends its bar at 100 %
+            bar.refresh()
             bar.close()
-            if writer and at_step_boundary:
-                save_checkpoint()  # before the extra frame below, which a resumed run drops
-                add_frame()
-            # stopped inside a step, the run continues from its last checkpoint, if it has one
-            resumable = writer is not None and checkpoint_path(self.output).is_file()
-            record_end("interrupted", **({"checkpoint": checkpoint_path(self.output).name} if resumable else {}))
-            raise
-        except _core.InstabilityError as error:
-            bar.close()
-            record_end("unstable", message=str(error), step=error.step, particle=error.particle, time=error.time)
-            raise
-        except Exception as error:
-            bar.close()
-            if writer and not writer.closed:
-                record_end("failed", message=f"{type(error).__name__}: {error}")
-            raise
-        bar.total = bar.n  # a run that ends early (at rest) ends its bar at 100 %
-        bar.refresh()
-        bar.close()
-        record_end(status, **ended, **({"checkpoint": checkpoint_path(self.output).name} if writer else {}))
+            record_end(status, **ended, **({"checkpoint": checkpoint_path(self.output).name} if writer else {}))
+        finally:
+            if views is not None:
+                views.stop()
         if resume:  # the whole run's series, not only the resumed part
             from terrasph.io import read_run
 

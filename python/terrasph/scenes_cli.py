@@ -31,13 +31,22 @@ from terrasph.threads import use_threads
 __all__ = ["register"]
 
 
-def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Adds the ``run`` command with every registered scene, and ``resume``."""
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser], only: str | None = None) -> None:
+    """Adds the ``run`` command with every registered scene, and ``resume``; with `only` (a scene's
+    name: :func:`is_scene`), ``run`` with that scene alone."""
     run = subparsers.add_parser("run", help="run a ready-made scene", description="Run a ready-made scene.")
     scenes = run.add_subparsers(dest="scene", required=True, metavar="SCENE")
+    if only is not None:
+        _register_scene(scenes, scene_entry(only))
+        return
     for entry in SCENES.values():
         _register_scene(scenes, entry)
     _register_resume(subparsers)
+
+
+def is_scene(name: str) -> bool:
+    """Whether `name` is a registered scene's name (``terrasph run NAME``)."""
+    return name in SCENES
 
 
 def _register_scene(scenes: argparse._SubParsersAction[argparse.ArgumentParser], entry: SceneEntry) -> None:

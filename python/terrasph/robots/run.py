@@ -28,7 +28,7 @@ import numpy as np
 
 from terrasph.config import ConfigError
 from terrasph.io import defined_values
-from terrasph.mjcf.model import mujoco_warnings
+from terrasph.mjcf.model import CoupledBody, mujoco_warnings
 from terrasph.robots.metrics import sinkage, slip
 from terrasph.run_loop import END_OF_BED, Recorder
 from terrasph.terrain.interface import Terrain
@@ -45,10 +45,10 @@ __all__ = ["BED_END_MARGIN", "WHEEL_BALANCE", "BedEnds", "ControlledRun", "Robot
 BED_END_MARGIN = SURFACE_MARGIN
 
 
-def body_row(coupled: RobotStepper, name: str, surface: float) -> dict[str, Any]:
+def body_row(coupled: RobotStepper, body: CoupledBody, surface: float) -> dict[str, Any]:
     """One sample of a coupled body's series (granular loads averaged since the last reset;
     sinkage below the free surface at `surface`, m)."""
-    body = next(b for b in coupled.robot.coupled if b.name == name)
+    name = body.name
     state = coupled.body_sample(name)
     velocity, omega = coupled.robot.velocity(body)
     return {"time": coupled.time, "reference": coupled.robot.reference(body), "angle": coupled.angle(name),
@@ -110,11 +110,12 @@ class RobotLoads:
 
     def __init__(self, coupled: RobotStepper) -> None:
         self.coupled = coupled
+        self.groups = [(f"robot/{body.name}", body) for body in coupled.robot.coupled]  #: (group, body) of each series
 
     def rows(self) -> dict[str, dict[str, Any]]:
         coupled = self.coupled
         surface = coupled.surface()
-        rows = {f"robot/{body.name}": body_row(coupled, body.name, surface) for body in coupled.robot.coupled}
+        rows = {group: body_row(coupled, body, surface) for group, body in self.groups}
         if coupled.robot.model.nu:  # a robot without actuators has no such series (HDF5 has no 0-wide columns)
             rows["robot/actuators"] = _actuator_row(coupled)
         coupled.reset_body_means()

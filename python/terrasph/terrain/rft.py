@@ -63,6 +63,7 @@ import numpy as np
 from terrasph import _core
 from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
+from terrasph.geometry import convex_hull
 from terrasph.options import OPTION, SHARED
 from terrasph.scene import GRAVITY
 
@@ -370,23 +371,6 @@ def _resampled(loop: np.ndarray, length: float) -> np.ndarray:
 POCKET_CELL_MERGE = 2
 
 
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """The convex hull of `points`, counter-clockwise (Andrew's monotone chain)."""
-    ordered = sorted(set(map(tuple, np.round(points, 12))))
-
-    def half(sequence: list[tuple[float, float]]) -> list[tuple[float, float]]:
-        chain: list[tuple[float, float]] = []
-        for p in sequence:
-            while len(chain) >= 2 and ((chain[-1][0] - chain[-2][0]) * (p[1] - chain[-2][1])
-                                       - (chain[-1][1] - chain[-2][1]) * (p[0] - chain[-2][0])) <= 0:
-                chain.pop()
-            chain.append(p)
-        return chain
-
-    lower, upper = half(ordered), half(ordered[::-1])
-    return np.array(lower[:-1] + upper[:-1])
-
-
 def _connected(mask: np.ndarray) -> np.ndarray:
     """Labels 0, 1, … of the 4-connected regions of a 2D boolean `mask`, −1 outside it."""
     labels = np.full(mask.shape, -1, dtype=np.int32)
@@ -419,8 +403,11 @@ def _pockets(loops: tuple[np.ndarray, ...], centre: np.ndarray, normal: np.ndarr
     xs = low[0] + (np.arange(counts[0]) + 0.5) * (high[0] - low[0]) / counts[0]
     zs = low[1] + (np.arange(counts[1]) + 0.5) * (high[1] - low[1]) / counts[1]
     grid = np.stack(np.meshgrid(xs, zs, indexing="ij"), axis=-1).reshape(-1, 2)
-    in_hull = (_winding(grid, (hull,)) > 0).reshape(counts)
-    labels = _connected(in_hull & (_winding(grid, loops) <= 0).reshape(counts))
+    in_hull = _winding(grid, (hull,)) > 0
+    outside_body = np.zeros(len(grid), dtype=bool)  # asked of the cells in the hull only: the others are no pocket
+    outside_body[in_hull] = _winding(grid[in_hull], loops) <= 0
+    in_hull = in_hull.reshape(counts)
+    labels = _connected(in_hull & outside_body.reshape(counts))
     # a region the body encloses (a rim's hole) holds no grains: a pocket opens onto the hull's outside
     outside = np.pad(~in_hull, 1, constant_values=True)
     opening = outside[2:, 1:-1] | outside[:-2, 1:-1] | outside[1:-1, 2:] | outside[1:-1, :-2]

@@ -256,6 +256,7 @@ class RFTCoupling(NativeRFTStepper, RobotStepper):
         self.table = rft.coefficient_table(table)
         self._elements = {b.name: rft.SurfaceElements.from_shape(b.shape, element_length, b.width)
                           for b in robot.coupled}
+        self._index = {b.name: k for k, b in enumerate(robot.coupled)}  # each body's row in the stepper's sums
         self._native = _core.PlanarRobotStepper(
             mujoco_library(), robot.model._address, robot.data._address,
             [(b.body_id, e.centre, e.normal, e.length, e.width, e.pockets)
@@ -269,6 +270,10 @@ class RFTCoupling(NativeRFTStepper, RobotStepper):
         """As the base's, and each body's continuous angle read again from its pose."""
         super().restart()
         self._native.angles = [self.robot.wrapped_angle(b) for b in self.robot.coupled]
+
+    def angle(self, name: str) -> float:
+        """Clockwise angle (rad) of coupled body `name`, continuous over turns (the native stepper's)."""
+        return self._native.angles[self._index[name]]
 
     @property
     def _angle(self) -> dict[str, float]:
@@ -305,19 +310,18 @@ class RFTCoupling(NativeRFTStepper, RobotStepper):
     def body_sample(self, name: str) -> dict[str, Any]:
         """RFT force (N) and torque (N·m) on body `name` averaged since :meth:`reset_body_means` (the load of
         each step weighted by its dt), and its lowest z (m, :meth:`BodyShape.lowest_point`)."""
-        body = next(b for b in self.robot.coupled if b.name == name)
-        index = list(self._elements).index(name)
+        index = self._index[name]
         if self.time > self._since:
             fx, fz, torque = self.load_means()[index]
             force = np.array([fx, fz])
         else:
-            force, torque = self.granular_load(body)
+            force, torque = self.granular_load(self.robot.coupled[index])
         return {"force": force, "torque": float(torque), "lowest_z": self.lowest_z(index)}
 
     def lowest_z(self, k: int) -> float:
         """The lowest z (m) of coupled body `k`'s shape now (:meth:`BodyShape.lowest_point`)."""
         body = self.robot.coupled[k]
-        return body.shape.lowest_point(self._angle[body.name], tuple(self.robot.reference(body)))
+        return body.shape.lowest_point(self._native.angles[k], self.robot.reference(body))
 
     def surface(self) -> float:
         """The free surface (m): flat and fixed, the terrain has no state."""
@@ -330,7 +334,7 @@ class RFTCoupling(NativeRFTStepper, RobotStepper):
         positions, velocities = [], []
         for body in self.robot.coupled:
             reference = self.robot.reference(body)
-            points, _ = body.shape.transformed(self._angle[body.name], tuple(reference))
+            points = body.shape.positions_at(self._angle[body.name], tuple(reference))
             velocity, omega = self.robot.velocity(body)
             arm = points - reference
             # a clockwise spin ω moves a point at arm (x, z) from the reference by ω (z, −x)
