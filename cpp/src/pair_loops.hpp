@@ -114,6 +114,26 @@ void for_each_listed_pair(Index i, const NeighbourList& list, const WendlandC2<D
   }
 }
 
+// visit(s, w, batch, k) for each wall pair of a grain at xi (list slots s = first..end, wall w), in
+// list order, the kernel of a batch of them evaluated at once: x_iw, |x_iw|² and (dW/dr)/r rounded
+// as WendlandC2::pair_gradient_factor (W is not needed). The loop driver of the grains' wall sums;
+// a pair beyond the support gets a factor of 0.
+template <int D, class Visit>
+void for_each_wall_pair(const Vec<D>& xi, Index first, Index end, const std::int32_t* walls, const WendlandC2<D>& kernel,
+                        const VecArray<D>& wall_position, Visit&& visit) {
+  for (Index start = first; start < end; start += kPairBatch) {
+    const int count = static_cast<int>(std::min<Index>(kPairBatch, end - start));
+    const std::int32_t* ws = walls + start;
+    PairBatch<D> batch;
+    for (int k = 0; k < count; ++k) {
+      batch.x[k] = xi - row_vec<D>(wall_position, ws[k]);
+      batch.r2[k] = batch.x[k].squaredNorm();
+    }
+    for (int k = 0; k < count; ++k) batch.gradient_factor[k] = kernel.pair_gradient_factor(batch.r2[k]);
+    for (int k = 0; k < count; ++k) visit(start + k, ws[k], batch, k);
+  }
+}
+
 // ---- The granular pair interactions, each written once. A pass's gather (i's sums over its full
 // list) and its each-pair-once variant (i's and j's sums from the half list) call the same function;
 // j's terms are i's with the pair turned round (x_ji = −x_ij, v_ji = −v_ij, ∇_jW_ji = −∇_iW_ij), so

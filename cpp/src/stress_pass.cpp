@@ -142,7 +142,7 @@ template <int Density>
 // With Continuity, the walls' continuity terms of Dρ_i/Dt too, with the walls' own velocities.
 template <int D>
 template <bool Continuity>
-void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment,
+[[gnu::flatten]] void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment,
                                                double& drho) const {
   const WendlandC2<D> kernel = kernel_;
   const double wall_volume = wall_volume_;
@@ -150,15 +150,15 @@ void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& gr
   const Vec<D> vi = row_vec<D>(granular_.velocity, i);
   Mat<D> g = grad, m = moment;
   double r = drho;
-  for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
-    const std::int32_t w = granular_wall_.indices[s];
-    const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
-    const double factor = kernel.pair_gradient_factor(xiw.squaredNorm());
+  for_each_wall_pair<D>(xi, granular_wall_.offsets[i], granular_wall_.offsets[i + 1], granular_wall_.indices.data(), kernel,
+                        walls_.position, [&](Index, std::int32_t w, const PairBatch<D>& batch, int k) {
+    const Vec<D>& xiw = batch.x[k];
+    const double factor = batch.gradient_factor[k];
     add_gradient_pair<D>(g, wall_volume, factor, Vec<D>(row_vec<D>(walls_.ghost_velocity, w) - vi), xiw);
     if (correct) add_moment_pair<D>(m, wall_volume, factor, xiw);
     if constexpr (Continuity)  // Eq. 2.42 with the wall's own velocity, as in the force pass
       r += pair_terms::continuity<D>(walls_.mass[w], Vec<D>(vi - row_vec<D>(walls_.velocity, w)), Vec<D>(factor * xiw));
-  }
+  });
   grad = g;
   moment = m;
   drho = r;
