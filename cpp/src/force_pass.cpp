@@ -89,8 +89,9 @@ void Simulation<D>::force_pass(double dt) {
     static thread_local std::vector<FrictionPair> friction_pairs;
     [[maybe_unused]] double normal_sum = 0.0;  // N_i
     if constexpr (UseWallFriction) friction_pairs.clear();
-    for_each_wall_pair<D>(xi, granular_wall_.offsets[i], granular_wall_.offsets[i + 1], granular_wall_.indices.data(),
-                          kernel_, walls_.position, [&](Index s, std::int32_t w, const PairBatch<D>& batch, int k) {
+    for_each_batched_pair<D, BatchTerm::gradient_factor>(xi, granular_wall_.offsets[i], granular_wall_.offsets[i + 1],
+                                                         granular_wall_.indices.data(), kernel_, walls_.position,
+                                                         [&](Index s, std::int32_t w, const PairBatch<D>& batch, int k) {
       const bool kept = KeepPairForces && (keep_every_wall || walls_.body[w] >= 0);
       if (kept) row_vec<D>(pair_wall_force_, s).setZero();
       const Vec<D>& xiw = batch.x[k];
