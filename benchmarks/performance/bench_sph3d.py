@@ -1,12 +1,14 @@
 """The cost of granular SPH in 3D beside 2D: CPU time per grain-step and bytes per particle.
 
     python benchmarks/performance/bench_sph3d.py [--side 30] [--size-2d 27000] [--threads 1 2]
-        [--h-factor-3d 1.3] [--steps 40] [--rounds 3] [--output benchmarks/results/sph3d_cost.json]
+        [--h-factor-3d 1.3] [--skin-3d 0.15] [--steps 40] [--rounds 3] [--output benchmarks/results/sph3d_cost.json]
 
 Both scenes are beds of the default material at rest in a walled box at Δx = 2 mm, walls as thick
 as the kernel support: in 3D a cube of side³ grains (terrasph.sph3d.geostatic_bed), in 2D a box 2:1
-wide:tall of about size-2d grains (bench_sph.bed). Each round steps the 2D bed, then the 3D bed,
-for `steps` steps after a warm-up, per thread count, timing the process's CPU seconds
+wide:tall of about size-2d grains (bench_sph.bed), both at the core's default numerics unless
+--h-factor-3d / --skin-3d (numerics.h_factor and neighbour_skin of the 3D bed) say otherwise. Each
+round steps the 2D bed, then the 3D bed, for `steps` steps after a warm-up, per thread count,
+timing the process's CPU seconds
 (time.process_time: the sum over threads, so a count of 2 costs its overhead, not its speed-up);
 the quoted figure is the 3D/2D ratio of CPU seconds per grain-step per round (interleaved, its
 spread over rounds beside it: absolute times on a shared machine drift). Memory is the core's own
@@ -40,11 +42,14 @@ SPACING = 0.002
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def bed_3d(side: int, h_factor: float) -> _core.Simulation3D:
-    """A cube of side³ grains at rest in its walled box, smoothing length h_factor·Δx."""
+def bed_3d(side: int, h_factor: float = Numerics().h_factor,
+           skin: float = Numerics().neighbour_skin) -> _core.Simulation3D:
+    """A cube of side³ grains at rest in its walled box, smoothing length h_factor·Δx, neighbour-list
+    skin `skin` (a fraction of h)."""
     bed = geostatic_bed((side * SPACING,) * 3, Material(), SPACING, h_factor=h_factor)
     lower, upper = np.full(3, -0.1), np.array([side * SPACING + 0.1] * 2 + [2 * side * SPACING + 0.1])
-    return bed_simulation(bed, Material(), Numerics(spacing=SPACING, h_factor=h_factor), lower, upper)
+    return bed_simulation(bed, Material(), Numerics(spacing=SPACING, h_factor=h_factor, neighbour_skin=skin), lower,
+                          upper)
 
 
 def cpu_per_grain_step(advance, grains: int, steps: int) -> float:
@@ -77,13 +82,15 @@ def main() -> None:
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--h-factor-3d", type=float, default=Numerics().h_factor,
                         help="h/Δx of the 3D bed (default: Numerics' default; the 2D bed always keeps it)")
+    parser.add_argument("--skin-3d", type=float, default=Numerics().neighbour_skin,
+                        help="neighbour_skin of the 3D bed (default: Numerics' default; the 2D bed always keeps it)")
     parser.add_argument("--steps", type=int, default=40)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--output", type=Path, default=ROOT / "benchmarks" / "results" / "sph3d_cost.json")
     args = parser.parse_args()
 
     sim2 = bed_2d(args.size_2d, Material(), Numerics(spacing=SPACING))
-    sim3 = bed_3d(args.side, args.h_factor_3d)
+    sim3 = bed_3d(args.side, args.h_factor_3d, args.skin_3d)
     grains2, walls2 = len(sim2.mass), len(sim2.core.wall_position)
     grains3, walls3 = len(sim3.mass), len(sim3.wall_position)
     rows = []
@@ -126,7 +133,7 @@ def main() -> None:
                     ["bytes_per_particle_2d", "2D bytes/particle", "{:.0f}"],
                     ["bytes_per_particle_3d", "3D bytes/particle", "{:.0f}"]],
         "machine": {"node": platform.node(), "processor": platform.processor() or platform.machine()},
-        "spacing": SPACING, "h_factor_3d": args.h_factor_3d,
+        "spacing": SPACING, "h_factor_3d": args.h_factor_3d, "neighbour_skin_3d": args.skin_3d,
         "scenes": {"2d": {"grains": grains2, "walls": walls2, "bytes_per_particle": bytes2,
                           "phase_shares": phase_shares(sim2.core)},
                    "3d": {"grains": grains3, "walls": walls3, "bytes_per_particle": bytes3,

@@ -89,15 +89,16 @@ void Simulation<D>::force_pass(double dt) {
     static thread_local std::vector<FrictionPair> friction_pairs;
     [[maybe_unused]] double normal_sum = 0.0;  // N_i
     if constexpr (UseWallFriction) friction_pairs.clear();
-    for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
-      const std::int32_t w = granular_wall_.indices[s];
+    for_each_batched_pair<D, BatchTerm::gradient_factor>(xi, granular_wall_.offsets[i], granular_wall_.offsets[i + 1],
+                                                         granular_wall_.indices.data(), kernel_, walls_.position,
+                                                         [&](Index s, std::int32_t w, const PairBatch<D>& batch, int k) {
       const bool kept = KeepPairForces && (keep_every_wall || walls_.body[w] >= 0);
       if (kept) row_vec<D>(pair_wall_force_, s).setZero();
-      const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
-      const double r2 = xiw.squaredNorm();
+      const Vec<D>& xiw = batch.x[k];
+      const double r2 = batch.r2[k];
       if (walls_.interior[w]) nearest_wall2 = std::min(nearest_wall2, r2);
-      if (r2 >= h2x4) continue;
-      const Vec<D> grad_w = kernel_.gradient_factor(std::sqrt(r2)) * xiw;
+      if (r2 >= h2x4) return;
+      const Vec<D> grad_w = batch.gradient_factor[k] * xiw;
       const Vec<D> viw = vi - row_vec<D>(walls_.velocity, w);
       const double m_w = walls_.mass[w];
       if constexpr (Density >= continuity_only) drho += term::continuity<D>(m_w, viw, grad_w);
@@ -118,7 +119,7 @@ void Simulation<D>::force_pass(double dt) {
       }
       acc.noalias() += pair_acc;
       if (kept) row_vec<D>(pair_wall_force_, s) = -granular_.mass[i] * pair_acc;  // Eq. 3.24, reaction
-    }
+    });
     if constexpr (UseWallFriction) {
       const double regularisation_speed = wall_friction * normal_sum * friction_dt;
       for (const FrictionPair& pair : friction_pairs) {

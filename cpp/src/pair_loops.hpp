@@ -114,6 +114,34 @@ void for_each_listed_pair(Index i, const NeighbourList& list, const WendlandC2<D
   }
 }
 
+// Which kernel term for_each_batched_pair evaluates: (dW/dr)/r into the batch's gradient_factor,
+// rounded as WendlandC2::pair_gradient_factor (a grain's wall sums), or W into its value, rounded as
+// WendlandC2::pair_value (a wall's extrapolations from its grains).
+enum class BatchTerm { gradient_factor, value };
+
+// visit(s, j, batch, k) for each pair of a particle at xi with the particles j = others[s] of
+// `position` (list slots s = first..end), in list order, the kernel term of a batch of them
+// evaluated at once: the loop driver of the sums between grains and walls (a grain's over its wall
+// pairs, a wall's over its grains). A pair beyond the support gets a term of 0.
+template <int D, BatchTerm Term, class Visit>
+void for_each_batched_pair(const Vec<D>& xi, Index first, Index end, const std::int32_t* others,
+                           const WendlandC2<D>& kernel, const VecArray<D>& position, Visit&& visit) {
+  for (Index start = first; start < end; start += kPairBatch) {
+    const int count = static_cast<int>(std::min<Index>(kPairBatch, end - start));
+    const std::int32_t* js = others + start;
+    PairBatch<D> batch;
+    for (int k = 0; k < count; ++k) {
+      batch.x[k] = xi - row_vec<D>(position, js[k]);
+      batch.r2[k] = batch.x[k].squaredNorm();
+    }
+    for (int k = 0; k < count; ++k) {
+      if constexpr (Term == BatchTerm::value) batch.value[k] = kernel.pair_value(batch.r2[k]);
+      else batch.gradient_factor[k] = kernel.pair_gradient_factor(batch.r2[k]);
+    }
+    for (int k = 0; k < count; ++k) visit(start + k, js[k], batch, k);
+  }
+}
+
 // ---- The granular pair interactions, each written once. A pass's gather (i's sums over its full
 // list) and its each-pair-once variant (i's and j's sums from the half list) call the same function;
 // j's terms are i's with the pair turned round (x_ji = −x_ij, v_ji = −v_ij, ∇_jW_ji = −∇_iW_ij), so

@@ -39,14 +39,14 @@ template <int D> void Simulation<D>::wall_velocity_pass() {
     const Vec<D> xw = row_vec<D>(walls_.position, w);
     double sum_w = 0.0;
     Vec<D> sum_v = Vec<D>::Zero();
-    for (Index s = wall_granular_.offsets[w]; s < wall_granular_.offsets[w + 1]; ++s) {
-      const std::int32_t f = wall_granular_.indices[s];
-      const double r2 = (xw - row_vec<D>(granular_.position, f)).squaredNorm();
-      if (r2 >= h2x4) continue;
-      const double weight = kernel_.value(std::sqrt(r2));
+    for_each_batched_pair<D, BatchTerm::value>(xw, wall_granular_.offsets[w], wall_granular_.offsets[w + 1],
+                                               wall_granular_.indices.data(), kernel_, granular_.position,
+                                               [&](Index, std::int32_t f, const PairBatch<D>& batch, int k) {
+      if (batch.r2[k] >= h2x4) return;
+      const double weight = batch.value[k];
       sum_w += weight;
       sum_v += weight * row_vec<D>(granular_.velocity, f);
-    }
+    });
     const Vec<D> vw = row_vec<D>(walls_.velocity, w);
     if (sum_w <= 0.0) {
       row_vec<D>(walls_.ghost_velocity, w) = vw;
@@ -142,7 +142,7 @@ template <int Density>
 // With Continuity, the walls' continuity terms of Dρ_i/Dt too, with the walls' own velocities.
 template <int D>
 template <bool Continuity>
-void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment,
+[[gnu::flatten]] void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& grad, Mat<D>& moment,
                                                double& drho) const {
   const WendlandC2<D> kernel = kernel_;
   const double wall_volume = wall_volume_;
@@ -150,15 +150,16 @@ void Simulation<D>::add_wall_velocity_gradient(Index i, bool correct, Mat<D>& gr
   const Vec<D> vi = row_vec<D>(granular_.velocity, i);
   Mat<D> g = grad, m = moment;
   double r = drho;
-  for (Index s = granular_wall_.offsets[i]; s < granular_wall_.offsets[i + 1]; ++s) {
-    const std::int32_t w = granular_wall_.indices[s];
-    const Vec<D> xiw = xi - row_vec<D>(walls_.position, w);
-    const double factor = kernel.pair_gradient_factor(xiw.squaredNorm());
+  for_each_batched_pair<D, BatchTerm::gradient_factor>(xi, granular_wall_.offsets[i], granular_wall_.offsets[i + 1],
+                                                       granular_wall_.indices.data(), kernel, walls_.position,
+                                                       [&](Index, std::int32_t w, const PairBatch<D>& batch, int k) {
+    const Vec<D>& xiw = batch.x[k];
+    const double factor = batch.gradient_factor[k];
     add_gradient_pair<D>(g, wall_volume, factor, Vec<D>(row_vec<D>(walls_.ghost_velocity, w) - vi), xiw);
     if (correct) add_moment_pair<D>(m, wall_volume, factor, xiw);
     if constexpr (Continuity)  // Eq. 2.42 with the wall's own velocity, as in the force pass
       r += pair_terms::continuity<D>(walls_.mass[w], Vec<D>(vi - row_vec<D>(walls_.velocity, w)), Vec<D>(factor * xiw));
-  }
+  });
   grad = g;
   moment = m;
   drho = r;
@@ -274,16 +275,15 @@ void Simulation<D>::wall_stress_pass() {
     double sum_w = 0.0;
     Mat<D> sum_sigma = Mat<D>::Zero();
     Vec<D> sum_rho_x = Vec<D>::Zero();
-    for (Index s = wall_granular_.offsets[w]; s < wall_granular_.offsets[w + 1]; ++s) {
-      const std::int32_t f = wall_granular_.indices[s];
-      const Vec<D> xwf = xw - row_vec<D>(granular_.position, f);
-      const double r2 = xwf.squaredNorm();
-      if (r2 >= h2x4) continue;
-      const double weight = kernel_.value(std::sqrt(r2));
+    for_each_batched_pair<D, BatchTerm::value>(xw, wall_granular_.offsets[w], wall_granular_.offsets[w + 1],
+                                               wall_granular_.indices.data(), kernel_, granular_.position,
+                                               [&](Index, std::int32_t f, const PairBatch<D>& batch, int k) {
+      if (batch.r2[k] >= h2x4) return;
+      const double weight = batch.value[k];
       sum_w += weight;
       sum_sigma += weight * row_mat<D>(granular_.stress, f);
-      sum_rho_x += (weight * granular_.density[f]) * xwf;
-    }
+      sum_rho_x += (weight * granular_.density[f]) * batch.x[k];
+    });
     Mat<D> sigma = Mat<D>::Zero();
     if (sum_w > 0.0) {
       // f ρ a = ∇·σ + ρ g with mass scaling f: grains carried along at a_w feel g − f a_w

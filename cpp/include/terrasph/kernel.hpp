@@ -69,6 +69,14 @@ template <int D> struct WendlandC2 {
     return gradient_coefficient * s * s * s;
   }
 
+  // W alone from r², without a branch; rounds exactly as value(√r²).
+  double pair_value(double r2) const {
+    const double q = std::sqrt(r2) * inv_h;
+    const double s = cut_off(r2, 1.0 - 0.5 * q);
+    const double s2 = s * s;
+    return alpha * s2 * s2 * (2.0 * q + 1.0);
+  }
+
   // W(r) and (dW/dr)/r of a pair from r² = |x_ij|², sharing (1 − q/2), without a branch: both are
   // 0 for r² ≥ (2h)² (selects compile to blends: pairs in a neighbour-list skin cost no mispredicted
   // jump).
