@@ -132,8 +132,10 @@ def build_leg_slab(slab: LegSlab) -> Simulation3D:
     return Simulation3D(bed, config.bed_material(), numerics, lower, upper, (body,))
 
 
-def run_leg_slab(slab: LegSlab, *, output: str | None = None, progress: bool = False) -> LegResult:
-    """Runs the leg's slab to the end of the sweep and returns the planar scene's
+def run_leg_slab(slab: LegSlab, *, output: str | None = None, progress: bool = False,
+                 resume: bool = False) -> LegResult:
+    """Runs the leg's slab to the end of the sweep (``resume``: continues the run in ``output`` from
+    its checkpoint, bitwise the run that never stopped) and returns the planar scene's
     :class:`LegResult`: lift F_z, thrust F_x and the torque about the hip's +y axis (the planar
     clockwise torque), each a time average over 1/samples_per_radian of the sweep, in N for the
     leg's ``width`` as the planar scene reports them: the slab's load over its breadth on the
@@ -142,8 +144,8 @@ def run_leg_slab(slab: LegSlab, *, output: str | None = None, progress: bool = F
     sim = build_leg_slab(slab)
     interval = 1.0 / (config.samples_per_radian * config.omega)
     run = sim.run(config.end_time, output=output, body_interval=interval, frame_interval=config.frame_interval,
-                  progress=progress, config={"scene": "leg-rotation-slab",
-                                             "leg_rotation": dataclasses.asdict(config), **sim.describe()})
+                  progress=progress, resume=resume,
+                  config={"scene": "leg-rotation-slab", "leg_rotation": dataclasses.asdict(config), **sim.describe()})
     series = run.bodies["leg"]
     time, q = np.asarray(series["time"]), np.asarray(series["orientation"])
     turning = time > config.settle_time + 1e-9
