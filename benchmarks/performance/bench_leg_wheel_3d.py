@@ -15,9 +15,11 @@ held (ctrl 0) for ``--settle`` s and then commanded ``--omega`` rad/s to ``--t-e
 enough that the wheel, at no slip, stays a kernel support from its end.
 
 Times the stepping alone (wall seconds, ``time.perf_counter``; CPU seconds of all threads,
-``time.process_time``) and writes the particle counts (grains, fixed wall particles, the wheel's
-particles), SPH steps, µs per grain-step (wall and CPU), each phase's share of the step (the core's
-phase_seconds), the wheel's lift over the rig's weight at the end of the pause, its travel and slip
+``time.process_time``, and of the main thread, ``time.thread_time``: the main thread runs the
+serial part, MuJoCo and the coupling, and its share of each parallel phase, so on otherwise idle
+cores the wall time is about its CPU time) and writes the particle counts (grains, fixed wall particles, the wheel's
+particles), SPH steps, µs per grain-step (wall and CPU), the core's phases' wall seconds
+(phase_seconds) and each one's share, the wheel's lift over the rig's weight at the end of the pause, its travel and slip
 over the drive, its sinkage (``Terrain.sinkage``: below the undisturbed surface) at the end of the
 pause, over the drive and at the end, leaked grains, and the provenance (date, commit, CPU, the load
 average before and after: the machine is shared, so the wall time is an upper bound of an idle
@@ -87,7 +89,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     weight = float(model.body_subtreemass[1]) * -float(model.opt.gravity[2])
     per_sample = round(SAMPLE / model.opt.timestep)
     samples: list[dict[str, float]] = []
-    wall, cpu = time.perf_counter(), time.process_time()
+    wall, cpu, main = time.perf_counter(), time.process_time(), time.thread_time()
     t = 0.0
     while t < args.t_end - 1e-9:
         data.ctrl[0] = 0.0 if t < args.settle - 1e-9 else args.omega
@@ -96,7 +98,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         samples.append({"time": t, "x": float(data.qpos[0]), "z": float(data.qpos[1]),
                         "omega": float(data.qvel[2]), "sinkage": sand.sinkage()["wheel"],
                         "lift_over_weight": float(sand.loads()["wheel"][2]) / weight})
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    wall, cpu, main = time.perf_counter() - wall, time.process_time() - cpu, time.thread_time() - main
     times = np.array([s["time"] for s in samples])
     pause_end = samples[int(np.searchsorted(times, args.settle - 1e-9))]
     before = [s for s in samples if args.settle - 0.1 - 1e-9 <= s["time"] <= args.settle + 1e-9]
@@ -111,9 +113,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             "t_end": args.t_end, "simulated": samples[-1]["time"],
             "grains": grains, "fixed_wall_particles": int((~body).sum()), "wheel_particles": int(body.sum()),
             "particles": grains + len(body), "sph_steps": steps, "build_seconds": build_seconds,
-            "wall_seconds": wall, "cpu_seconds": cpu,
+            "wall_seconds": wall, "cpu_seconds": cpu, "main_thread_cpu_seconds": main,
             "wall_us_per_grain_step": 1e6 * wall / (grains * steps), "cpu_us_per_grain_step": 1e6 * cpu / (grains * steps),
-            "phase_shares": {name: value / total for name, value in seconds.items()},
+            "core_phase_seconds": seconds, "phase_shares": {name: value / total for name, value in seconds.items()},
             "lift_over_weight_last_0.1s_of_pause": float(np.mean([s["lift_over_weight"] for s in before])),
             "lift_over_weight_drive": float(np.mean([s["lift_over_weight"] for s in drive])),
             "travel": travel, "mean_omega_drive": spin,
