@@ -285,8 +285,8 @@ def test_the_narrow_leg_wheel_rests_on_the_3d_bed() -> None:
     """terrasph's leg_wheel3d.xml (chapter 4's rig: a chassis sliding in x and z over three C-legs of
     box geoms, 5 cm wide) dropped 5 mm onto a bed 3 cm deep and 10 cm broad at Δx = 5 mm (its legs
     three particle rows thick), its servo holding the wheel: over 0.25–0.4 s the grains carry the
-    rig's weight within 3 % (Newton's first law for a body at rest; measured 1.005, single 0.05 s
-    windows within 2.5 %), the rig is still, the wheel stands in the sand but above the floor, no
+    rig's weight within 3 % (Newton's first law for a body at rest; measured 1.001, single 0.05 s
+    windows within 2.3 %), the rig is still, the wheel stands in the sand but above the floor, no
     grain leaks."""
     model = mujoco.MjModel.from_xml_path(str(LEG_WHEEL3D))
     data = mujoco.MjData(model)
