@@ -59,7 +59,7 @@ def measure(spacing: float, t_end: float) -> dict:
             lift.append(sum(load[2] for load in sand.loads().values()))
         windows.append({"end": (k + 1) * WINDOW, "lift_over_weight": float(np.mean(lift)) / weight,
                         "torso_z": float(data.qpos[2]), "torso_vz": float(data.qvel[2])})
-    core = sand._stepper.core
+    core = sand.coupling.core
     return {"spacing": spacing, "grains": len(core.mass), "wall_particles": len(core.wall_position),
             "sph_steps": int(core.step), "leaked_grains": sand.leaked_grains,
             "wall_seconds": time.perf_counter() - start, "windows": windows}
@@ -85,7 +85,7 @@ def rover(spacing: float, settle: float = 0.5, drive: float = 1.0, spin: float =
         sand.step(round(0.05 / model.opt.timestep))
         lift.append(sum(load[2] for load in sand.loads().values()) / weight)
     travel = float(data.qpos[0]) - x0
-    core = sand._stepper.core
+    core = sand.coupling.core
     return {"spacing": spacing, "grains": len(core.mass), "wall_particles": len(core.wall_position),
             "settle": settle, "drive": drive, "spin": spin, "travel": travel,
             "slip": 1.0 - travel / drive / (spin * 0.06), "chassis_sinking_while_driving": z0 - float(data.qpos[2]),

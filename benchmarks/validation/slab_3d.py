@@ -1,6 +1,7 @@
 """3D against the planar scenes (issue 49, part 4; docs/sph3d.md#the-slab-against-the-planar-scenes).
 
     python benchmarks/validation/slab_3d.py leg [--omega 0.8 --settle 0.3 --bed-depth 0.08]
+                                                [--run-dir DIR [--resume]]
     python benchmarks/validation/slab_3d.py plate [--spacing 0.005]
     python benchmarks/validation/slab_3d.py side-flow [--spacing 0.005 --bed-breadth 0.0508
                                                       --breadths 0.0508 0.0254 0.015 --max-depth 0.02]
@@ -8,7 +9,9 @@
 
 ``leg``: the rotating C-leg of the leg-rotation scene, planar and in a 3D slab as wide as the leg
 between smooth walls (terrasph.scenes.plane_strain_3d), same Δx and tier: peak lift and thrust.
-``plate``: the plate-intrusion scene's down stroke, planar and in its slab: ζ = k/(L W), k the slope
+``--run-dir`` keeps the slab's run file
+(``DIR/leg_slab.h5``) and its checkpoint; ``--resume`` continues a stopped slab run from them,
+bitwise the run that never stopped (the planar run, ~20 s, is run again). ``plate``: the plate-intrusion scene's down stroke, planar and in its slab: ζ = k/(L W), k the slope
 of F_z against depth from 1 cm. ``side-flow``: the same plate, each breadth in one bed of
 ``--bed-breadth`` between smooth walls (the full breadth is the slab): ζ and F_z per unit breadth
 at the deepest point. ``bed``: a 3D bed at rest, −σ_zz against the weight above per row and K =
@@ -104,7 +107,8 @@ def leg(args: argparse.Namespace) -> None:
     planar, planar_cpu = timed(run_leg_rotation, config, progress=False, plot=False)
     print("planar", leg_row(planar, planar_cpu), flush=True)
     run_file = None if args.run_dir is None else str(args.run_dir / "leg_slab.h5")  # keeps a stopped run's series
-    slab, slab_cpu = timed(run_leg_slab, LegSlab(config), output=run_file, progress=args.progress)
+    slab, slab_cpu = timed(run_leg_slab, LegSlab(config), output=run_file, progress=args.progress,
+                           resume=args.resume)  # resumed: the CPU seconds of the resumed part only
     print("slab", leg_row(slab, slab_cpu), flush=True)
     rows = {"planar": leg_row(planar, planar_cpu), "slab": leg_row(slab, slab_cpu)}
     ratios = {key: rows["slab"][key] / rows["planar"][key] - 1.0 for key in ("peak_lift", "peak_thrust")}
@@ -277,8 +281,12 @@ def main() -> None:
                         help="plate: the planar scene also at these spacings (its resolution error)")
     parser.add_argument("--max-depth", type=float, default=0.04, help="plate, side-flow: the stroke's depth (m)")
     parser.add_argument("--run-dir", type=Path, default=None, help="leg: write the slab's run file here")
+    parser.add_argument("--resume", action="store_true",
+                        help="leg: continue the slab run in --run-dir from its checkpoint (bitwise)")
     parser.add_argument("--progress", action="store_true")
     args = parser.parse_args()
+    if args.resume and (args.check != "leg" or args.run_dir is None):
+        parser.error("argument --resume: allowed only with 'leg' and --run-dir (the run to continue)")
     if args.spacing is None:
         args.spacing = 0.004 if args.check == "bed" else 0.005
     {"leg": leg, "plate": plate, "side-flow": side_flow, "bed": bed}[args.check](args)

@@ -31,7 +31,7 @@ from terrasph.size_guard import Footprint
 from terrasph.terrain import rft
 
 __all__ = ["LEGS", "RESOLUTIONS", "SCENE_NUMERICS", "BeadBed", "LegResult", "LegRotation", "RFTLegSweep",
-           "build_leg_rotation", "run_leg_rotation"]
+           "build_leg_rotation", "container_freeboard", "run_leg_rotation"]
 
 #: Leg shapes by name (bodies.py documents each reading of the dissertation's figures).
 LEGS = ("flat-leg", "c-leg", "reversed-c-leg", "l-leg", "reversed-l-leg")
@@ -191,6 +191,14 @@ class LegRotation(BeadBed):
         return bodies.reversed_l_leg(*args, foot_ratio=self.foot_ratio)
 
 
+def container_freeboard(config: LegRotation, shape: bodies.BodyShape, gravity: float) -> float:
+    """Height (m) of the container's walls above the bed: the top of the leg at its hip (hip height
+    + leg length), so the sand the leg heaps and carries up stays in, or more if grains it flings
+    (its farthest point, of `shape` about the hip, turning at ω) rise higher."""
+    tip_speed = config.omega * float(np.hypot(*shape.position.T).max())
+    return max(max(config.hip_height, 0.0) + config.leg_length, flung_height(tip_speed, gravity))
+
+
 def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
     """The bed in its container, the leg at its start angle, the material and the numerics."""
     dx = config.grid_spacing
@@ -201,10 +209,8 @@ def build_leg_rotation(config: LegRotation) -> tuple[Scene, Material, Numerics]:
         shape = config.shape()
     except ValueError as error:
         raise ConfigError(f"leg geometry: {error}") from None
-    # sand heaped by the leg stays in, and so do grains it flings (its farthest point turning at ω)
-    tip_speed = config.omega * float(np.hypot(*shape.position.T).max())
-    freeboard = max(max(config.hip_height, 0.0) + config.leg_length, flung_height(tip_speed, scene.gravity))
-    surface, right = scene.add_bed_in_container(config.bed_width, config.bed_depth, freeboard, layers=layers)
+    surface, right = scene.add_bed_in_container(config.bed_width, config.bed_depth,
+                                                container_freeboard(config, shape, scene.gravity), layers=layers)
     hip = (0.5 * right, surface + config.hip_height)
     sweep = np.linspace(config.start_angle, config.end_angle, 91)
     lowest = min(shape.lowest_point(angle, hip) for angle in sweep)

@@ -28,7 +28,7 @@ from terrasph.bodies import BodyShape
 from terrasph.config import ConfigError
 from terrasph.geometry import wall_layers_needed
 from terrasph.motion import Motion
-from terrasph.scenes.leg_rotation import LegResult, LegRotation, build_leg_rotation
+from terrasph.scenes.leg_rotation import LegResult, LegRotation, build_leg_rotation, container_freeboard
 from terrasph.scenes.plate_intrusion import (
     WALL_FREEBOARD,
     PlateIntrusion,
@@ -40,15 +40,8 @@ from terrasph.simulation import RunResult
 from terrasph.sph3d import Bed3D, BodyShape3D, extrude, geostatic_bed, turn_about_y
 from terrasph.sph3d_run import Body3D, Simulation3D
 
-__all__ = ["LEG_SLAB_RIM", "LegSlab", "PlateSlab", "build_leg_slab", "build_plate_slab", "planar_motion_rows",
+__all__ = ["LegSlab", "PlateSlab", "build_leg_slab", "build_plate_slab", "planar_motion_rows",
            "run_leg_slab", "run_plate_slab"]
-
-#: Side walls' height above the free surface in the leg's slab (m). The planar scene's container
-#: reaches hip height + leg length (9.6 cm) above the bed; at the sweeps of the slab check the beads
-#: the leg heaps stay below its hip (2 cm up), and each wall particle row costs, so the slab's walls
-#: rise 3 cm. A grain thrown higher leaves the domain box and stops the run (it is not lost silently).
-LEG_SLAB_RIM = 0.03
-
 
 def planar_motion_rows(motion: Motion) -> tuple[tuple[float, ...], ...]:
     """A planar :class:`terrasph.motion.Motion` as the 3D core's rows (duration, v (3), ω (3)):
@@ -101,10 +94,15 @@ def _check_breadth(name: str, value: float, least: float, most: float) -> float:
 @dataclass(frozen=True)
 class LegSlab:
     """The rotating leg of :class:`LegRotation` in a slab as wide as the leg (``config.width``)
-    between smooth side walls, walls rising ``rim`` above the bed."""
+    between smooth side walls, walls rising ``rim`` above the bed (None: as high as the planar
+    scene's container, :func:`terrasph.scenes.leg_rotation.container_freeboard`). Measured: side
+    walls 3 cm high let the grains the C-leg carries up in its hollow rise over them (1 717 grains
+    above their top at 1.9 s, up to 3.7 cm above the surface), slide across y off the leg's
+    ends, which reach through the walls' layers, and leave the domain box (the run stopped at
+    t = 1.96 s); the planar container's walls reach the leg's top (9.6 cm)."""
 
     config: LegRotation
-    rim: float = LEG_SLAB_RIM
+    rim: float | None = None
 
 
 def build_leg_slab(slab: LegSlab) -> Simulation3D:
@@ -119,21 +117,24 @@ def build_leg_slab(slab: LegSlab) -> Simulation3D:
     scene.validate(numerics)  # the planar scene's checks: the leg clears the floor and the walls
     planar = scene.bodies[0]
     dx, layers = config.grid_spacing, wall_layers_needed(numerics.h_factor)
-    bed = geostatic_bed((config.bed_width, config.width, config.bed_depth), config.bed_material(), dx,
-                        h_factor=numerics.h_factor, rim=slab.rim, smooth_y_walls=True)
     section = cast(BodyShape, planar.shape)  # a body of the planar scene has its shape
+    rim = container_freeboard(config, section, scene.gravity) if slab.rim is None else slab.rim
+    bed = geostatic_bed((config.bed_width, config.width, config.bed_depth), config.bed_material(), dx,
+                        h_factor=numerics.h_factor, rim=rim, smooth_y_walls=True)
     leg = _across(section, bed.size[1], bed, layers, numerics.h_factor)
     hip = (0.5 * bed.size[0], 0.5 * bed.size[1], bed.size[2] + config.hip_height)
     placed, _ = section.transformed(config.start_angle, (hip[0], hip[2]))
     bed = _without_grains_near(bed, placed, (0.0, bed.size[1]), dx)
     motion = planar_motion_rows(planar.motion)
-    lower, upper = _domain(bed, slab.rim, layers, dx)
+    lower, upper = _domain(bed, rim, layers, dx)
     body = Body3D("leg", leg, hip, turn_about_y(config.start_angle), motion)
     return Simulation3D(bed, config.bed_material(), numerics, lower, upper, (body,))
 
 
-def run_leg_slab(slab: LegSlab, *, output: str | None = None, progress: bool = False) -> LegResult:
-    """Runs the leg's slab to the end of the sweep and returns the planar scene's
+def run_leg_slab(slab: LegSlab, *, output: str | None = None, progress: bool = False,
+                 resume: bool = False) -> LegResult:
+    """Runs the leg's slab to the end of the sweep (``resume``: continues the run in ``output`` from
+    its checkpoint, bitwise the run that never stopped) and returns the planar scene's
     :class:`LegResult`: lift F_z, thrust F_x and the torque about the hip's +y axis (the planar
     clockwise torque), each a time average over 1/samples_per_radian of the sweep, in N for the
     leg's ``width`` as the planar scene reports them: the slab's load over its breadth on the
@@ -142,8 +143,8 @@ def run_leg_slab(slab: LegSlab, *, output: str | None = None, progress: bool = F
     sim = build_leg_slab(slab)
     interval = 1.0 / (config.samples_per_radian * config.omega)
     run = sim.run(config.end_time, output=output, body_interval=interval, frame_interval=config.frame_interval,
-                  progress=progress, config={"scene": "leg-rotation-slab",
-                                             "leg_rotation": dataclasses.asdict(config), **sim.describe()})
+                  progress=progress, resume=resume,
+                  config={"scene": "leg-rotation-slab", "leg_rotation": dataclasses.asdict(config), **sim.describe()})
     series = run.bodies["leg"]
     time, q = np.asarray(series["time"]), np.asarray(series["orientation"])
     turning = time > config.settle_time + 1e-9
