@@ -158,8 +158,7 @@ def dualsphysics_rates(solver: Path, case: Path, threads: int, tmax: float) -> d
 def terrasph_worker(particles: int, threads: int, steps: int, numerics: dict[str, bool | int | float]) -> None:
     """(In a child process) steps bench_sph's bed and prints its figures as JSON."""
     sys.path.insert(0, str(PERFORMANCE))
-    from bench_sph import SPACING, bed  # noqa: PLC0415 - the worker's own import
-
+    from bench_sph import SPACING, bed
     from terrasph import _core
     from terrasph.config import Material, Numerics
 
@@ -203,7 +202,7 @@ def main() -> None:
         terrasph_worker(*args.terrasph_worker, json.loads(args.terrasph_numerics))
         return
     sys.path.insert(0, str(PERFORMANCE))
-    from bench_sph import parse_numerics  # noqa: PLC0415 - the options' one parser
+    from bench_sph import parse_numerics
 
     numerics = parse_numerics(args.numerics)
     if args.source is None or not args.source.is_dir():

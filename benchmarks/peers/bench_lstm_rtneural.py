@@ -66,8 +66,8 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         models = write_models(Path(tmp))
-        print("# streaming step, ns (best of {} x {} steps, interleaved); 4 -> H -> 2, float32"
-              .format(args.repeats, args.steps))
+        print(f"# streaming step, ns (best of {args.repeats} x {args.steps} steps, interleaved); 4 -> H -> 2, float32"
+              )
         print(f"{'flags':<20} {'H':>4} {'terrasph':>10} {'RTNeural':>10} {'RTN/terrasph':>12} "
               f"{'max |dy|':>9} {'kernels':>8}")
         for flags in args.flags:

@@ -139,8 +139,8 @@ def main() -> None:
             seq_len = args.seq_len if args.cell == "standard" else min(args.seq_len, 200)
             x = np.random.default_rng(2).normal(size=(batch, seq_len, N_IN)).astype(np.float32)
             xt = torch.from_numpy(x)
-            step = {"cpp": np.inf, "py": np.inf, **{n: np.inf for n in settings}}
-            seq = {"cpp": np.inf, **{n: np.inf for n in settings}}
+            step = {"cpp": np.inf, "py": np.inf, **dict.fromkeys(settings, np.inf)}
+            seq = {"cpp": np.inf, **dict.fromkeys(settings, np.inf)}
             for _ in range(args.repeats):
                 step["cpp"] = min(step["cpp"], stream.time_steps(xin, n_cpp))
                 step["py"] = min(step["py"], cpp_step_latency_python(model, batch, args.steps))

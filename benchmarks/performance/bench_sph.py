@@ -128,7 +128,7 @@ def scaling(sizes: list[int], steps: int, repeats: int, numerics: dict[str, bool
     that other processes' load (which wall time feels in full) moves every size alike."""
     _core.set_num_threads(1)
     sims = {size: bed(size, Material(), Numerics(spacing=SPACING, **numerics)) for size in sizes}
-    best = {size: math.inf for size in sizes}
+    best = dict.fromkeys(sizes, math.inf)
     for sim in sims.values():
         sim.advance(1e9, max_steps=10)
     for _ in range(repeats):

@@ -10,6 +10,7 @@ import time
 from terrasph import _core
 from terrasph.scenes.plate_intrusion import PlateIntrusion, build_plate_intrusion
 from terrasph.simulation import Simulation
+
 _core.set_num_threads(1)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 dx = float(sys.argv[1])

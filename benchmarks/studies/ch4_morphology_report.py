@@ -14,6 +14,7 @@ error (``--tier-error``, measured in docs/fidelity.md) added in quadrature. Prin
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -75,7 +76,7 @@ def ranking(fine: dict[str, dict[str, Any]], bars: dict[str, dict[str, float]], 
     """The wheels ordered by `key`, with '≈' between neighbours whose bars overlap."""
     order = sorted(fine, key=lambda w: fine[w][key], reverse=descending)
     text = order[0]
-    for before, after in zip(order, order[1:]):
+    for before, after in itertools.pairwise(order):
         apart = abs(fine[before][key] - fine[after][key]) > bars[before][key] + bars[after][key]
         text += (" > " if apart else " ≈ ") + after
     return text

@@ -16,7 +16,6 @@ RUNS_DIR holds the SPH sweeps LEG.h5 of `terrasph run leg-rotation --leg LEG --o
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import pathlib
 

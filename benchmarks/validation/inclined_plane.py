@@ -29,12 +29,12 @@ import time
 from typing import Any
 
 import numpy as np
+from terrasph import _core
+from terrasph.cli_common import numerics_setting
 from terrasph.config import Material, Numerics
 from terrasph.geometry import lattice_block, wall_layers_needed
 from terrasph.scene import Scene, hydrostatic_density
 from terrasph.simulation import Simulation
-from terrasph import _core
-from terrasph.cli_common import numerics_setting
 
 
 def bagnold_velocity(y: np.ndarray, depth: float, angle: float, material: Material, gravity: float) -> np.ndarray:

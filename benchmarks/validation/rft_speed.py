@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from typing import Any
 
 from terrasph.scenes.leg_wheel import WHEELS, LegWheel, build_leg_wheel
 
@@ -29,7 +30,7 @@ def main() -> None:
         config = LegWheel(wheel=wheel, terrain="rft", t_end=args.t_end, rft_table=args.rft_table)
         coupled = build_leg_wheel(config).coupling
 
-        def motor(run: object, config: LegWheel = config) -> None:
+        def motor(run: object, config: LegWheel = config, coupled: Any = coupled) -> None:
             coupled.robot.data.ctrl[0] = float(config.commanded_omega(coupled.time))
 
         start = time.process_time()

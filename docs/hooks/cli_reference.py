@@ -50,6 +50,6 @@ def cli_reference() -> str:
     return "\n".join(_section(2, "terrasph", parser))
 
 
-def on_page_markdown(markdown: str, page, config, files) -> str:  # noqa: ARG001 (MkDocs' hook signature)
+def on_page_markdown(markdown: str, page, config, files) -> str:
     """Replace the marker line by the generated reference."""
     return markdown.replace(f"\n{MARKER}\n", f"\n{cli_reference()}\n")

@@ -106,6 +106,6 @@ def render(match: re.Match) -> str:
     return results_table(argument)
 
 
-def on_page_markdown(markdown: str, page, config, files) -> str:  # noqa: ARG001 (MkDocs' hook signature)
+def on_page_markdown(markdown: str, page, config, files) -> str:
     """Replace each marker by its generated table."""
     return MARKER.sub(render, markdown)

@@ -40,7 +40,7 @@ def _include(match: re.Match, page_dir: Path) -> str:
     return LINK.sub(relink, text)
 
 
-def on_page_markdown(markdown: str, page, config, files) -> str:  # noqa: ARG001 (MkDocs' hook signature)
+def on_page_markdown(markdown: str, page, config, files) -> str:
     """Includes first, then links that leave docs/."""
     page_dir = (DOCS / page.file.src_uri).parent
     markdown = INCLUDE.sub(lambda m: _include(m, page_dir), markdown)
