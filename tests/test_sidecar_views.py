@@ -52,10 +52,17 @@ def helper_used(monkeypatch) -> list[int]:
 
 
 def children() -> list[str]:
-    """The pids of this process's live children (Linux)."""
+    """The pids of this process's live children that are sidecar helpers (Linux; other tests of the
+    same session may leave children of their own, a Dask cluster's say, which are not asked about)."""
     found = []
     for path in glob.glob(f"/proc/{os.getpid()}/task/*/children"):
-        found += Path(path).read_text().split()
+        for pid in Path(path).read_text().split():
+            try:
+                command = Path(f"/proc/{pid}/cmdline").read_bytes()
+            except OSError:  # ended meanwhile
+                continue
+            if b"terrasph.sidecar_views" in command:
+                found.append(pid)
     return found
 
 
