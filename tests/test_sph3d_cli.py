@@ -132,3 +132,25 @@ def test_a_3d_coupled_run_is_the_same_on_1_2_and_3_threads(tmp_path) -> None:
         assert set(other) == set(runs[0])
         for name, values in runs[0].items():
             assert np.array_equal(other[name], values, equal_nan=True), name
+
+
+def test_bed_size_sets_the_3d_beds_length_and_breadth(tmp_path) -> None:
+    """``--bed-size L B``: the 3D bed's grains fill L × B (to a spacing Δx, the lattice's cells
+    centred inside it), centred under the coupled bodies, in place of the margin around them — here
+    a bed long in x and narrow in y under the narrow leg-wheel, which no margin gives."""
+    from terrasph.robots import LEG_WHEEL3D
+
+    spacing, length, breadth = 0.005, 0.3, 0.1
+    out = tmp_path / "lw.h5"
+    argv = ["run", "mjcf", str(LEG_WHEEL3D), "--terrain", "sph3d", "--spacing", str(spacing), "--bed-size",
+            str(length), str(breadth), "--bed-depth", "0.03", "--freeboard", "0.03", "--settle-time", "0",
+            "--t-end", "0.001", "--frame-interval", "0.001", "--threads", "1", "--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    with h5py.File(out) as file:
+        grains = file["frames/position"][0]
+        bodies = file["frames/body_position"][0]
+    span = grains.max(axis=0) - grains.min(axis=0)
+    assert length - 2 * spacing < span[0] <= length and breadth - 2 * spacing < span[1] <= breadth, span
+    middle = 0.5 * (grains.max(axis=0) + grains.min(axis=0))
+    wheel = 0.5 * (bodies.max(axis=0) + bodies.min(axis=0))
+    assert np.all(np.abs(middle[:2] - wheel[:2]) < spacing), (middle, wheel)

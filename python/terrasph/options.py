@@ -159,8 +159,9 @@ def add_config_options(parser: argparse.ArgumentParser, config_type: type) -> No
                 parser.add_argument(name, dest=f"{dest}__{index}", type=element, default=argparse.SUPPRESS,
                                     metavar=name[2:].upper().replace("-", "_"), help=_help(meta, f.default[index]))
         elif typing.get_origin(value_type) is tuple:  # a tuple field, one option taking every element
-            parser.add_argument(names[0], dest=dest, type=typing.get_args(value_type)[0], nargs=len(f.default),
-                                metavar=tuple(f"V{i + 1}" for i in range(len(f.default))),
+            size = len(typing.get_args(value_type))  # tuple[float, float]: 2, whatever the default (None, say)
+            parser.add_argument(names[0], dest=dest, type=typing.get_args(value_type)[0], nargs=size,
+                                metavar=tuple(f"V{i + 1}" for i in range(size)),
                                 default=argparse.SUPPRESS, help=_help(meta, f.default))
         elif value_type is bool:
             parser.add_argument(names[0], dest=dest, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS,

@@ -87,7 +87,7 @@ class MjcfScene(BeadBed):
     #: the settings of the planar SPH bed only and of the 3D one only, each refused on the other unless at its default
     PLANAR_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_width", "start_x", "widths", "mu1_deg", "mu2_deg",
                                                      "water_content")
-    SPH3D_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_margin",)
+    SPH3D_ONLY_FIELDS: ClassVar[tuple[str, ...]] = ("bed_margin", "bed_size")
 
     model: str = option("", positional=True, cli="ROBOT.xml",
                         help="the MJCF file (not changed; its floor is switched off in the loaded copy)")
@@ -97,6 +97,10 @@ class MjcfScene(BeadBed):
                                    default_text=f"{PLANAR_BED_SPACING:g} (sph), {BED_SPACING:g} (sph3d)")
     bed_margin: float = option(BED_MARGIN, help="terrain sph3d: the bed's reach beyond the coupled bodies' geoms on "
                                                 "each side, in x and y", unit="m")
+    bed_size: tuple[float, float] | None = option(None, help="terrain sph3d: the bed's length (x) and breadth (y), "
+                                                             "centred under the coupled bodies, in place of "
+                                                             "--bed-margin", unit="m",
+                                                  default_text="the coupled geoms' extent and --bed-margin")
     start_x: float | None = option(None, help="x of the robot's centre of mass at start, bed frame", unit="m",
                                    default_text="mid-bed")
     settle_time: float = shared("settle_time", 0.5, help="pause before the ctrl schedules start (hold acts throughout)")
@@ -137,6 +141,14 @@ class MjcfScene(BeadBed):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"parameter '{name}' = {value!r} is invalid: allowed a finite number > 0")
         check_settle_time(self.settle_time, self.t_end)
+        if self.bed_size is not None:
+            size = self.bed_size
+            if (isinstance(size, (str, bytes)) or not hasattr(size, "__len__") or len(size) != 2
+                    or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+                               for v in size)):
+                raise ConfigError(f"parameter 'bed_size' = {size!r} is invalid: allowed None or two finite "
+                                  "numbers > 0 (m), the length and breadth")
+            object.__setattr__(self, "bed_size", (float(size[0]), float(size[1])))
         if self.start_x is not None and not 0 < self.start_x < self.bed_width:
             raise ConfigError(f"parameter 'start_x' = {self.start_x!r} is invalid: allowed in (0, bed_width)")
         object.__setattr__(self, "ctrl", tuple(str(c) for c in self.ctrl))
@@ -179,7 +191,8 @@ def build_mjcf(config: MjcfScene) -> Terrain:
         data = mujoco.MjData(model)
         with mujoco_warnings():
             return attach(model, data, "sph3d", bodies=config.bodies or None, couple_below=config.couple_below,
-                          spacing=config.bed_spacing, bed_margin=config.bed_margin, bed_depth=config.bed_depth,
+                          spacing=config.bed_spacing, bed_size=config.bed_size, bed_margin=config.bed_margin,
+                          bed_depth=config.bed_depth,
                           freeboard=config.freeboard, fidelity=config.fidelity, numerics=dict(config.numerics) or None)
     if config.terrain == "rft":
         robot = rft_robot(config.model, bodies=config.bodies, couple_below=config.couple_below,
