@@ -17,7 +17,7 @@ from terrasph.config import ConfigError, Material, Numerics, as_dict, parameter_
 from terrasph.simulation import BodyLoads, RunResult, versions
 from terrasph.sph3d import Bed3D, BodyShape3D, bed_simulation, body_walls
 
-__all__ = ["Body3D", "Simulation3D", "diagnostics", "frame_fields", "kinetic_energy", "run_attributes",
+__all__ = ["Body3D", "CoreOutputs", "Simulation3D", "diagnostics", "frame_fields", "kinetic_energy", "run_attributes",
            "static_arrays"]
 
 
@@ -34,7 +34,30 @@ class Body3D:
     motion: tuple[tuple[float, ...], ...] = field(default_factory=tuple)
 
 
-class Simulation3D:
+class CoreOutputs:
+    """What the run loop reads of a 3D core for its output, for a class holding the core as `core`
+    (:class:`Simulation3D`, the coupled robot's :class:`terrasph.terrain.sph3d_coupling.Coupled3D`)."""
+
+    core: Any
+
+    def frame_fields(self) -> dict[str, np.ndarray]:
+        """The grains' and body particles' fields of a frame (:func:`frame_fields`)."""
+        return frame_fields(self.core)
+
+    def static_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays written once (:func:`static_arrays`)."""
+        return static_arrays(self.core)
+
+    def diagnostics(self) -> dict[str, float]:
+        """One row of ``/series/diagnostics`` but the time and wall time (:func:`diagnostics`)."""
+        return diagnostics(self.core)
+
+    def run_attributes(self) -> dict[str, int]:
+        """Particle counts and the leak counter, for a run file's ``/run``."""
+        return run_attributes(self.core)
+
+
+class Simulation3D(CoreOutputs):
     """A bed with bodies in 3D, as a run-loop stepper. Loads are whole (N, N·m), torques about each
     body's reference point, right-handed."""
 
@@ -112,22 +135,6 @@ class Simulation3D:
         from terrasph.checkpoint import restore_core
 
         return restore_core(self.core, path, self.describe())
-
-    def frame_fields(self) -> dict[str, np.ndarray]:
-        """The grains' and body particles' fields of a frame (:func:`frame_fields`)."""
-        return frame_fields(self.core)
-
-    def static_arrays(self) -> dict[str, np.ndarray]:
-        """The arrays written once (:func:`static_arrays`)."""
-        return static_arrays(self.core)
-
-    def diagnostics(self) -> dict[str, float]:
-        """One row of ``/series/diagnostics`` but the time and wall time (:func:`diagnostics`)."""
-        return diagnostics(self.core)
-
-    def run_attributes(self) -> dict[str, int]:
-        """Particle counts and the leak counter, for a run file's ``/run``."""
-        return run_attributes(self.core)
 
     def describe(self) -> dict[str, Any]:
         """Configuration of this simulation as plain data (saved with the output and checkpoints)."""

@@ -46,7 +46,7 @@ from terrasph.sph3d import (
     geostatic_bed,
     sphere,
 )
-from terrasph.sph3d_run import diagnostics, frame_fields, run_attributes, static_arrays
+from terrasph.sph3d_run import CoreOutputs
 from terrasph.terrain.sph_coupling import (
     check_mass_ratio,
     divergence_error,
@@ -139,7 +139,7 @@ class Robot3DOnBed:
         self.model, self.data, self.coupled, self.surface = model, data, list(coupled), float(surface)
 
 
-class Coupled3D:
+class Coupled3D(CoreOutputs):
     """The 3D model's `coupled` bodies on an SPH `bed` (module docstring); the domain reaches
     `headroom` (m) above the surface for grains a foot kicks up."""
 
@@ -307,22 +307,6 @@ class Coupled3D:
                 "robot": {"coupled": [b.name for b in self.coupled], "mujoco": mujoco.__version__,
                           "particles": {b.name: len(b.shape.position) for b in self.coupled},
                           "units": "force N, torque N*m about each body's centre of mass, world axes"}}
-
-    def frame_fields(self) -> dict[str, np.ndarray]:
-        """The grains (position, velocity, density, pressure, stress) and the bodies' particles in 3D."""
-        return frame_fields(self.core)
-
-    def static_arrays(self) -> dict[str, np.ndarray]:
-        """Grain masses and ids, the fixed walls, the body particles' ids and body indices."""
-        return static_arrays(self.core)
-
-    def diagnostics(self) -> dict[str, float]:
-        """One row of ``/series/diagnostics`` but the time and wall time."""
-        return diagnostics(self.core)
-
-    def run_attributes(self) -> dict[str, int]:
-        """Particle counts and the leak counter, for a run file's ``/run``."""
-        return run_attributes(self.core)
 
     # -- checkpoints ----------------------------------------------------------------------------
     def checkpoint(self, path: str | os.PathLike[str], progress: dict[str, Any] | None = None) -> pathlib.Path:
