@@ -86,6 +86,14 @@ def plate_row(result: PlateResult, cpu: float, breadth: float) -> dict[str, Any]
             "status": result.run.status, "cpu_seconds": cpu}
 
 
+def numerics_pair(text: str) -> tuple[str, float]:
+    """argparse type of ``--slab-numerics``: ``NAME=VALUE`` with a number."""
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    return name, float(value)
+
+
 def write(name: str, data: dict[str, Any]) -> Path:
     """benchmarks/results/slab_3d_<name>.json with the provenance."""
     path = ROOT / "benchmarks" / "results" / f"slab_3d_{name}.json"
@@ -107,7 +115,9 @@ def leg(args: argparse.Namespace) -> None:
     planar, planar_cpu = timed(run_leg_rotation, config, progress=False, plot=False)
     print("planar", leg_row(planar, planar_cpu), flush=True)
     run_file = None if args.run_dir is None else str(args.run_dir / "leg_slab.h5")  # keeps a stopped run's series
-    slab, slab_cpu = timed(run_leg_slab, LegSlab(config), output=run_file, progress=args.progress,
+    overrides = dict(args.slab_numerics)  # the slab's numerics only: a 3D tier against the planar defaults
+    slab_config = dataclasses.replace(config, numerics=overrides) if overrides else config
+    slab, slab_cpu = timed(run_leg_slab, LegSlab(slab_config), output=run_file, progress=args.progress,
                            resume=args.resume)  # resumed: the CPU seconds of the resumed part only
     print("slab", leg_row(slab, slab_cpu), flush=True)
     rows = {"planar": leg_row(planar, planar_cpu), "slab": leg_row(slab, slab_cpu)}
@@ -115,9 +125,10 @@ def leg(args: argparse.Namespace) -> None:
     curves = {name: {"theta": r.theta.tolist(), "lift": r.lift.tolist(), "thrust": r.thrust.tolist()}
               for name, r in (("planar", planar), ("slab", slab))}
     print(json.dumps(ratios), flush=True)
-    path = write("leg", {"config": dataclasses.asdict(config), "spacing": config.grid_spacing, "runs": rows,
-                         "slab_minus_planar": ratios, "curves": curves})
-    fig, png = figure("leg")
+    tag = "leg" + "".join(f"_{key}_{value:g}" for key, value in overrides.items())
+    path = write(tag, {"config": dataclasses.asdict(config), "slab_numerics": overrides,
+                       "spacing": config.grid_spacing, "runs": rows, "slab_minus_planar": ratios, "curves": curves})
+    fig, png = figure(tag)
     axes = fig.add_subplot()
     for name, r, style in (("planar", planar, "-"), ("3D slab", slab, "--")):
         axes.plot(r.theta, r.lift, "C0" + style, label=f"lift, {name}")
@@ -283,6 +294,9 @@ def main() -> None:
     parser.add_argument("--run-dir", type=Path, default=None, help="leg: write the slab's run file here")
     parser.add_argument("--resume", action="store_true",
                         help="leg: continue the slab run in --run-dir from its checkpoint (bitwise)")
+    parser.add_argument("--slab-numerics", type=numerics_pair, nargs="*", default=[], metavar="NAME=VALUE",
+                        help="leg: numerics overrides of the 3D slab only (e.g. h_factor=1.2 neighbour_skin=0.02), "
+                             "written to slab_3d_leg_<NAME>_<VALUE>....json")
     parser.add_argument("--progress", action="store_true")
     args = parser.parse_args()
     if args.resume and (args.check != "leg" or args.run_dir is None):
