@@ -75,6 +75,17 @@ def commit() -> str:
         return "unknown"
 
 
+def provenance(script: str, threads: str) -> dict[str, object]:
+    """When, on what and by which command (`script`, this process's arguments) a 3D cost result
+    was measured, with the threads it ran on and their wait policy (the 3D benchmarks' results)."""
+    return {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "terrasph": terrasph.__version__, "commit": commit(),
+            "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
+            "threads": f"{threads} (OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')})",
+            "load_average": os.getloadavg(),
+            "command": " ".join(["python", f"benchmarks/performance/{script}", *sys.argv[1:]])}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--side", type=int, default=30, help="3D bed: grains along each side")
@@ -119,13 +130,8 @@ def main() -> None:
     for row in rows:
         row.update(grains_2d=grains2, walls_2d=walls2, grains_3d=grains3, walls_3d=walls3,
                    bytes_per_particle_2d=bytes2, bytes_per_particle_3d=bytes3)
-    command = " ".join(["python", "benchmarks/performance/bench_sph3d.py", *sys.argv[1:]])
     result = {
-        "provenance": {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                       "terrasph": terrasph.__version__, "commit": commit(),
-                       "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
-                       "threads": ", ".join(map(str, args.threads)) + f" (OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')})",
-                       "load_average": os.getloadavg(), "command": command},
+        "provenance": provenance("bench_sph3d.py", ", ".join(map(str, args.threads))),
         "columns": [["threads", "threads", "{}"], ["rounds", "rounds", "{}"],
                     ["us_per_grain_step_2d", "2D CPU µs per grain-step", "{:.3f}"],
                     ["us_per_grain_step_3d", "3D CPU µs per grain-step", "{:.3f}"],

@@ -16,19 +16,14 @@ docs/sph3d.md shows of them (``<!-- results: sph3d_levers -->``).
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
-import os
-import platform
 import statistics
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
-import terrasph
 from bench_sph import parse_numerics
-from bench_sph3d import SPACING, commit
+from bench_sph3d import SPACING, provenance
 from terrasph import _core
 from terrasph.config import Material, Numerics
 from terrasph.sph3d import bed_simulation, geostatic_bed
@@ -75,13 +70,8 @@ def main() -> None:
                      "speedup": statistics.median(speedups), "speedup_spread": [min(speedups), max(speedups)]})
         print(f"{name}: {rows[-1]['us_per_grain_step_3d']:.3f} µs CPU per grain-step, speed-up "
               f"{rows[-1]['speedup']:.2f} [{min(speedups):.2f}, {max(speedups):.2f}]", flush=True)
-    command = " ".join(["python", "benchmarks/performance/bench_sph3d_levers.py", *sys.argv[1:]])
     args.output.write_text(json.dumps({
-        "provenance": {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                       "terrasph": terrasph.__version__, "commit": commit(),
-                       "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
-                       "threads": f"{args.threads} (OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')})",
-                       "load_average": os.getloadavg(), "command": command},
+        "provenance": provenance("bench_sph3d_levers.py", str(args.threads)),
         "columns": [["variant", "numerics", "{}"], ["us_per_grain_step_3d", "3D CPU µs per grain-step", "{:.3f}"],
                     ["speedup", "speed-up against the defaults (median over rounds)", "{:.2f}"]],
         "side": args.side, "rounds": args.rounds, "steps": args.steps, "rows": rows}, indent=2) + "\n")

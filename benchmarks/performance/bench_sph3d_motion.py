@@ -21,18 +21,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import datetime
 import json
-import os
-import platform
 import statistics
-import sys
 import time
 from pathlib import Path
 
-import terrasph
 from bench_sph import parse_numerics
-from bench_sph3d import commit
+from bench_sph3d import provenance
 from terrasph import _core
 from terrasph.scenes.plane_strain_3d import PlateSlab, build_plate_slab
 from terrasph.scenes.plate_intrusion import PlateIntrusion
@@ -83,13 +78,8 @@ def main() -> None:
         print(f"{name}: speed-up per grain-step {rows[-1]['speedup_per_grain_step']:.2f}, per simulated second "
               f"{rows[-1]['speedup_per_second']:.2f} (deepest {per_second[-1]:.2f}), builds per step "
               f"{rows[-1]['builds_per_step']:.3f} (deepest {runs[-1]['builds_per_step']:.3f})", flush=True)
-    command = " ".join(["python", "benchmarks/performance/bench_sph3d_motion.py", *sys.argv[1:]])
     args.output.write_text(json.dumps({
-        "provenance": {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                       "terrasph": terrasph.__version__, "commit": commit(),
-                       "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
-                       "threads": f"{args.threads} (OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')})",
-                       "load_average": os.getloadavg(), "command": command},
+        "provenance": provenance("bench_sph3d_motion.py", str(args.threads)),
         "columns": [["variant", "numerics", "{}"],
                     ["speedup_per_grain_step", "speed-up per grain-step (median over intervals)", "{:.2f}"],
                     ["speedup_per_second", "speed-up per simulated second (median)", "{:.2f}"],
